@@ -1,0 +1,64 @@
+"""UFL forms of the subdomain part of eq. (9): stiffness K_D, mass M_D and loads r_D.
+
+The penalty terms of (9)-(11) are not UFL forms: they couple independent meshes and are
+assembled in :mod:`dd_contact.coupling`.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+import numpy as np
+import scipy.sparse as sp
+
+import dolfinx.fem as fem
+import ufl
+
+if TYPE_CHECKING:
+    from dd_contact.scene import Material, Subdomain
+
+__all__ = ["assemble_load", "assemble_mass", "assemble_stiffness", "strain", "stress"]
+
+
+def strain(u: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
+    """Small-strain tensor."""
+    return ufl.sym(ufl.grad(u))
+
+
+def stress(u: ufl.core.expr.Expr, material: Material) -> ufl.core.expr.Expr:
+    """Linear isotropic (Hooke) stress."""
+    eps = strain(u)
+    return 2.0 * material.mu * eps + material.lmbda * ufl.tr(eps) * ufl.Identity(3)
+
+
+def _to_csr(form: ufl.Form) -> sp.csr_array:
+    return sp.csr_array(fem.assemble_matrix(fem.form(form)).to_scipy())
+
+
+def assemble_stiffness(sub: Subdomain) -> sp.csr_array:
+    """K_D = int sigma(u) : eps(du) dx (no boundary conditions applied)."""
+    u, du = ufl.TrialFunction(sub.V), ufl.TestFunction(sub.V)
+    return _to_csr(ufl.inner(stress(u, sub.material), strain(du)) * ufl.dx)
+
+
+def assemble_mass(sub: Subdomain) -> sp.csr_array:
+    """M_D = int rho u . du dx."""
+    u, du = ufl.TrialFunction(sub.V), ufl.TestFunction(sub.V)
+    return _to_csr(sub.material.rho * ufl.inner(u, du) * ufl.dx)
+
+
+def assemble_load(sub: Subdomain) -> np.ndarray:
+    """r_D = int f . du dx + sum of int t . du ds over the traction regions (owned dofs)."""
+    du = ufl.TestFunction(sub.V)
+    forms = []
+    if sub.body_force is not None:
+        forms.append(ufl.inner(sub.body_force, du) * ufl.dx)
+    for tags, traction in sub.tractions:
+        # One measure per traction: traction regions may overlap, meshtags may not.
+        ds = ufl.Measure("ds", domain=sub.mesh, subdomain_data=tags)
+        forms.append(ufl.inner(traction, du) * ds(1))
+    size = sub.V.dofmap.index_map.size_local * sub.V.dofmap.index_map_bs
+    load = np.zeros(size)
+    for form in forms:
+        load += fem.assemble_vector(fem.form(form)).array[:size]
+    return load

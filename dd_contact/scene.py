@@ -1,0 +1,395 @@
+"""What is modelled: materials, subdomains, the interface and the scene that holds them.
+
+Each subdomain is an independent dolfinx mesh on a communicator of size one (one rank owns a
+whole subdomain); the interface is an independent surface mesh with its own displacement v,
+tied to its subdomains by penalties (eqs. 6, 9, 10).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from mpi4py import MPI
+
+import dolfinx.fem as fem
+import dolfinx.mesh
+import ufl
+
+from dd_contact import meshes
+
+__all__ = ["DEFAULT_KAPPA", "Interface", "Material", "Penalty", "Scene", "Subdomain"]
+
+#: Default dimensionless penalty kappa = h / (E * eps): ties 1e6 times stiffer than the
+#: elements behind them, so the penalty gap costs about 1e-6 of the response.
+DEFAULT_KAPPA = 1.0e6
+
+Locator = Callable[[np.ndarray], np.ndarray]
+Where = Locator | npt.NDArray[np.int32] | tuple[dolfinx.mesh.MeshTags, int]
+
+
+class InputError(ValueError):
+    """A scene that cannot be solved as given; the message says what to change."""
+
+
+@dataclass(frozen=True)
+class Material:
+    """Linear isotropic elastic material.
+
+    Attributes:
+        E: Young's modulus.
+        nu: Poisson's ratio.
+        rho: Density (only needed for dynamics).
+    """
+
+    E: float
+    nu: float
+    rho: float = 0.0
+
+    def __post_init__(self):
+        if not (math.isfinite(self.E) and self.E > 0):
+            raise InputError(f"Material: Young's modulus E must be positive, got {self.E}")
+        if not (-1.0 < self.nu < 0.5):
+            raise InputError(f"Material: Poisson's ratio must lie in (-1, 0.5), got {self.nu}")
+        if not (math.isfinite(self.rho) and self.rho >= 0):
+            raise InputError(f"Material: density must be >= 0, got {self.rho}")
+
+    @property
+    def mu(self) -> float:
+        """Shear modulus."""
+        return self.E / (2.0 * (1.0 + self.nu))
+
+    @property
+    def lmbda(self) -> float:
+        """First Lame parameter."""
+        return self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
+
+
+@dataclass(frozen=True)
+class Penalty:
+    """A penalty, dimensionless or absolute.
+
+    Give ``kappa`` (penalty stiffness relative to the element stiffness E/h, so
+    ``eps = h / (E * kappa)``) or ``epsilon`` (the paper's absolute eps, traction = (1/eps) *
+    displacement jump), not both.
+    """
+
+    kappa: float | None = None
+    epsilon: float | None = None
+
+    def __post_init__(self):
+        if self.kappa is not None and self.epsilon is not None:
+            raise InputError("Penalty: give kappa or epsilon, not both")
+        for name in ("kappa", "epsilon"):
+            value = getattr(self, name)
+            if value is not None and not (math.isfinite(value) and value > 0):
+                raise InputError(
+                    f"Penalty: {name} must be a positive finite number, got {value}; "
+                    f"a stiffer tie needs a larger kappa or a smaller epsilon"
+                )
+
+    def epsilon_for(self, h: float, E: float) -> float:
+        """The absolute eps for element height ``h`` and Young's modulus ``E``."""
+        if self.epsilon is not None:
+            return self.epsilon
+        kappa = DEFAULT_KAPPA if self.kappa is None else self.kappa
+        return h / (E * kappa)
+
+
+def _as_penalty(kappa: float | None, epsilon: float | None) -> Penalty:
+    return Penalty(kappa=kappa, epsilon=epsilon)
+
+
+def _check_finite(name: str, values: np.ndarray) -> None:
+    if not np.all(np.isfinite(values)):
+        raise InputError(f"{name} contains NaN or inf; check the data that defines it")
+
+
+class Subdomain:
+    """An independently meshed part of the body, Omega^(k).
+
+    Args:
+        mesh: A 3-D dolfinx mesh on a communicator of size one.
+        material: Its material.
+        name: A name used in messages and output.
+        degree: Lagrange degree of the displacement (1 or 2).
+    """
+
+    def __init__(self, mesh: dolfinx.mesh.Mesh, material: Material, name: str, degree: int = 1):
+        if mesh.topology.dim != 3 or mesh.geometry.dim != 3:
+            raise InputError(
+                f"subdomain {name!r}: needs a 3-D volume mesh, got topological dimension "
+                f"{mesh.topology.dim} in {mesh.geometry.dim}-D; surface meshes belong in an "
+                "Interface or ContactInterface"
+            )
+        if mesh.comm.size != 1:
+            raise InputError(
+                f"subdomain {name!r}: its mesh is distributed over {mesh.comm.size} ranks, but "
+                "each subdomain belongs to one rank; create it on MPI.COMM_SELF, e.g. "
+                "dd_contact.meshes.box(MPI.COMM_SELF, ...)"
+            )
+        _check_finite(f"subdomain {name!r} mesh coordinates", mesh.geometry.x)
+        self.mesh = mesh
+        self.material = material
+        self.name = name
+        self.V = fem.functionspace(mesh, ("Lagrange", degree, (3,)))
+        self.u = fem.Function(self.V, name=f"u_{name}")
+        self.body_force: ufl.core.expr.Expr | None = None
+        self.tractions: list[tuple[dolfinx.mesh.MeshTags, ufl.core.expr.Expr]] = []
+        self._fixed_dofs: list[np.ndarray] = []
+        self._fixed_values: list[np.ndarray] = []
+
+    # -- boundary conditions -------------------------------------------------------------
+    def _facets(self, where: Where) -> np.ndarray:
+        tdim = self.mesh.topology.dim
+        self.mesh.topology.create_connectivity(tdim - 1, tdim)
+        if callable(where):
+            facets = dolfinx.mesh.locate_entities_boundary(self.mesh, tdim - 1, where)
+        elif isinstance(where, tuple):
+            tags, value = where
+            facets = tags.find(value)
+        else:
+            facets = np.asarray(where, dtype=np.int32)
+        if facets.size == 0:
+            raise InputError(
+                f"subdomain {self.name!r}: the boundary region selects no facet; check the "
+                "locator against the mesh (its bounding box is "
+                f"{self.mesh.geometry.x.min(axis=0)} .. {self.mesh.geometry.x.max(axis=0)})"
+            )
+        return np.sort(facets).astype(np.int32)
+
+    def fix(
+        self,
+        where: Where,
+        components: Sequence[int] | None = None,
+        value: Sequence[float] | Callable[[np.ndarray], np.ndarray] | None = None,
+    ) -> Subdomain:
+        """Prescribe displacement on a boundary region (a Dirichlet condition).
+
+        Args:
+            where: Locator ``x -> bool``, facet indices, or ``(meshtags, value)``.
+            components: Which components (default all three).
+            value: A 3-vector, or a callable ``x -> (3, n)`` array (default zero).
+
+        Returns:
+            The subdomain, so calls can be chained.
+        """
+        facets = self._facets(where)
+        blocks = fem.locate_dofs_topological(self.V, self.mesh.topology.dim - 1, facets)
+        blocks = blocks[blocks < self.V.dofmap.index_map.size_local]
+        x = self.V.tabulate_dof_coordinates()[blocks]
+        if value is None:
+            vals = np.zeros((3, len(blocks)))
+        elif callable(value):
+            vals = np.asarray(value(x.T), dtype=float).reshape(3, len(blocks))
+        else:
+            vals = np.tile(np.asarray(value, dtype=float).reshape(3, 1), (1, len(blocks)))
+        _check_finite(f"subdomain {self.name!r} prescribed displacement", vals)
+        for c in range(3) if components is None else components:
+            self._fixed_dofs.append(3 * blocks + c)
+            self._fixed_values.append(vals[c])
+        return self
+
+    def add_traction(self, where: Where, traction: ufl.core.expr.Expr | Sequence[float]):
+        """Apply a surface traction (force per area) on a boundary region.
+
+        Args:
+            where: Locator ``x -> bool``, facet indices, or ``(meshtags, value)``.
+            traction: A UFL vector expression on this mesh (a ``fem.Constant`` or
+                ``fem.Function`` too), or a 3-vector.
+
+        Returns:
+            The subdomain, so calls can be chained.
+        """
+        facets = self._facets(where)
+        tags = dolfinx.mesh.meshtags(
+            self.mesh, self.mesh.topology.dim - 1, facets, np.ones_like(facets)
+        )
+        if not isinstance(traction, ufl.core.expr.Expr):
+            values = np.asarray(traction, dtype=float)
+            _check_finite(f"subdomain {self.name!r} traction", values)
+            traction = fem.Constant(self.mesh, values)
+        self.tractions.append((tags, traction))
+        return self
+
+    @property
+    def dirichlet(self) -> tuple[np.ndarray, np.ndarray]:
+        """Constrained dofs (unrolled, 3 per node) and their values; later calls win."""
+        if not self._fixed_dofs:
+            return np.zeros(0, np.int32), np.zeros(0)
+        dofs = np.concatenate(self._fixed_dofs)
+        values = np.concatenate(self._fixed_values)
+        # np.unique keeps the first occurrence: reverse so the latest condition wins.
+        unique, first = np.unique(dofs[::-1], return_index=True)
+        return unique.astype(np.int32), values[::-1][first]
+
+    @property
+    def num_dofs(self) -> int:
+        """Number of displacement dofs (3 per node)."""
+        return self.V.dofmap.index_map.size_local * 3
+
+
+class Interface:
+    """The interface Gamma_I: an independent surface mesh with displacement v.
+
+    It is tied by a penalty to every subdomain in ``subdomains`` wherever it overlaps that
+    subdomain's boundary (eqs. 6, 9, 10).
+
+    Args:
+        mesh: A surface mesh (topological dimension 2) in 3-D on a communicator of size one.
+        subdomains: The subdomains it glues.
+        kappa: Dimensionless penalty h / (E eps) (default :data:`DEFAULT_KAPPA`).
+        epsilon: Absolute penalty eps instead of kappa.
+        tolerance: Largest surface-to-boundary distance still counted as touching (default
+            5% of each surface cell's size).
+        name: Name in messages and output.
+    """
+
+    def __init__(
+        self,
+        mesh: dolfinx.mesh.Mesh,
+        subdomains: Sequence[Subdomain],
+        kappa: float | None = None,
+        epsilon: float | None = None,
+        tolerance: float | None = None,
+        name: str = "interface",
+    ):
+        if mesh.topology.dim != 2 or mesh.geometry.dim != 3:
+            raise InputError(
+                f"interface {name!r}: needs a surface mesh (topological dimension 2) in 3-D, got "
+                f"topological dimension {mesh.topology.dim} in {mesh.geometry.dim}-D; build it "
+                "with dd_contact.meshes.surface_mesh or Interface.from_boundary"
+            )
+        if mesh.comm.size != 1:
+            raise InputError(
+                f"interface {name!r}: its mesh is distributed; create it on MPI.COMM_SELF"
+            )
+        if len(subdomains) == 0:
+            raise InputError(f"interface {name!r}: give the subdomains it ties")
+        if tolerance is not None and not tolerance > 0:
+            raise InputError(f"interface {name!r}: tolerance must be positive, got {tolerance}")
+        _check_finite(f"interface {name!r} mesh coordinates", mesh.geometry.x)
+        self.mesh = mesh
+        self.subdomains = list(subdomains)
+        self.penalty = _as_penalty(kappa, epsilon)
+        self.tolerance = tolerance
+        self.name = name
+        self.V = fem.functionspace(mesh, ("Lagrange", 1, (3,)))
+        self.v = fem.Function(self.V, name=f"v_{name}")
+
+    @classmethod
+    def from_boundary(
+        cls,
+        subdomain: Subdomain,
+        where: Locator,
+        subdomains: Sequence[Subdomain],
+        resolution: tuple[int, int] | None = None,
+        cell_type: str = "quadrilateral",
+        **kwargs,
+    ) -> Interface:
+        """An interface generated on a region of ``subdomain``'s boundary.
+
+        Args:
+            subdomain: The subdomain whose boundary region is meshed.
+            where: Locator of the region.
+            subdomains: The subdomains the interface ties.
+            resolution: Cells along the two edges of a planar rectangular region, or
+                ``None`` for a copy of the region's facets.
+            cell_type: ``"quadrilateral"`` or ``"triangle"``.
+            **kwargs: Passed to :class:`Interface`.
+        """
+        mesh = meshes.surface_from_boundary(
+            subdomain.mesh, where, resolution, cell_type, comm=MPI.COMM_SELF
+        )
+        return cls(mesh, subdomains, **kwargs)
+
+    @property
+    def num_dofs(self) -> int:
+        """Number of displacement dofs (3 per node)."""
+        return self.V.dofmap.index_map.size_local * 3
+
+
+class Scene:
+    """Subdomains and (optionally) one interface: everything the solvers need.
+
+    Under MPI every rank holds every mesh (they are small compared with the work), and
+    subdomain k is *owned* by rank ``k % comm.size``: only its owner assembles, couples and
+    factorises it. The interface is owned by rank 0.
+
+    Args:
+        comm: Communicator of the analysis.
+        subdomains: The subdomains, in order.
+        interface: The interface, if the body is decomposed.
+    """
+
+    def __init__(
+        self,
+        comm: MPI.Comm,
+        subdomains: Sequence[Subdomain],
+        interface: Interface | None = None,
+    ):
+        if len(subdomains) == 0:
+            raise InputError("Scene: give at least one subdomain")
+        names = [s.name for s in subdomains]
+        if len(set(names)) != len(names):
+            raise InputError(f"Scene: subdomain names must be unique, got {names}")
+        if interface is not None:
+            for s in interface.subdomains:
+                if all(s is not t for t in subdomains):
+                    raise InputError(
+                        f"Scene: interface {interface.name!r} ties subdomain {s.name!r}, "
+                        "which is not in the scene's subdomain list"
+                    )
+        elif len(subdomains) > 1:
+            raise InputError(
+                f"Scene: {len(subdomains)} subdomains but no interface to tie them; add an "
+                "Interface (or merge the meshes into one subdomain)"
+            )
+        self.comm = comm
+        self.subdomains = list(subdomains)
+        self.interface = interface
+
+    def owner(self, k: int) -> int:
+        """Rank that owns subdomain ``k``."""
+        return k % self.comm.size
+
+    def check_static_supports(self) -> None:
+        """Raise if some part of the body can move rigidly (a singular static problem).
+
+        Subdomains tied through the interface form one body; each body's Dirichlet conditions
+        must stop all six rigid-body motions.
+        """
+        tied = self.interface.subdomains if self.interface is not None else []
+        groups = [tied] if tied else []
+        groups += [[s] for s in self.subdomains if all(s is not t for t in tied)]
+        for group in groups:
+            rows = []
+            for sub in group:
+                dofs, _ = sub.dirichlet
+                x = sub.V.tabulate_dof_coordinates()[dofs // 3]
+                rows.append(_rigid_modes(x, dofs % 3))
+            modes = np.concatenate(rows) if rows else np.zeros((0, 6))
+            rank = np.linalg.matrix_rank(modes, tol=1e-10 * max(1.0, np.abs(modes).max()))
+            if rank < 6:
+                names = ", ".join(repr(s.name) for s in group)
+                raise InputError(
+                    f"static scene: subdomain(s) {names} can move as a rigid body ({6 - rank} "
+                    "free rigid motions): they have too few Dirichlet conditions and are not "
+                    "tied to a supported subdomain; add Subdomain.fix(...) or tie them through "
+                    "the interface, or solve a dynamic problem"
+                )
+
+
+def _rigid_modes(x: np.ndarray, component: np.ndarray) -> np.ndarray:
+    """Rows of the six rigid-body modes at dofs (node x, component c)."""
+    modes = np.zeros((len(x), 6))
+    modes[np.arange(len(x)), component] = 1.0
+    centred = x - x.mean(axis=0) if len(x) else x
+    for axis in range(3):
+        rotation = np.cross(np.eye(3)[axis], centred)  # (n, 3)
+        modes[:, 3 + axis] = rotation[np.arange(len(x)), component]
+    return modes
