@@ -101,7 +101,9 @@ def _tie(system: BlockSystem, scene: Scene, k: int) -> np.ndarray:
 
 def _check_interface_covered(scene: Scene, coverage: np.ndarray) -> None:
     """Every interface cell must lie on some subdomain's boundary (else it ties nothing)."""
-    coverage = scene.comm.allreduce(coverage, op=MPI.MAX)
+    total = np.empty_like(coverage)
+    scene.comm.Allreduce(coverage, total, op=MPI.MAX)
+    coverage = total
     loose = np.flatnonzero(coverage < 0.999)
     if loose.size:
         surface = scene.interface

@@ -1,0 +1,45 @@
+"""Post-processing: cell stresses, von Mises stress, boundary averages."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import dolfinx.fem as fem
+import dolfinx.mesh
+import ufl
+
+from dd_contact.forms import stress
+from dd_contact.scene import Subdomain, Where
+
+__all__ = ["boundary_average", "cell_stress", "von_mises"]
+
+
+def cell_stress(sub: Subdomain) -> np.ndarray:
+    """Stress at each cell's midpoint, shape ``(num_cells, 3, 3)``."""
+    Q = fem.functionspace(sub.mesh, ("DG", 0, (3, 3)))
+    sigma = fem.Function(Q)
+    sigma.interpolate(
+        fem.Expression(stress(sub.u, sub.material), Q.element.interpolation_points)
+    )
+    return sigma.x.array.reshape(-1, 3, 3)
+
+
+def von_mises(sub: Subdomain) -> fem.Function:
+    """Cell-wise von Mises stress as a DG0 function (for plots and output)."""
+    s = cell_stress(sub)
+    dev = s - np.trace(s, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3.0
+    W = fem.functionspace(sub.mesh, ("DG", 0))
+    out = fem.Function(W, name=f"von_mises_{sub.name}")
+    out.x.array[:] = np.sqrt(1.5 * np.einsum("nij,nij->n", dev, dev))
+    return out
+
+
+def boundary_average(sub: Subdomain, where: Where) -> np.ndarray:
+    """Area-averaged displacement over a boundary region of a subdomain."""
+    facets = sub._facets(where)
+    tags = dolfinx.mesh.meshtags(sub.mesh, 2, facets, np.ones_like(facets))
+    ds = ufl.Measure("ds", domain=sub.mesh, subdomain_data=tags)
+    area = fem.assemble_scalar(fem.form(fem.Constant(sub.mesh, 1.0) * ds(1)))
+    return np.array(
+        [fem.assemble_scalar(fem.form(sub.u[i] * ds(1))) / area for i in range(3)]
+    )
