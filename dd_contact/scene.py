@@ -373,7 +373,8 @@ class Scene:
                 x = sub.V.tabulate_dof_coordinates()[dofs // 3]
                 rows.append(_rigid_modes(x, dofs % 3))
             modes = np.concatenate(rows) if rows else np.zeros((0, 6))
-            rank = np.linalg.matrix_rank(modes, tol=1e-10 * max(1.0, np.abs(modes).max()))
+            scale = max(1.0, float(np.abs(modes).max(initial=0.0)))
+            rank = np.linalg.matrix_rank(modes, tol=1e-10 * scale) if len(modes) else 0
             if rank < 6:
                 names = ", ".join(repr(s.name) for s in group)
                 raise InputError(

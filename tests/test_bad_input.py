@@ -1,0 +1,116 @@
+"""Bad input fails early with a message that names the problem and the fix."""
+
+import numpy as np
+import pytest
+
+from mpi4py import MPI
+
+import dolfinx.mesh
+
+import dd_contact as dc
+from dd_contact import meshes
+
+STEEL = dc.Material(E=210e9, nu=0.3)
+
+
+def _on(axis, value):
+    return lambda x: np.isclose(x[axis], value)
+
+
+def _two_boxes():
+    left = dc.Subdomain(meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [2, 2, 2]), STEEL, "left")
+    right = dc.Subdomain(meshes.box(MPI.COMM_SELF, [1, 0, 0], [2, 1, 1], [3, 2, 2]), STEEL, "right")
+    left.fix(_on(0, 0.0))
+    return left, right
+
+
+def test_interface_far_from_boundary():
+    left, right = _two_boxes()
+    points = np.array([[1.5, 0, 0], [1.5, 1, 0], [1.5, 0, 1], [1.5, 1, 1]])  # inside "right"
+    surface = meshes.surface_mesh(MPI.COMM_SELF, points, [[0, 1, 2, 3]], "quadrilateral")
+    scene = dc.Scene(MPI.COMM_WORLD, [left, right], dc.Interface(surface, [left, right]))
+    with pytest.raises(dc.InputError, match=r"does not touch subdomain 'left'.*move the surface"):
+        dc.StaticProblem(scene)
+
+
+def test_interface_partly_off_the_boundary():
+    left, right = _two_boxes()
+    points = np.array([[1, 0, 0], [1, 2, 0], [1, 0, 1], [1, 2, 1]])  # half of it hangs out
+    surface = meshes.surface_mesh(MPI.COMM_SELF, points, [[0, 1, 2, 3]], "quadrilateral")
+    scene = dc.Scene(MPI.COMM_WORLD, [left, right], dc.Interface(surface, [left, right]))
+    with pytest.raises(dc.InputError, match=r"1 of its 1 cells do not lie on a subdomain.*50\.0%"):
+        dc.StaticProblem(scene)
+
+
+def test_two_dimensional_subdomain_mesh():
+    square = dolfinx.mesh.create_unit_square(MPI.COMM_SELF, 2, 2)
+    with pytest.raises(dc.InputError, match=r"needs a 3-D volume mesh.*dimension 2 in 2-D"):
+        dc.Subdomain(square, STEEL, "flat")
+
+
+def test_volume_mesh_as_interface():
+    left, right = _two_boxes()
+    with pytest.raises(dc.InputError, match=r"needs a surface mesh .*topological dimension 3"):
+        dc.Interface(left.mesh, [left, right])
+
+
+@pytest.mark.parametrize("kappa,epsilon", [(0.0, None), (-1e6, None), (None, -1e-8), (np.nan, None)])
+def test_non_positive_penalty(kappa, epsilon):
+    left, right = _two_boxes()
+    surface = meshes.surface_from_boundary(left.mesh, _on(0, 1.0), (2, 2))
+    with pytest.raises(dc.InputError, match=r"must be a positive finite number"):
+        dc.Interface(surface, [left, right], kappa=kappa, epsilon=epsilon)
+
+
+def test_both_penalties():
+    with pytest.raises(dc.InputError, match="kappa or epsilon, not both"):
+        dc.Penalty(kappa=1e6, epsilon=1e-8)
+
+
+def test_floating_subdomain_without_tie():
+    lone = dc.Subdomain(meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [2, 2, 2]), STEEL, "lone")
+    lone.add_traction(_on(0, 1.0), (1.0, 0, 0))
+    with pytest.raises(dc.InputError, match=r"'lone' can move as a rigid body \(6 free.*fix"):
+        dc.StaticProblem(dc.Scene(MPI.COMM_WORLD, [lone]))
+
+
+def test_underconstrained_tied_pair():
+    left, right = _two_boxes()
+    left._fixed_dofs.clear(), left._fixed_values.clear()
+    left.fix(_on(0, 0.0), components=[0])  # only x fixed: the pair slides and spins
+    iface = dc.Interface.from_boundary(left, _on(0, 1.0), [left, right], resolution=(2, 2))
+    with pytest.raises(dc.InputError, match=r"'left', 'right' can move as a rigid body \(3 free"):
+        dc.StaticProblem(dc.Scene(MPI.COMM_WORLD, [left, right], iface))
+
+
+def test_untied_extra_subdomain():
+    left, right = _two_boxes()
+    with pytest.raises(dc.InputError, match="no interface to tie them"):
+        dc.Scene(MPI.COMM_WORLD, [left, right])
+
+
+def test_nan_traction_and_coordinates():
+    left, _ = _two_boxes()
+    with pytest.raises(dc.InputError, match="traction contains NaN"):
+        left.add_traction(_on(0, 1.0), (np.nan, 0, 0))
+    with pytest.raises(dc.InputError, match="prescribed displacement contains NaN"):
+        left.fix(_on(0, 1.0), value=(0, np.inf, 0))
+    bad = meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [1, 1, 1])
+    bad.geometry.x[0, 0] = np.nan
+    with pytest.raises(dc.InputError, match="mesh coordinates contains NaN"):
+        dc.Subdomain(bad, STEEL, "bad")
+
+
+def test_empty_region_and_unknown_algorithm():
+    left, _ = _two_boxes()
+    with pytest.raises(dc.InputError, match="selects no facet"):
+        left.fix(_on(0, 5.0))
+    with pytest.raises(dc.InputError, match="unknown algorithm 'v-w-x'; valid: FULL"):
+        dc.StaticProblem(dc.Scene(MPI.COMM_WORLD, [left]), algorithm="v-w-x")
+
+
+def test_bad_material():
+    with pytest.raises(dc.InputError, match="Poisson's ratio"):
+        dc.Material(E=1.0, nu=0.5)
+    with pytest.raises(dc.InputError, match="Young's modulus"):
+        dc.Material(E=-1.0, nu=0.3)

@@ -1,0 +1,52 @@
+"""Every demo runs at a small size, serial and on two ranks, and says what it should."""
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+MPIEXEC = Path(sys.executable).parent / "mpiexec"
+
+
+def _run(cmd, tmp_path):
+    path = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
+    env = dict(os.environ, PYVISTA_OFF_SCREEN="true", PYTHONPATH=path)
+    done = subprocess.run(
+        cmd, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300, check=False
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    return done.stdout
+
+
+def _check_tied_bar(stdout, out):
+    tied = float(re.search(r"tied subdomains : (\S+)", stdout).group(1))
+    single = float(re.search(r"one dolfinx mesh: (\S+)", stdout).group(1))
+    beam = float(re.search(r"Timoshenko beam : (\S+)", stdout).group(1))
+    # Non-matching coarse halves: within 3% of the conforming mesh; locking keeps both
+    # within 20% below beam theory.
+    assert tied / single == pytest.approx(1.0, abs=0.03)
+    assert 0.8 < tied / beam < 1.0
+    png = out / "tied_bar.png"
+    assert png.stat().st_size > 10_000
+    assert (out / "u_right.bp").is_dir()
+
+
+def test_demo_tied_bar_serial(tmp_path):
+    out = tmp_path / "out"
+    stdout = _run([sys.executable, ROOT / "demos/demo_tied_bar.py", "--small", "--out", out],
+                  tmp_path)
+    _check_tied_bar(stdout, out)
+
+
+@pytest.mark.skipif(not MPIEXEC.exists(), reason="no mpiexec beside the interpreter")
+def test_demo_tied_bar_two_ranks(tmp_path):
+    out = tmp_path / "out"
+    cmd = [MPIEXEC, "-n", "2", sys.executable, ROOT / "demos/demo_tied_bar.py", "--small",
+           "--out", out]
+    stdout = _run(cmd, tmp_path)
+    assert stdout.count("tip deflection, tied subdomains") == 1  # rank 0 prints alone
+    _check_tied_bar(stdout, out)
