@@ -9,10 +9,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from mpi4py import MPI
+
 import numpy as np
 import scipy.sparse as sp
-
-from mpi4py import MPI
 
 from dd_contact import coupling, forms
 from dd_contact.scene import InputError, Scene

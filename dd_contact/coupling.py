@@ -22,13 +22,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numpy as np
-import numpy.typing as npt
-import scipy.sparse as sp
-
 import basix
 import dolfinx.fem
 import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
+import scipy.sparse as sp
 
 __all__ = ["TieOperators", "blocked", "pull_back", "tie_operators"]
 
@@ -301,9 +300,7 @@ def tie_operators(
         vals = np.einsum("n,ni,nj->nij", w, phi_a, phi_b)
         rows = np.broadcast_to(dofs_a[:, :, None], vals.shape)
         cols = np.broadcast_to(dofs_b[:, None, :], vals.shape)
-        return sp.csr_array(
-            sp.coo_array((vals.ravel(), (rows.ravel(), cols.ravel())), shape=shape)
-        )
+        return sp.csr_array(sp.coo_array((vals.ravel(), (rows.ravel(), cols.ravel())), shape=shape))
 
     tied = np.unique(q_f)
     return TieOperators(

@@ -8,10 +8,9 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
+import dolfinx.fem as fem
 import numpy as np
 import scipy.sparse as sp
-
-import dolfinx.fem as fem
 import ufl
 
 if TYPE_CHECKING:

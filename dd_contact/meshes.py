@@ -8,13 +8,12 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-import numpy as np
-import numpy.typing as npt
-
 from mpi4py import MPI
 
 import basix.ufl
 import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
 import ufl
 
 __all__ = ["box", "surface_from_boundary", "surface_mesh"]

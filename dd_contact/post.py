@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import numpy as np
-
 import dolfinx.fem as fem
 import dolfinx.mesh
+import numpy as np
 import ufl
 
 from dd_contact.forms import stress
@@ -18,9 +17,7 @@ def cell_stress(sub: Subdomain) -> np.ndarray:
     """Stress at each cell's midpoint, shape ``(num_cells, 3, 3)``."""
     Q = fem.functionspace(sub.mesh, ("DG", 0, (3, 3)))
     sigma = fem.Function(Q)
-    sigma.interpolate(
-        fem.Expression(stress(sub.u, sub.material), Q.element.interpolation_points)
-    )
+    sigma.interpolate(fem.Expression(stress(sub.u, sub.material), Q.element.interpolation_points))
     return sigma.x.array.reshape(-1, 3, 3)
 
 
@@ -40,6 +37,4 @@ def boundary_average(sub: Subdomain, where: Where) -> np.ndarray:
     tags = dolfinx.mesh.meshtags(sub.mesh, 2, facets, np.ones_like(facets))
     ds = ufl.Measure("ds", domain=sub.mesh, subdomain_data=tags)
     area = fem.assemble_scalar(fem.form(fem.Constant(sub.mesh, 1.0) * ds(1)))
-    return np.array(
-        [fem.assemble_scalar(fem.form(sub.u[i] * ds(1))) / area for i in range(3)]
-    )
+    return np.array([fem.assemble_scalar(fem.form(sub.u[i] * ds(1))) / area for i in range(3)])

@@ -11,13 +11,12 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-import numpy as np
-import numpy.typing as npt
-
 from mpi4py import MPI
 
 import dolfinx.fem as fem
 import dolfinx.mesh
+import numpy as np
+import numpy.typing as npt
 import ufl
 
 from dd_contact import meshes

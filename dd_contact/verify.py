@@ -9,9 +9,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
-import numpy as np
-
 from mpi4py import MPI
+
+import numpy as np
 
 from dd_contact import meshes
 from dd_contact.post import boundary_average, cell_stress
@@ -88,9 +88,7 @@ BAR = {"length": 10.0, "width": 1.0, "height": 1.0, "E": 1.0e3, "nu": 0.3, "forc
 
 def _bar_subdomain(x0: float, x1: float, cells: tuple[int, int, int], name: str) -> Subdomain:
     return Subdomain(
-        meshes.box(
-            MPI.COMM_SELF, [x0, 0.0, 0.0], [x1, BAR["width"], BAR["height"]], cells
-        ),
+        meshes.box(MPI.COMM_SELF, [x0, 0.0, 0.0], [x1, BAR["width"], BAR["height"]], cells),
         Material(BAR["E"], BAR["nu"]),
         name,
     )

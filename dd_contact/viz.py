@@ -4,9 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
-
 import dolfinx.plot
+import numpy as np
 
 from dd_contact.post import von_mises
 from dd_contact.scene import Scene
@@ -63,7 +62,9 @@ def plot_deformed(
         )
     if scene.interface is not None:
         plotter.add_mesh(
-            deformed_grid(scene.interface.v, scale), style="wireframe", color="black",
+            deformed_grid(scene.interface.v, scale),
+            style="wireframe",
+            color="black",
             line_width=2,
         )
     plotter.add_text(f"{title}  (displacement x {scale:.3g})", font_size=10)

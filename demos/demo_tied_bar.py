@@ -18,12 +18,11 @@ import argparse
 import time
 from pathlib import Path
 
-import numpy as np
-
 from mpi4py import MPI
 
 import dolfinx.fem as fem
 import dolfinx.fem.petsc
+import numpy as np
 import ufl
 
 import dd_contact as dc
@@ -106,9 +105,7 @@ single = dolfinx.fem.petsc.LinearProblem(
     petsc_options_prefix="single_",
     petsc_options={"ksp_type": "preonly", "pc_type": "lu", "pc_factor_mat_solver_type": "mumps"},
 ).solve()
-tip_single = comm.allreduce(
-    fem.assemble_scalar(fem.form(single[2] * ds(1))), op=MPI.SUM
-) / (W * H)
+tip_single = comm.allreduce(fem.assemble_scalar(fem.form(single[2] * ds(1))), op=MPI.SUM) / (W * H)
 
 I_area, A = W * H**3 / 12.0, W * H
 k_shear = 10 * (1 + steel.nu) / (12 + 11 * steel.nu)

@@ -1,11 +1,10 @@
 """Bad input fails early with a message that names the problem and the fix."""
 
-import numpy as np
-import pytest
-
 from mpi4py import MPI
 
 import dolfinx.mesh
+import numpy as np
+import pytest
 
 import dd_contact as dc
 from dd_contact import meshes
@@ -54,7 +53,9 @@ def test_volume_mesh_as_interface():
         dc.Interface(left.mesh, [left, right])
 
 
-@pytest.mark.parametrize("kappa,epsilon", [(0.0, None), (-1e6, None), (None, -1e-8), (np.nan, None)])
+@pytest.mark.parametrize(
+    "kappa,epsilon", [(0.0, None), (-1e6, None), (None, -1e-8), (np.nan, None)]
+)
 def test_non_positive_penalty(kappa, epsilon):
     left, right = _two_boxes()
     surface = meshes.surface_from_boundary(left.mesh, _on(0, 1.0), (2, 2))

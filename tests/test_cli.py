@@ -27,5 +27,5 @@ def test_verify_exits_1_when_a_case_fails(monkeypatch):
 
 
 def test_verify_unknown_case():
-    with pytest.raises(ValueError, match="unknown case.*valid: patch-hex-quad"):
+    with pytest.raises(ValueError, match=r"unknown case.*valid: patch-hex-quad"):
         cli.main(["verify", "--case", "nope"])

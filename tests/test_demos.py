@@ -37,16 +37,25 @@ def _check_tied_bar(stdout, out):
 
 def test_demo_tied_bar_serial(tmp_path):
     out = tmp_path / "out"
-    stdout = _run([sys.executable, ROOT / "demos/demo_tied_bar.py", "--small", "--out", out],
-                  tmp_path)
+    stdout = _run(
+        [sys.executable, ROOT / "demos/demo_tied_bar.py", "--small", "--out", out], tmp_path
+    )
     _check_tied_bar(stdout, out)
 
 
 @pytest.mark.skipif(not MPIEXEC.exists(), reason="no mpiexec beside the interpreter")
 def test_demo_tied_bar_two_ranks(tmp_path):
     out = tmp_path / "out"
-    cmd = [MPIEXEC, "-n", "2", sys.executable, ROOT / "demos/demo_tied_bar.py", "--small",
-           "--out", out]
+    cmd = [
+        MPIEXEC,
+        "-n",
+        "2",
+        sys.executable,
+        ROOT / "demos/demo_tied_bar.py",
+        "--small",
+        "--out",
+        out,
+    ]
     stdout = _run(cmd, tmp_path)
     assert stdout.count("tip deflection, tied subdomains") == 1  # rank 0 prints alone
     _check_tied_bar(stdout, out)

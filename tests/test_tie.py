@@ -1,11 +1,10 @@
 """Tied subdomains: operator consistency, patch test, conforming reference, MPI."""
 
-import numpy as np
-import pytest
-
 from mpi4py import MPI
 
 import dolfinx.fem as fem
+import numpy as np
+import pytest
 
 from dd_contact import coupling, meshes, verify
 

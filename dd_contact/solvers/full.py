@@ -6,14 +6,18 @@ against. It is also the reference for their correctness: the monolithic solution
 
 from __future__ import annotations
 
-import numpy as np
-
 from petsc4py import PETSc
+
+import numpy as np
 
 from dd_contact.assembly import BlockSystem
 from dd_contact.solvers.linalg import SparseCholesky, WorkLog, coo_of, petsc_matrix
 
 __all__ = ["MonolithicSystem"]
+
+
+def _cat(arrays: list[np.ndarray], dtype) -> np.ndarray:
+    return np.concatenate(arrays).astype(dtype) if arrays else np.zeros(0, dtype)
 
 
 class MonolithicSystem:
@@ -36,9 +40,7 @@ class MonolithicSystem:
             self.offsets[name] = start
             start += system.sizes[name]
         self.size = start
-        self.local_size = sum(
-            system.sizes[b] for b in order if system.owners[b] == comm.rank
-        )
+        self.local_size = sum(system.sizes[b] for b in order if system.owners[b] == comm.rank)
         rows, cols, vals = [], [], []
         for (rb, cb), block in system.matrices.items():
             r, c, v = coo_of(block)
@@ -46,10 +48,13 @@ class MonolithicSystem:
             rows.append(r), cols.append(c), vals.append(v)
             if rb != cb:  # the transpose is implied
                 rows.append(c), cols.append(r), vals.append(v)
-        cat = (lambda a, t: np.concatenate(a).astype(t) if a else np.zeros(0, t))
         self.A = petsc_matrix(
-            comm, self.local_size, self.size,
-            cat(rows, np.int64), cat(cols, np.int64), cat(vals, np.float64),
+            comm,
+            self.local_size,
+            self.size,
+            _cat(rows, np.int64),
+            _cat(cols, np.int64),
+            _cat(vals, np.float64),
         )
         self.b = self.A.createVecRight()
         for name, vector in system.rhs.items():
@@ -67,8 +72,7 @@ class MonolithicSystem:
         values = x_all.getArray().copy()
         scatter.destroy(), x_all.destroy(), x.destroy()
         return {
-            name: values[off : off + self.system.sizes[name]]
-            for name, off in self.offsets.items()
+            name: values[off : off + self.system.sizes[name]] for name, off in self.offsets.items()
         }
 
     def destroy(self) -> None:

@@ -9,11 +9,11 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-import numpy as np
-import scipy.sparse as sp
-
 from mpi4py import MPI
 from petsc4py import PETSc
+
+import numpy as np
+import scipy.sparse as sp
 
 __all__ = ["SparseCholesky", "WorkLog", "WorkRecord", "petsc_matrix"]
 
@@ -63,8 +63,10 @@ def petsc_matrix(
     cols: np.ndarray,
     values: np.ndarray,
 ) -> PETSc.Mat:
-    """A distributed AIJ matrix from COO triplets in global numbering (any rank may add
-    to any row; duplicates are summed)."""
+    """A distributed AIJ matrix from COO triplets in global numbering.
+
+    Any rank may add to any row; duplicates are summed.
+    """
     A = PETSc.Mat().create(comm=comm)
     A.setSizes(((local_rows, global_size), (local_rows, global_size)))
     A.setType(PETSc.Mat.Type.AIJ)
@@ -110,7 +112,11 @@ class SparseCholesky:
                 "part of the model can move freely; check its supports and ties"
             )
         self.log.add(
-            block, "sparse_factor", A.getSize()[0], 0, time.perf_counter() - start,
+            block,
+            "sparse_factor",
+            A.getSize()[0],
+            0,
+            time.perf_counter() - start,
             factor.getMumpsRinfog(3),
         )
 
