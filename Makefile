@@ -1,0 +1,35 @@
+# One command: `make test` sets up .venv (finds or builds Python >= 3.12), then runs the tests.
+VENV   := .venv
+PY     := $(VENV)/bin/python
+EXTRAS := fenicsx,viz,mesh,test
+LINTED := dd_contact tests demos benchmarks
+
+.PHONY: venv test demo lint clean
+
+venv: $(VENV)/.installed
+
+$(VENV)/.installed: pyproject.toml
+	tools/system_deps.sh
+	$(PY) -c pass 2>/dev/null || { py="$$(tools/find_python.sh)" && "$$py" -m venv --clear $(VENV); }
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[$(EXTRAS)]'
+	touch $@
+
+# Headless pictures: pyvista offscreen; EGL directly (skips VTK's failing X probe and its warning).
+test demo: export PYVISTA_OFF_SCREEN := true
+test demo: export VTK_DEFAULT_OPENGL_WINDOW ?= vtkEGLRenderWindow
+
+# The mpi-marked tests run again on 2 ranks; pytest exit code 5 = none collected.
+test: venv
+	$(PY) -m pytest -q tests
+	$(VENV)/bin/mpiexec -n 2 $(PY) -m pytest -q -m mpi tests || [ $$? -eq 5 ]
+
+demo: venv
+	$(PY) demos/demo_tied_bar.py
+
+lint: venv
+	$(VENV)/bin/ruff check $(LINTED)
+	$(VENV)/bin/ruff format --check $(LINTED)
+
+clean:
+	rm -rf $(VENV)
