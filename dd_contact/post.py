@@ -33,7 +33,7 @@ def von_mises(sub: Subdomain) -> fem.Function:
 
 def boundary_average(sub: Subdomain, where: Where) -> np.ndarray:
     """Area-averaged displacement over a boundary region of a subdomain."""
-    facets = sub._facets(where)
+    facets = sub.locate_facets(where)
     tags = dolfinx.mesh.meshtags(sub.mesh, 2, facets, np.ones_like(facets))
     ds = ufl.Measure("ds", domain=sub.mesh, subdomain_data=tags)
     area = fem.assemble_scalar(fem.form(fem.Constant(sub.mesh, 1.0) * ds(1)))

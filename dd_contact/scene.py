@@ -143,7 +143,8 @@ class Subdomain:
         self._fixed_values: list[np.ndarray] = []
 
     # -- boundary conditions -------------------------------------------------------------
-    def _facets(self, where: Where) -> np.ndarray:
+    def locate_facets(self, where: Where) -> np.ndarray:
+        """Boundary facets of a region: locator, facet indices or (meshtags, value)."""
         tdim = self.mesh.topology.dim
         self.mesh.topology.create_connectivity(tdim - 1, tdim)
         if callable(where):
@@ -177,7 +178,7 @@ class Subdomain:
         Returns:
             The subdomain, so calls can be chained.
         """
-        facets = self._facets(where)
+        facets = self.locate_facets(where)
         blocks = fem.locate_dofs_topological(self.V, self.mesh.topology.dim - 1, facets)
         blocks = blocks[blocks < self.V.dofmap.index_map.size_local]
         x = self.V.tabulate_dof_coordinates()[blocks]
@@ -204,7 +205,7 @@ class Subdomain:
         Returns:
             The subdomain, so calls can be chained.
         """
-        facets = self._facets(where)
+        facets = self.locate_facets(where)
         tags = dolfinx.mesh.meshtags(
             self.mesh, self.mesh.topology.dim - 1, facets, np.ones_like(facets)
         )
