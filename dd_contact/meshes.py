@@ -151,6 +151,19 @@ def surface_from_boundary(
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(normal, e1)
     p1, p2 = (x - centre) @ e1, (x - centre) @ e2
+    # Remeshing fills the bounding rectangle: the region must be that rectangle.
+    polygons = volume.geometry.x[
+        facet_nodes[:, [0, 1, 3, 2]] if facet_nodes.shape[1] == 4 else facet_nodes
+    ]
+    area = (
+        0.5 * np.abs(np.cross(polygons, np.roll(polygons, -1, axis=1)).sum(axis=1) @ normal).sum()
+    )
+    rectangle = np.ptp(p1) * np.ptp(p2)
+    if abs(area - rectangle) > 1e-8 * rectangle:
+        raise ValueError(
+            f"surface_from_boundary: the selected region (area {area:.6g}) is not the rectangle "
+            f"that bounds it (area {rectangle:.6g}); pass resolution=None to copy its facets"
+        )
     origin = centre + p1.min() * e1 + p2.min() * e2
     points, cells = _rectangle_grid(
         origin,

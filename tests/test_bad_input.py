@@ -115,3 +115,13 @@ def test_bad_material():
         dc.Material(E=1.0, nu=0.5)
     with pytest.raises(dc.InputError, match="Young's modulus"):
         dc.Material(E=-1.0, nu=0.3)
+
+
+def test_remeshing_a_region_that_is_not_a_rectangle():
+    box = meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [4, 4, 4])
+    # An L-shaped part of the face x = 1: remeshing its bounding square would add area.
+    l_shape = lambda x: np.isclose(x[0], 1.0) & ((x[1] <= 0.5 + 1e-12) | (x[2] <= 0.5 + 1e-12))  # noqa: E731
+    with pytest.raises(ValueError, match=r"area 0.75\b.*not the rectangle.*area 1\b"):
+        meshes.surface_from_boundary(box, l_shape, resolution=(3, 3))
+    square = meshes.surface_from_boundary(box, _on(0, 1.0), resolution=(3, 2))
+    assert square.topology.index_map(2).size_local == 6
