@@ -29,6 +29,8 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from dd_contact.meshes import cyclic_vertices
+
 __all__ = ["TieOperators", "blocked", "pull_back", "tie_operators"]
 
 # Gauss rule on the reference triangle, exact for degree 6 (bilinear x bilinear on a
@@ -114,11 +116,6 @@ class TieOperators:
         return float(self.covered_area.sum())
 
 
-def _cyclic(nodes: np.ndarray) -> np.ndarray:
-    """Reorder first-order cell vertices into a cyclic polygon (quads are tensor-ordered)."""
-    return nodes[:, [0, 1, 3, 2]] if nodes.shape[1] == 4 else nodes[:, :3]
-
-
 def _newell_normal(poly: np.ndarray) -> np.ndarray:
     """Unit normals of polygons ``(n, k, 3)`` by Newell's method (robust for warped quads)."""
     nxt = np.roll(poly, -1, axis=1)
@@ -199,7 +196,7 @@ def tie_operators(
 
     # Surface cells: first-order polygons, planes and sizes.
     s_nodes_geo = surf.geometry.dofmaps[0]
-    s_poly = surf.geometry.x[_cyclic(s_nodes_geo)]
+    s_poly = surf.geometry.x[cyclic_vertices(s_nodes_geo)]
     s_centre = s_poly.mean(axis=1)
     s_normal = _newell_normal(s_poly)
     s_diam = np.linalg.norm(s_poly.max(axis=1) - s_poly.min(axis=1), axis=1)
@@ -207,7 +204,7 @@ def tie_operators(
 
     # Volume boundary facets.
     f_nodes = dolfinx.mesh.entities_to_geometry(vol, tdim - 1, facets)
-    f_poly = vol.geometry.x[_cyclic(f_nodes)]
+    f_poly = vol.geometry.x[cyclic_vertices(f_nodes)]
     f_centre = f_poly.mean(axis=1)
     f_normal = _newell_normal(f_poly)
 

@@ -82,6 +82,11 @@ def surface_mesh(
     )
 
 
+def cyclic_vertices(nodes: np.ndarray) -> np.ndarray:
+    """Reorder first-order cell vertices into a cyclic polygon (quads are tensor-ordered)."""
+    return nodes[:, [0, 1, 3, 2]] if nodes.shape[1] == 4 else nodes[:, :3]
+
+
 def _rectangle_grid(
     origin: np.ndarray, e1: np.ndarray, e2: np.ndarray, n1: int, n2: int, cell_type: str
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -152,9 +157,7 @@ def surface_from_boundary(
     e2 = np.cross(normal, e1)
     p1, p2 = (x - centre) @ e1, (x - centre) @ e2
     # Remeshing fills the bounding rectangle: the region must be that rectangle.
-    polygons = volume.geometry.x[
-        facet_nodes[:, [0, 1, 3, 2]] if facet_nodes.shape[1] == 4 else facet_nodes
-    ]
+    polygons = volume.geometry.x[cyclic_vertices(facet_nodes)]
     area = (
         0.5 * np.abs(np.cross(polygons, np.roll(polygons, -1, axis=1)).sum(axis=1) @ normal).sum()
     )

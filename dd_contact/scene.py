@@ -99,10 +99,6 @@ class Penalty:
         return h / (E * kappa)
 
 
-def _as_penalty(kappa: float | None, epsilon: float | None) -> Penalty:
-    return Penalty(kappa=kappa, epsilon=epsilon)
-
-
 def _check_finite(name: str, values: np.ndarray) -> None:
     if not np.all(np.isfinite(values)):
         raise InputError(f"{name} contains NaN or inf; check the data that defines it")
@@ -275,7 +271,7 @@ class Interface:
         _check_finite(f"interface {name!r} mesh coordinates", mesh.geometry.x)
         self.mesh = mesh
         self.subdomains = list(subdomains)
-        self.penalty = _as_penalty(kappa, epsilon)
+        self.penalty = Penalty(kappa=kappa, epsilon=epsilon)
         self.tolerance = tolerance
         self.name = name
         self.V = fem.functionspace(mesh, ("Lagrange", 1, (3,)))
