@@ -2,9 +2,13 @@
 
 from mpi4py import MPI as _MPI  # noqa: F401  (loads libmpi before petsc4py)
 
-from dd_contact.problem import ALGORITHMS, StaticProblem
+from dd_contact.contact import ContactIterationError, ContactSettings
+from dd_contact.obstacles import Cylinder, Plane, Sphere, UserObstacle
+from dd_contact.problem import ALGORITHMS, StaticProblem, TransientProblem
 from dd_contact.scene import (
     DEFAULT_KAPPA,
+    ContactBoundary,
+    ContactInterface,
     InputError,
     Interface,
     Material,
@@ -18,12 +22,21 @@ __version__ = "0.1.0"
 __all__ = [
     "ALGORITHMS",
     "DEFAULT_KAPPA",
+    "ContactBoundary",
+    "ContactInterface",
+    "ContactIterationError",
+    "ContactSettings",
+    "Cylinder",
     "InputError",
     "Interface",
     "Material",
     "Penalty",
+    "Plane",
     "Scene",
+    "Sphere",
     "StaticProblem",
     "Subdomain",
+    "TransientProblem",
+    "UserObstacle",
     "__version__",
 ]

@@ -1,8 +1,12 @@
 """From a scene to the block system (14): the blocks each rank owns, as scipy matrices.
 
-Block rows are named ``u:<subdomain>`` and ``v:<interface>`` (later ``w:<contact>``). A
+Block rows are named ``u:<subdomain>``, ``v:<interface>`` and ``w:<contact interface>``. A
 rank holds only the pieces it owns; contributions to another rank's rows (the interface
 mass P_DI4 and the lifted right-hand side) travel when the system is handed to PETSc.
+
+The contact terms (A8, A9) are not in the block system: they change with the contact state.
+Each contact region becomes a :class:`ContactZone` that says which block and dofs its
+surface displacement lives in, so every solver can add P_C where it belongs.
 """
 
 from __future__ import annotations
@@ -15,9 +19,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact import coupling, forms
-from dd_contact.scene import InputError, Scene
+from dd_contact.contact import ContactOperator, contact_points
+from dd_contact.scene import ContactBoundary, InputError, Scene
 
-__all__ = ["BlockSystem", "assemble_static"]
+__all__ = ["BlockSystem", "ContactZone", "Model", "assemble"]
 
 
 @dataclass
@@ -31,7 +36,8 @@ class BlockSystem:
             is stored once and stands for its transpose too. Contributions with the same key
             from different ranks are added.
         rhs: ``block -> vector`` contributions, added like the matrices.
-        penalties: ``(subdomain, surface) -> eps`` of every tie this rank assembled.
+        penalties: ``(subdomain, surface) -> eps`` of every penalty this rank assembled
+            (ties, and ``(subdomain, "contact:<name>")`` for contact).
     """
 
     sizes: dict[str, int]
@@ -39,6 +45,16 @@ class BlockSystem:
     matrices: dict[tuple[str, str], sp.csr_array] = field(default_factory=dict)
     rhs: dict[str, np.ndarray] = field(default_factory=dict)
     penalties: dict[tuple[str, str], float] = field(default_factory=dict)
+
+    def copy(self) -> BlockSystem:
+        """A copy whose matrices and vectors can be changed independently."""
+        return BlockSystem(
+            dict(self.sizes),
+            dict(self.owners),
+            {k: m.copy() for k, m in self.matrices.items()},
+            {k: v.copy() for k, v in self.rhs.items()},
+            dict(self.penalties),
+        )
 
     def add(self, row: str, col: str, matrix: sp.sparray) -> None:
         """Add a matrix contribution to block (row, col)."""
@@ -79,63 +95,182 @@ class BlockSystem:
         self.rhs[block] = np.where(keep > 0, rhs, g)
 
 
-def _tie(system: BlockSystem, scene: Scene, k: int) -> np.ndarray:
-    """Penalty terms of (9)-(10) between subdomain k and the interface; returns coverage."""
-    sub, surface = scene.subdomains[k], scene.interface
+def _tie_operators(surface, sub, what: str) -> coupling.TieOperators:
+    """Tie operators between a subdomain and a surface; refuse a surface that misses it."""
     ops = coupling.tie_operators(sub.V, surface.V, tolerance=surface.tolerance)
     if ops.area == 0.0:
         raise InputError(
-            f"interface {surface.name!r} does not touch subdomain {sub.name!r}: no cell of it "
+            f"{what} {surface.name!r} does not touch subdomain {sub.name!r}: no cell of it "
             "lies on that subdomain's boundary within the tolerance; move the surface mesh onto "
-            "the boundary, raise Interface(tolerance=...), or drop the subdomain from the "
-            "interface's list"
+            "the boundary, raise its tolerance, or tie it to the right subdomain"
         )
-    eps = surface.penalty.epsilon_for(ops.height, sub.material.E)
-    u, v = f"u:{sub.name}", f"v:{surface.name}"
+    return ops
+
+
+def _add_tie(system: BlockSystem, u: str, s: str, ops: coupling.TieOperators, eps: float):
+    """Penalty tie terms (9)-(11): P1 on u, -P2 between u and s, P4 on s, all over eps."""
     system.add(u, u, coupling.blocked(ops.P1) / eps)
-    system.add(u, v, -coupling.blocked(ops.P2) / eps)
-    system.add(v, v, coupling.blocked(ops.P4) / eps)
-    system.penalties[(sub.name, surface.name)] = eps
-    return ops.covered_area / ops.cell_area
+    system.add(u, s, -coupling.blocked(ops.P2) / eps)
+    system.add(s, s, coupling.blocked(ops.P4) / eps)
 
 
-def _check_interface_covered(scene: Scene, coverage: np.ndarray) -> None:
-    """Every interface cell must lie on some subdomain's boundary (else it ties nothing)."""
+def _check_covered(scene: Scene, surface, what: str, coverage: np.ndarray) -> None:
+    """Every surface cell must lie on a subdomain boundary (else it ties nothing)."""
     total = np.empty_like(coverage)
     scene.comm.Allreduce(coverage, total, op=MPI.MAX)
-    coverage = total
-    loose = np.flatnonzero(coverage < 0.999)
+    loose = np.flatnonzero(total < 0.999)
     if loose.size:
-        surface = scene.interface
         nodes = surface.mesh.geometry.x[surface.mesh.geometry.dofmaps[0][loose[0]]]
         raise InputError(
-            f"interface {surface.name!r}: {loose.size} of its {coverage.size} cells do not lie "
+            f"{what} {surface.name!r}: {loose.size} of its {total.size} cells do not lie "
             f"on a subdomain boundary (cell {loose[0]} near {np.round(nodes.mean(axis=0), 6)} is "
-            f"{100 * (1 - coverage[loose[0]]):.1f}% uncovered); the surface mesh must lie on the "
+            f"{100 * (1 - total[loose[0]]):.1f}% uncovered); the surface mesh must lie on the "
             "boundary it ties to: move it, trim it to the shared face, or raise its tolerance"
         )
 
 
-def assemble_static(scene: Scene) -> BlockSystem:
-    """This rank's pieces of the static block system: K_D + P_DI1, -P_DI2, K_DI; loads."""
+@dataclass
+class ContactZone:
+    """A contact region as the solvers see it.
+
+    Attributes:
+        contact: The ContactInterface or ContactBoundary.
+        block: Block that holds the contact surface's displacement (``w:`` or ``u:``).
+        dofs: Block dof of every surface dof (3 per surface node).
+        operator: Gap, normals and the contact matrices.
+        free: Surface dofs that are not prescribed (a prescribed dof takes no contact term).
+        prescribed: Prescribed value of every surface dof (zero where free).
+    """
+
+    contact: object
+    block: str
+    dofs: np.ndarray
+    operator: ContactOperator
+    free: np.ndarray
+    prescribed: np.ndarray
+
+    def contribution(self, active: np.ndarray) -> tuple[sp.csr_array, np.ndarray]:
+        """Contact matrix and right-hand side in surface dof numbering (prescribed dofs out)."""
+        C = self.operator.matrix(active)
+        rhs = self.operator.rhs(active) - C @ self.prescribed
+        mask = sp.diags_array(self.free.astype(float))
+        return sp.csr_array(mask @ C @ mask), rhs * self.free
+
+
+@dataclass
+class Model:
+    """This rank's assembled pieces of a scene, before any time discretisation.
+
+    Attributes:
+        system: K_D with the tie terms, unconstrained, and no loads.
+        mass: M_D of every owned subdomain block.
+        dirichlet: Prescribed (dofs, values) of every owned subdomain block.
+        zones: The owned contact regions.
+    """
+
+    system: BlockSystem
+    mass: dict[str, sp.csr_array]
+    dirichlet: dict[str, tuple[np.ndarray, np.ndarray]]
+    zones: list[ContactZone]
+
+    def effective(self, mass_coefficient: float) -> BlockSystem:
+        """``K + c M`` with the Dirichlet conditions eliminated; rhs = their lifting."""
+        system = self.system.copy()
+        if mass_coefficient:
+            for block, M in self.mass.items():
+                system.add(block, block, mass_coefficient * M)
+        for block, (dofs, values) in self.dirichlet.items():
+            system.constrain(block, dofs, values)
+        return system
+
+    def free(self, block: str) -> np.ndarray:
+        """1.0 on the free dofs of an owned block, 0.0 on prescribed ones."""
+        mask = np.ones(self.system.sizes[block])
+        if block in self.dirichlet:
+            mask[self.dirichlet[block][0]] = 0.0
+        return mask
+
+
+def _contact_zone(scene: Scene, system: BlockSystem, contact, k: int) -> tuple:
+    """Tie a contact interface (or map a contact boundary) into the system; its zone."""
+    sub = scene.subdomains[k]
+    u = f"u:{sub.name}"
+    if isinstance(contact, ContactBoundary):
+        height = coupling.facet_height(sub.mesh, contact.facets)
+        block = u
+        dofs = (3 * contact.node_map[:, None] + np.arange(3)).ravel()
+        coverage = None
+    else:
+        ops = _tie_operators(contact, sub, "contact interface")
+        block = f"w:{contact.name}"
+        eps = contact.penalty.epsilon_for(ops.height, sub.material.E)
+        _add_tie(system, u, block, ops, eps)
+        system.penalties[(sub.name, contact.name)] = eps
+        dofs = np.arange(contact.num_dofs)
+        coverage = ops.covered_area / ops.cell_area
+        height = ops.height
+    eps_c = contact.contact_penalty.epsilon_for(height, sub.material.E)
+    system.penalties[(sub.name, f"contact:{contact.name}")] = eps_c
+    operator = ContactOperator(contact_points(contact.V, contact.points), contact.obstacle, eps_c)
+    fixed, values = sub.dirichlet
+    prescribed_full = np.zeros(sub.num_dofs)
+    prescribed_full[fixed] = values
+    free_full = np.ones(sub.num_dofs, bool)
+    free_full[fixed] = False
+    if block == u:
+        free, prescribed = free_full[dofs], prescribed_full[dofs]
+    else:
+        free, prescribed = np.ones(len(dofs), bool), np.zeros(len(dofs))
+    zone = ContactZone(contact, block, dofs, operator, free, prescribed)
+    return zone, coverage
+
+
+def assemble(scene: Scene) -> Model:
+    """This rank's pieces of system (14) without time discretisation and contact terms."""
     rank = scene.comm.rank
     sizes = {f"u:{s.name}": s.num_dofs for s in scene.subdomains}
     owners = {f"u:{s.name}": scene.owner(k) for k, s in enumerate(scene.subdomains)}
     if scene.interface is not None:
         sizes[f"v:{scene.interface.name}"] = scene.interface.num_dofs
         owners[f"v:{scene.interface.name}"] = 0
+    for c in scene.contacts:
+        if not isinstance(c, ContactBoundary):
+            sizes[f"w:{c.name}"] = c.num_dofs
+            owners[f"w:{c.name}"] = scene.contact_owner(c)
     system = BlockSystem(sizes, owners)
-    tied = scene.interface.subdomains if scene.interface is not None else []
-    coverage = np.zeros(scene.interface.mesh.topology.index_map(2).size_local if tied else 0)
+    model = Model(system, {}, {}, [])
+    iface = scene.interface
+    tied = iface.subdomains if iface is not None else []
+    coverage = np.zeros(iface.mesh.topology.index_map(2).size_local if tied else 0)
     for k, sub in enumerate(scene.subdomains):
         if scene.owner(k) != rank:
             continue
         u = f"u:{sub.name}"
         system.add(u, u, forms.assemble_stiffness(sub))
-        system.add_rhs(u, forms.assemble_load(sub))
+        if sub.material.rho > 0:
+            model.mass[u] = forms.assemble_mass(sub)
+        model.dirichlet[u] = sub.dirichlet
         if any(sub is t for t in tied):
-            coverage = np.maximum(coverage, _tie(system, scene, k))
-        system.constrain(u, *sub.dirichlet)
+            ops = _tie_operators(iface, sub, "interface")
+            eps = iface.penalty.epsilon_for(ops.height, sub.material.E)
+            _add_tie(system, u, f"v:{iface.name}", ops, eps)
+            system.penalties[(sub.name, iface.name)] = eps
+            coverage = np.maximum(coverage, ops.covered_area / ops.cell_area)
     if tied:
-        _check_interface_covered(scene, coverage)
-    return system
+        _check_covered(scene, iface, "interface", coverage)
+    for c in scene.contacts:
+        k = scene.index(c.subdomain)
+        if scene.owner(k) != rank:
+            continue
+        zone, cover = _contact_zone(scene, system, c, k)
+        if cover is not None and np.any(cover < 0.999):
+            loose = np.flatnonzero(cover < 0.999)
+            nodes = c.mesh.geometry.x[c.mesh.geometry.dofmaps[0][loose[0]]]
+            raise InputError(
+                f"contact interface {c.name!r}: {loose.size} of its {cover.size} cells do not "
+                f"lie on subdomain {c.subdomain.name!r}'s boundary (cell {loose[0]} near "
+                f"{np.round(nodes.mean(axis=0), 6)}); generate it with "
+                "ContactInterface.from_boundary or move it onto the boundary"
+            )
+        model.zones.append(zone)
+    return model

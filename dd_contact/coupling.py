@@ -31,7 +31,7 @@ import scipy.sparse as sp
 
 from dd_contact.meshes import cyclic_vertices
 
-__all__ = ["TieOperators", "blocked", "pull_back", "tie_operators"]
+__all__ = ["TieOperators", "blocked", "facet_height", "pull_back", "tie_operators"]
 
 # Gauss rule on the reference triangle, exact for degree 6 (bilinear x bilinear on a
 # non-affine facet is not a polynomial in physical coordinates; degree 6 keeps that error tiny).
@@ -124,8 +124,10 @@ def _newell_normal(poly: np.ndarray) -> np.ndarray:
 
 
 def _polygon_area(p: np.ndarray) -> float:
+    """Signed area (shoelace formula), written without np.roll: it runs once per pair."""
     x, y = p[:, 0], p[:, 1]
-    return 0.5 * float(np.dot(x, np.roll(y, -1)) - np.dot(np.roll(x, -1), y))
+    cross = np.dot(x[:-1], y[1:]) - np.dot(x[1:], y[:-1]) + x[-1] * y[0] - x[0] * y[-1]
+    return 0.5 * float(cross)
 
 
 def _clip(subject: np.ndarray, clip: np.ndarray) -> np.ndarray:
@@ -309,6 +311,18 @@ def tie_operators(
         height=_mean_height(vol, facet_cell[tied], f_centre[tied], f_normal[tied]),
         facets=facets[tied],
     )
+
+
+def facet_height(volume: dolfinx.mesh.Mesh, facets: npt.NDArray[np.int32]) -> float:
+    """Mean height of the cells behind boundary facets (the ``h`` of ``kappa = h/(E eps)``)."""
+    tdim = volume.topology.dim
+    volume.topology.create_connectivity(tdim - 1, tdim)
+    f2c = volume.topology.connectivity(tdim - 1, tdim)
+    poly = volume.geometry.x[
+        cyclic_vertices(dolfinx.mesh.entities_to_geometry(volume, tdim - 1, facets))
+    ]
+    cells = f2c.array[f2c.offsets[facets]]
+    return _mean_height(volume, cells, poly.mean(axis=1), _newell_normal(poly))
 
 
 def _mean_height(vol, cells, centres, normals) -> float:

@@ -7,16 +7,36 @@ here default to ``MPI.COMM_SELF``.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from types import ModuleType
 
 from mpi4py import MPI
 
 import basix.ufl
+import dolfinx.io.gmsh
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 import ufl
 
-__all__ = ["box", "surface_from_boundary", "surface_mesh"]
+__all__ = [
+    "HEMISPHERE_CURVED",
+    "HEMISPHERE_SYMMETRY_X",
+    "HEMISPHERE_SYMMETRY_Y",
+    "HEMISPHERE_TOP",
+    "box",
+    "hemisphere",
+    "surface_from_boundary",
+    "surface_mesh",
+]
+
+#: Facet tag of the curved (spherical) surface of :func:`hemisphere`.
+HEMISPHERE_CURVED = 1
+#: Facet tag of the flat top face ``z = radius`` of :func:`hemisphere`.
+HEMISPHERE_TOP = 2
+#: Facet tag of the symmetry plane ``x = 0`` of a quarter :func:`hemisphere`.
+HEMISPHERE_SYMMETRY_X = 3
+#: Facet tag of the symmetry plane ``y = 0`` of a quarter :func:`hemisphere`.
+HEMISPHERE_SYMMETRY_Y = 4
 
 _CELL_TYPES = {
     "hexahedron": dolfinx.mesh.CellType.hexahedron,
@@ -177,3 +197,179 @@ def surface_from_boundary(
         cell_type,
     )
     return surface_mesh(comm, points, cells, cell_type)
+
+
+def hemisphere(
+    comm: MPI.Comm,
+    radius: float,
+    contact_radius: float,
+    h_contact: float,
+    h_far: float,
+    quarter: bool = True,
+    order: int = 1,
+    grading: float = 0.1,
+) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
+    """A tetrahedral mesh of a solid hemisphere (or a quarter of one) for a Hertz contact test.
+
+    The sphere has centre ``(0, 0, radius)``; the hemisphere is its lower half
+    ``0 <= z <= radius``, so its pole touches the plane ``z = 0`` at the origin and its flat
+    face is ``z = radius``. With ``quarter`` only ``x >= 0, y >= 0`` is kept, bounded by the
+    symmetry planes ``x = 0`` and ``y = 0``. The pole is always a mesh node.
+
+    The mesh size is ``h_contact`` within a distance ``1.5 * contact_radius`` of the pole (on
+    the curved surface and inside) and grows linearly, by ``grading`` per unit distance, up to
+    ``h_far``. The geometry is built with the OpenCASCADE kernel, so the nodes of the curved
+    surface lie on the sphere. The sphere is rotated so that its parametric poles and seam lie
+    on the rim ``z = radius``, away from the contact zone.
+
+    The Gmsh model is generated on rank 0 of ``comm`` only and distributed by dolfinx. Gmsh
+    is initialised and finalised here unless the caller has already initialised it; then a
+    temporary model is used and removed, and the options changed here are restored.
+
+    Args:
+        comm: Communicator (``MPI.COMM_SELF`` for a subdomain).
+        radius: Sphere radius ``R``.
+        contact_radius: Expected Hertz contact radius ``a``: sets the refined zone.
+        h_contact: Mesh size near the pole.
+        h_far: Mesh size far from the pole.
+        quarter: Keep only the quarter ``x >= 0, y >= 0``.
+        order: Geometry order of the tetrahedra (1 or 2).
+        grading: Growth of the mesh size per unit distance beyond the refined zone (0.1: a
+            size ratio of about 1.1 between neighbouring elements). Smaller is smoother and
+            costs more nodes.
+
+    Returns:
+        The mesh and its facet tags: :data:`HEMISPHERE_CURVED`, :data:`HEMISPHERE_TOP` and,
+        with ``quarter``, :data:`HEMISPHERE_SYMMETRY_X` and :data:`HEMISPHERE_SYMMETRY_Y`.
+
+    Raises:
+        ValueError: If a length or ``grading`` is not positive, or ``order`` is not 1 or 2.
+        ModuleNotFoundError: If Gmsh is not installed (``pip install dd_contact[mesh]``).
+    """
+    if min(radius, contact_radius, h_contact, h_far, grading) <= 0:
+        raise ValueError(
+            "hemisphere: radius, contact_radius, h_contact, h_far and grading must be positive, "
+            f"got {radius=}, {contact_radius=}, {h_contact=}, {h_far=}, {grading=}"
+        )
+    if order not in (1, 2):
+        raise ValueError(f"hemisphere: order must be 1 or 2, got {order}")
+    rank = 0
+    if comm.rank != rank:  # Only ``rank`` holds the Gmsh model; the others receive cells.
+        data = dolfinx.io.gmsh.model_to_mesh(None, comm, rank, gdim=3)
+        return data.mesh, data.facet_tags
+
+    try:
+        import gmsh
+    except ModuleNotFoundError as err:
+        raise ModuleNotFoundError(
+            "hemisphere needs the Gmsh Python module: pip install dd_contact[mesh]", name="gmsh"
+        ) from err
+
+    owner = not gmsh.isInitialized()
+    if owner:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+    options = {
+        "General.Terminal": 0,
+        "Mesh.MeshSizeExtendFromBoundary": 0,
+        "Mesh.MeshSizeFromPoints": 0,
+        "Mesh.MeshSizeFromCurvature": 0,
+        "Mesh.MeshSizeMin": min(h_contact, h_far),
+        "Mesh.MeshSizeMax": max(h_contact, h_far),
+    }
+    saved = {name: gmsh.option.getNumber(name) for name in options}
+    previous_model = None if owner else gmsh.model.getCurrent()
+    try:
+        for name, value in options.items():
+            gmsh.option.setNumber(name, value)
+        gmsh.model.add("dd_contact_hemisphere")
+        _hemisphere_model(gmsh, radius, contact_radius, h_contact, h_far, quarter, order, grading)
+        data = dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, rank, gdim=3)
+    finally:
+        if owner:
+            gmsh.finalize()
+        else:
+            gmsh.model.remove()
+            if previous_model:
+                gmsh.model.setCurrent(previous_model)
+            for name, value in saved.items():
+                gmsh.option.setNumber(name, value)
+    data.facet_tags.name = "hemisphere_facets"
+    return data.mesh, data.facet_tags
+
+
+def _hemisphere_model(
+    gmsh: ModuleType,
+    radius: float,
+    contact_radius: float,
+    h_contact: float,
+    h_far: float,
+    quarter: bool,
+    order: int,
+    grading: float,
+) -> None:
+    """Build and mesh the Gmsh model of :func:`hemisphere` in the current model."""
+    occ = gmsh.model.occ
+    sphere = occ.addSphere(0.0, 0.0, radius, radius)
+    # OCC's sphere has its parametric poles on its z axis and its seam in the half-plane
+    # y = 0, x > 0. Turn the poles to (-1, 1, 0)/sqrt(2) and (1, -1, 0)/sqrt(2) about the
+    # centre: poles and seam then lie on the rim z = radius, outside the quarter, and the
+    # contact zone is meshed where the parametrisation is regular.
+    occ.rotate([(3, sphere)], 0.0, 0.0, radius, 1.0, 0.0, 0.0, np.pi / 2)
+    occ.rotate([(3, sphere)], 0.0, 0.0, radius, 0.0, 0.0, 1.0, np.pi / 4)
+    lo = 0.0 if quarter else -1.1 * radius
+    cut = occ.addBox(lo, lo, -0.1 * radius, 1.1 * radius - lo, 1.1 * radius - lo, 1.1 * radius)
+    (volume_dimtag,), _ = occ.intersect([(3, sphere)], [(3, cut)])
+    occ.synchronize()
+
+    eps = 1e-6 * radius
+    groups: dict[int, list[int]] = {HEMISPHERE_CURVED: [], HEMISPHERE_TOP: []}
+    if quarter:
+        groups |= {HEMISPHERE_SYMMETRY_X: [], HEMISPHERE_SYMMETRY_Y: []}
+    for _, surface in gmsh.model.getBoundary([volume_dimtag], oriented=False):
+        x0, y0, z0, x1, y1, z1 = gmsh.model.getBoundingBox(2, surface)
+        if z1 - z0 < eps and abs(z0 - radius) < eps:
+            groups[HEMISPHERE_TOP].append(surface)
+        elif quarter and x1 - x0 < eps and abs(x0) < eps:
+            groups[HEMISPHERE_SYMMETRY_X].append(surface)
+        elif quarter and y1 - y0 < eps and abs(y0) < eps:
+            groups[HEMISPHERE_SYMMETRY_Y].append(surface)
+        else:
+            groups[HEMISPHERE_CURVED].append(surface)
+    names = {
+        HEMISPHERE_CURVED: "curved",
+        HEMISPHERE_TOP: "top",
+        HEMISPHERE_SYMMETRY_X: "symmetry_x",
+        HEMISPHERE_SYMMETRY_Y: "symmetry_y",
+    }
+    if any(not surfaces for surfaces in groups.values()):  # pragma: no cover
+        raise RuntimeError(f"hemisphere: unexpected faces in the Gmsh model: {groups}")
+
+    # The pole is a vertex of the quarter; in the full hemisphere it is embedded in the curved
+    # face, so that it is always a mesh node.
+    poles = gmsh.model.getEntitiesInBoundingBox(-eps, -eps, -eps, eps, eps, eps, 0)
+    if poles:
+        pole = poles[0][1]
+    else:
+        pole = occ.addPoint(0.0, 0.0, 0.0)
+        occ.synchronize()
+        gmsh.model.mesh.embed(0, [pole], 2, groups[HEMISPHERE_CURVED][0])
+
+    for tag, surfaces in groups.items():
+        gmsh.model.addPhysicalGroup(2, surfaces, tag, names[tag])
+    gmsh.model.addPhysicalGroup(3, [volume_dimtag[1]], 1, "hemisphere")
+
+    fields = gmsh.model.mesh.field
+    distance = fields.add("Distance")
+    fields.setNumbers(distance, "PointsList", [pole])
+    threshold = fields.add("Threshold")
+    dist_min = 1.5 * contact_radius
+    fields.setNumber(threshold, "InField", distance)
+    fields.setNumber(threshold, "SizeMin", h_contact)
+    fields.setNumber(threshold, "SizeMax", h_far)
+    fields.setNumber(threshold, "DistMin", dist_min)
+    fields.setNumber(threshold, "DistMax", dist_min + abs(h_far - h_contact) / grading)
+    fields.setAsBackgroundMesh(threshold)
+
+    gmsh.model.mesh.generate(3)
+    if order > 1:
+        gmsh.model.mesh.setOrder(order)

@@ -1,61 +1,549 @@
-"""User-facing problems: set up from a scene, solve, results as dolfinx Functions."""
+"""User-facing problems: static and transient analyses of a scene, with contact.
+
+Both share :class:`_Analysis`: assemble the scene once, eliminate the Dirichlet conditions,
+hand the block system to a solver (the elimination order), and solve with the contact
+iteration. Results land in the scene's dolfinx Functions (``Subdomain.u``, ``Interface.v``,
+``ContactInterface.w`` and ``.pressure``).
+"""
 
 from __future__ import annotations
 
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+from mpi4py import MPI
+
 import dolfinx.fem as fem
+import numpy as np
+import ufl
 
-from dd_contact.assembly import assemble_static
+from dd_contact.assembly import Model, assemble
+from dd_contact.contact import ContactIteration, ContactSettings
+from dd_contact.io import Checkpoint, ResultWriter
 from dd_contact.scene import InputError, Scene
-from dd_contact.solvers import MonolithicSystem, WorkLog
+from dd_contact.solvers import MonolithicSolver, SingularMatrixError, SparseCholesky, WorkLog
+from dd_contact.solvers.linalg import petsc_matrix
+from dd_contact.timestepping import Newmark
 
-__all__ = ["ALGORITHMS", "StaticProblem"]
+__all__ = ["ALGORITHMS", "StaticProblem", "TransientProblem"]
 
 #: Elimination orders (method.md section 5). Only FULL is available so far.
 ALGORITHMS = ("FULL",)
 
 
-class StaticProblem:
-    """Static linear elasticity of a decomposed scene, the static form of system (14).
+def collective(comm: MPI.Comm, action: Callable):
+    """Run ``action`` on every rank; if any rank raises InputError, raise it on all ranks."""
+    result, message = None, None
+    try:
+        result = action()
+    except InputError as error:
+        message = str(error)
+    messages = [m for m in comm.allgather(message) if m is not None]
+    if messages:
+        raise InputError(messages[0])
+    return result
+
+
+class _Analysis:
+    """Assembly, solver and contact iteration shared by the static and transient problems."""
+
+    def __init__(
+        self,
+        scene: Scene,
+        algorithm: str,
+        mass_coefficient: float,
+        contact: ContactSettings | None,
+    ):
+        if algorithm not in ALGORITHMS:
+            raise InputError(f"unknown algorithm {algorithm!r}; valid: {', '.join(ALGORITHMS)}")
+        self.scene, self.comm, self.algorithm = scene, scene.comm, algorithm
+        self.work = WorkLog()
+        self.model: Model = collective(self.comm, lambda: assemble(scene))
+        system = self.model.effective(mass_coefficient)
+        self.lifting, system.rhs = system.rhs, {}
+        self.zones = self.model.zones
+        self.settings = contact or ContactSettings()
+        collective(self.comm, self._check_contact_geometry)
+        contacts = {z.contact.name: (z.block, z.dofs, z.operator.pattern()) for z in self.zones}
+        self.solver = MonolithicSolver(self.comm, system, contacts, self.work)
+        self.iteration = ContactIteration(self.comm, self.zones, self.settings)
+        self._owned = [
+            (k, s, f"u:{s.name}")
+            for k, s in enumerate(scene.subdomains)
+            if scene.owner(k) == self.comm.rank
+        ]
+        self._load_forms = {block: _load_forms(sub) for _, sub, block in self._owned}
+        self._constant_loads: dict[str, np.ndarray] = {}
+
+    # -- pieces ----------------------------------------------------------------------------
+    def _check_contact_geometry(self, t: float = 0.0) -> None:
+        """Refuse an obstacle that overlaps the body or whose normal points into it."""
+        for z in self.zones:
+            op, name = z.operator, z.contact.name
+            op.update(t)
+            mesh = z.contact.mesh
+            cells = mesh.geometry.x[mesh.geometry.dofmaps[0]]
+            size = float(np.mean(np.linalg.norm(cells.max(axis=1) - cells.min(axis=1), axis=1)))
+            tol = self.settings.penetration_tolerance
+            tol = 1e-3 * size if tol is None else tol
+            worst = int(np.argmin(op.gap))
+            if op.gap[worst] < -tol:
+                raise InputError(
+                    f"contact {name!r}: the obstacle penetrates the body at t = {t} by "
+                    f"{-op.gap[worst]:.4g} at {np.round(op.points.x[worst], 6)} (tolerance "
+                    f"{tol:.3g}); move the obstacle or the body so they at most touch at the start"
+                )
+            outward = _outward_normals(z.contact)
+            centres = cells.mean(axis=1)
+            _, n = op.obstacle.gap_normal(centres, t)
+            cosine = np.einsum("cd,cd->c", n, outward)
+            bad = int(np.argmin(cosine))
+            if cosine[bad] < -0.1:
+                raise InputError(
+                    f"contact {name!r}: the obstacle's normal points into the body (at "
+                    f"{np.round(centres[bad], 6)} it makes {np.degrees(np.arccos(cosine[bad])):.0f}"
+                    " degrees with the outward normal of the surface); for a Plane give the "
+                    "normal pointing out of the wall towards the body, and check that the body "
+                    "lies outside a Sphere or around a Cylinder"
+                )
+
+    def _loads(self, t: float) -> dict[str, np.ndarray]:
+        """Owned load vectors r_D(t) (cached when they do not depend on time)."""
+        loads = {}
+        for _, sub, block in self._owned:
+            if block in self._constant_loads:
+                loads[block] = self._constant_loads[block]
+                continue
+            sub.set_time(t)
+            vector = np.zeros(sub.num_dofs)
+            for form in self._load_forms[block]:
+                vector += fem.assemble_vector(form).array[: sub.num_dofs]
+            if not np.all(np.isfinite(vector)):
+                raise InputError(
+                    f"subdomain {sub.name!r}: the load at t = {t} contains NaN or inf; check "
+                    "the traction and body-force data"
+                )
+            if not sub.time_dependent_loads:
+                self._constant_loads[block] = vector
+            loads[block] = vector
+        return loads
+
+    def _rhs(self, extra: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Lifting of the Dirichlet conditions plus free-dof loads."""
+        rhs = {name: vector.copy() for name, vector in self.lifting.items()}
+        for block, vector in extra.items():
+            free = self.model.free(block) * vector
+            rhs[block] = rhs[block] + free if block in rhs else free
+        return rhs
+
+    def _solve(self, t: float, rhs: dict[str, np.ndarray], where: str):
+        try:
+            return self.iteration.solve(self.solver, rhs, t, where)
+        except SingularMatrixError as error:
+            raise SingularMatrixError(
+                f"{error} (at {where}; {self._active_summary()}). A body held only by contact "
+                "needs some points in contact from the start, or Dirichlet conditions"
+            ) from None
+
+    def _active_summary(self) -> str:
+        counts = {
+            z.contact.name: int(self.iteration.active[z.contact.name].sum()) for z in self.zones
+        }
+        merged = {k: v for part in self.comm.allgather(counts) for k, v in part.items()}
+        return "active contact points: " + (
+            ", ".join(f"{k}: {v}" for k, v in merged.items()) if merged else "none"
+        )
+
+    def _publish(self, x: dict[str, np.ndarray]) -> None:
+        """Copy the solution into the scene's Functions (contact results on their owners)."""
+        for sub in self.scene.subdomains:
+            sub.u.x.array[:] = x[f"u:{sub.name}"]
+        if self.scene.interface is not None:
+            self.scene.interface.v.x.array[:] = x[f"v:{self.scene.interface.name}"]
+        for z in self.zones:
+            w = x[z.block][z.dofs]
+            z.contact.w.x.array[:] = w
+            z.contact.pressure.x.array[:] = z.operator.nodal_pressure(w)
+        if any(not np.all(np.isfinite(v)) for v in x.values()):
+            raise FloatingPointError(
+                "the solution contains NaN or inf: the system is too ill-conditioned (extreme "
+                "penalties?) or the data are not finite"
+            )
+
+    def contact_forces(self) -> dict[str, np.ndarray]:
+        """Total force of each obstacle on the body (collective)."""
+        local = {
+            z.contact.name: z.operator.force(z.contact.w.x.array[: z.operator.num_dofs])
+            for z in self.zones
+        }
+        return {k: v for part in self.comm.allgather(local) for k, v in part.items()}
+
+    @property
+    def penalties(self) -> dict[tuple[str, str], float]:
+        """Absolute penalty eps of every tie and contact, from all ranks (collective)."""
+        merged: dict[tuple[str, str], float] = {}
+        for part in self.comm.allgather(self.model.system.penalties):
+            merged.update(part)
+        return merged
+
+    @property
+    def changes(self) -> dict[str, int]:
+        """Contact state changes so far: ``"gamma"`` (whole model) and one count per contact."""
+        alpha = {
+            k: v for part in self.comm.allgather(self.iteration.alpha) for k, v in part.items()
+        }
+        return {"gamma": self.iteration.gamma, **alpha}
+
+    def _functions(self) -> list[fem.Function]:
+        out = [s.u for s in self.scene.subdomains]
+        if self.scene.interface is not None:
+            out.append(self.scene.interface.v)
+        return out + [c.w for c in self.scene.contacts]
+
+
+def _load_forms(sub) -> list[fem.Form]:
+    """Compiled load forms of a subdomain: body force and each traction."""
+    du = ufl.TestFunction(sub.V)
+    forms = []
+    if sub.body_force is not None:
+        forms.append(ufl.inner(sub.body_force, du) * ufl.dx)
+    for tags, traction in sub.tractions:
+        ds = ufl.Measure("ds", domain=sub.mesh, subdomain_data=tags)
+        forms.append(ufl.inner(traction, du) * ds(1))
+    return [fem.form(f) for f in forms]
+
+
+def _outward_normals(contact) -> np.ndarray:
+    """Unit normal of every contact-surface cell, oriented out of its subdomain."""
+    import dolfinx.geometry
+
+    from dd_contact.coupling import _newell_normal
+    from dd_contact.meshes import cyclic_vertices
+
+    mesh = contact.mesh
+    poly = mesh.geometry.x[cyclic_vertices(mesh.geometry.dofmaps[0])]
+    normal = _newell_normal(poly)
+    centre = poly.mean(axis=1)
+    size = np.linalg.norm(poly.max(axis=1) - poly.min(axis=1), axis=1)
+    volume = contact.subdomain.mesh
+    tree = dolfinx.geometry.bb_tree(volume, volume.topology.dim)
+    probe = centre - 0.05 * size[:, None] * normal  # inside the body if the normal is outward
+    candidates = dolfinx.geometry.compute_collisions_points(tree, probe)
+    inside = dolfinx.geometry.compute_colliding_cells(volume, candidates, probe)
+    sign = np.array([1.0 if len(inside.links(i)) else -1.0 for i in range(len(probe))])
+    return normal * sign[:, None]
+
+
+class StaticProblem(_Analysis):
+    """Static linear elasticity of a scene with contact (the static form of system (14)).
 
     Args:
         scene: What is modelled.
         algorithm: Elimination order; ``"FULL"`` solves the block system as one matrix.
+        contact: Contact iteration settings.
 
     Example:
         >>> problem = StaticProblem(scene)
         >>> u_left, u_right, v = problem.solve()
     """
 
-    def __init__(self, scene: Scene, algorithm: str = "FULL"):
-        if algorithm not in ALGORITHMS:
-            raise InputError(
-                f"StaticProblem: unknown algorithm {algorithm!r}; valid: {', '.join(ALGORITHMS)}"
-            )
+    def __init__(
+        self, scene: Scene, algorithm: str = "FULL", contact: ContactSettings | None = None
+    ):
         scene.check_static_supports()
-        self.scene = scene
-        self.algorithm = algorithm
-        self.work = WorkLog()
-        self._system = assemble_static(scene)
+        super().__init__(scene, algorithm, 0.0, contact)
+        self.iterations = 0
 
-    @property
-    def penalties(self) -> dict[tuple[str, str], float]:
-        """Absolute penalty eps of every tie (subdomain, surface), from all ranks."""
-        merged: dict[tuple[str, str], float] = {}
-        for part in self.scene.comm.allgather(self._system.penalties):
-            merged.update(part)
-        return merged
+    def solve(self, t: float = 0.0) -> list[fem.Function]:
+        """Solve at load time ``t``; returns subdomain, interface and contact displacements."""
+        self.iteration.start(t)
+        x, self.iterations, _ = self._solve(t, self._rhs(self._loads(t)), f"t = {t}")
+        self._publish(x)
+        return self._functions()
 
-    def solve(self) -> list[fem.Function]:
-        """Solve; returns the subdomain displacements, then the interface displacement."""
-        monolithic = MonolithicSystem(self.scene.comm, self._system)
-        solution = monolithic.solve(self.work)
-        monolithic.destroy()
-        functions = []
-        for sub in self.scene.subdomains:
-            sub.u.x.array[:] = solution[f"u:{sub.name}"]
-            functions.append(sub.u)
+
+class TransientProblem(_Analysis):
+    """Time stepping with contact: Newmark's trapezoidal rule, or quasi-static steps.
+
+    The initial state is read from the scene: ``Subdomain.u`` (displacement) and
+    ``Subdomain.velocity``; the initial acceleration follows from equilibrium at ``t0``.
+
+    Args:
+        scene: What is modelled.
+        dt: Time step (fixed: the subdomain matrices are factorised once for it).
+        algorithm: Elimination order.
+        inertia: ``False`` for quasi-static load stepping (no mass terms).
+        contact: Contact iteration settings.
+        t0: Initial time.
+    """
+
+    def __init__(
+        self,
+        scene: Scene,
+        dt: float,
+        algorithm: str = "FULL",
+        inertia: bool = True,
+        contact: ContactSettings | None = None,
+        t0: float = 0.0,
+    ):
+        self.newmark = Newmark(dt)
+        self.inertia = inertia
+        if inertia:
+            massless = [s.name for s in scene.subdomains if s.material.rho <= 0]
+            if massless:
+                raise InputError(
+                    f"TransientProblem: subdomain(s) {massless} have no density; give "
+                    "Material(rho=...) or use inertia=False for quasi-static steps"
+                )
+        else:
+            scene.check_static_supports()
+        super().__init__(
+            scene, algorithm, self.newmark.mass_coefficient if inertia else 0.0, contact
+        )
+        self.dt, self.t0 = dt, t0
+        self.t, self.step = t0, 0
+        self.history: list[dict] = []
+        self._started = False
+
+    # -- state ---------------------------------------------------------------------------
+    def _start(self) -> None:
+        """Check the initial data; initial acceleration and contact state at t0."""
+        for _, sub, _ in self._owned:
+            for f in (sub.u, sub.velocity):
+                if not np.all(np.isfinite(f.x.array)):
+                    raise_on = f"subdomain {sub.name!r} initial {f.name}"
+                    raise InputError(f"{raise_on} contains NaN or inf")
+        collective(self.comm, lambda: None)
+        for _, sub, block in self._owned:
+            fixed = self.model.free(block) == 0
+            sub.velocity.x.array[fixed] = 0.0
+        self.iteration.start(self.t0)
+        if self.inertia:
+            self._initial_acceleration()
+        self._started = True
+
+    def _initial_acceleration(self) -> None:
+        """M u''(t0) = r(t0) - K u(t0) - tie forces (massless surfaces in equilibrium)."""
+        loads = self._loads(self.t0)
+        u0 = {block: sub.u.x.array[: sub.num_dofs].copy() for _, sub, block in self._owned}
+        moved = self.comm.allreduce(any(np.any(u != 0) for u in u0.values()))
+        x0 = {f"u:{s.name}": s.u.x.array.copy() for s in self.scene.subdomains}
+        if moved:
+            x0.update(self._surfaces_at(u0))
+        residual = {}
+        for _, sub, block in self._owned:
+            r = loads[block].copy()
+            for (rb, cb), A in self.model.system.matrices.items():
+                if rb == block and cb in x0:
+                    r -= A @ x0[cb]
+                elif cb == block and rb != cb and rb in x0:
+                    r -= A.T @ x0[rb]
+            residual[block] = r * self.model.free(block)
+        for _, sub, block in self._owned:
+            if not np.any(residual[block]):
+                sub.acceleration.x.array[:] = 0.0
+                continue
+            M = self.model.mass[block].tolil()
+            fixed = np.flatnonzero(self.model.free(block) == 0)
+            M[fixed, :] = 0.0
+            M[:, fixed] = 0.0
+            M[fixed, fixed] = 1.0
+            coo = M.tocoo()
+            A = petsc_matrix(MPI.COMM_SELF, sub.num_dofs, sub.num_dofs, coo.row, coo.col, coo.data)
+            factor = SparseCholesky(A, self.work, f"mass:{sub.name}")
+            b = A.createVecRight()
+            b.array[:] = residual[block]
+            a = factor.solve(b)
+            sub.acceleration.x.array[:] = a.array
+            for obj in (a, b, factor, A):
+                obj.destroy()
+
+    def _surfaces_at(self, u0: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Interface and contact-interface displacements in equilibrium with given u."""
+        system = self.model.system.copy()
+        for block, values in u0.items():
+            system.constrain(block, np.arange(len(values), dtype=np.int32), values)
+        solver = MonolithicSolver(self.comm, system, {}, self.work)
+        x = solver.solve(system.rhs)
+        solver.destroy()
+        return {k: v for k, v in x.items() if not k.startswith("u:")}
+
+    def energy(self) -> dict[str, float]:
+        """Kinetic, elastic (with ties) and contact-penalty energy now (collective)."""
+        x = {f"u:{s.name}": s.u.x.array for s in self.scene.subdomains}
         if self.scene.interface is not None:
-            iface = self.scene.interface
-            iface.v.x.array[:] = solution[f"v:{iface.name}"]
-            functions.append(iface.v)
-        return functions
+            x[f"v:{self.scene.interface.name}"] = self.scene.interface.v.x.array
+        for c in self.scene.contacts:
+            x.setdefault(f"w:{c.name}", c.w.x.array)
+        elastic = 0.0
+        for (rb, cb), A in self.model.system.matrices.items():
+            factor = 0.5 if rb == cb else 1.0
+            elastic += factor * float(x[rb] @ (A @ x[cb]))
+        kinetic = 0.0
+        for _, sub, block in self._owned:
+            if block in self.model.mass:
+                v = sub.velocity.x.array
+                kinetic += 0.5 * float(v @ (self.model.mass[block] @ v))
+        contact = sum(z.operator.energy(z.contact.w.x.array) for z in self.zones)
+        parts = np.array(self.comm.allreduce(np.array([kinetic, elastic, contact])))
+        return {
+            "kinetic": parts[0],
+            "elastic": parts[1],
+            "contact": parts[2],
+            "total": float(parts.sum()),
+        }
+
+    # -- stepping -----------------------------------------------------------------------
+    def advance(self) -> dict:
+        """One time step; returns its record (also appended to :attr:`history`)."""
+        if not self._started:
+            self._start()
+        t_new = self.t + self.dt
+        loads = self._loads(t_new)
+        if self.inertia:
+            for _, sub, block in self._owned:
+                history = self.newmark.history(
+                    sub.u.x.array, sub.velocity.x.array, sub.acceleration.x.array
+                )
+                loads[block] = loads[block] + self.model.mass[block] @ history
+        where = f"step {self.step + 1} (t = {t_new:.6g})"
+        x, iterations, changes = self._solve(t_new, self._rhs(loads), where)
+        if self.inertia:
+            for _, sub, block in self._owned:
+                v, a = self.newmark.update(
+                    x[block], sub.u.x.array, sub.velocity.x.array, sub.acceleration.x.array
+                )
+                sub.velocity.x.array[:] = v
+                sub.acceleration.x.array[:] = a
+        self._publish(x)
+        self.t, self.step = t_new, self.step + 1
+        record = {"step": self.step, "t": t_new, "iterations": iterations, "changes": changes}
+        record["active"] = {
+            k: v
+            for part in self.comm.allgather(
+                {
+                    z.contact.name: int(self.iteration.active[z.contact.name].sum())
+                    for z in self.zones
+                }
+            )
+            for k, v in part.items()
+        }
+        record["force"] = {k: v.tolist() for k, v in self.contact_forces().items()}
+        if self.inertia:
+            record["energy"] = self.energy()
+        self.history.append(record)
+        return record
+
+    def run(
+        self,
+        n_steps: int,
+        output: str | Path | None = None,
+        output_every: int = 1,
+        checkpoint_every: int | None = None,
+        resume: bool = False,
+        progress: bool | None = None,
+        callback: Callable[[dict], None] | None = None,
+    ) -> list[dict]:
+        """Advance to step ``n_steps`` (counted from t0), writing results as it goes.
+
+        Args:
+            n_steps: Last step number of the run.
+            output: Directory for VTX files, the history and checkpoints.
+            output_every: Write VTX every this many steps.
+            checkpoint_every: Save a checkpoint every this many steps (needs ``output``).
+            resume: Continue from the checkpoint in ``output`` if there is one.
+            progress: Show a progress bar (default: when stderr is a terminal, on rank 0).
+            callback: Called with each step's record after the step.
+
+        Returns:
+            The history: one record per step (time, iterations, contact state changes,
+            active points, contact forces, energy).
+        """
+        if checkpoint_every is not None and output is None:
+            raise InputError("run: checkpoint_every needs an output directory")
+        checkpoint = Checkpoint(output, self.comm) if output is not None else None
+        if resume and checkpoint is not None and checkpoint.exists():
+            self._restore(*checkpoint.load())
+        elif not self._started:
+            self._start()
+        writer = ResultWriter(self.scene, output, self.step) if output is not None else None
+        if writer is not None and self.step == 0:
+            writer.write(self.t)
+        show = progress if progress is not None else sys.stderr.isatty()
+        bar = None
+        if show and self.comm.rank == 0 and self.step < n_steps:
+            from tqdm import tqdm
+
+            bar = tqdm(total=n_steps, initial=self.step, unit="step", file=sys.stderr)
+        try:
+            while self.step < n_steps:
+                record = self.advance()
+                if writer is not None and self.step % output_every == 0:
+                    writer.write(self.t)
+                if checkpoint_every and self.step % checkpoint_every == 0:
+                    checkpoint.save(self._state(), self.history)
+                if bar is not None:
+                    bar.update(1)
+                    bar.set_postfix(t=f"{self.t:.4g}", changes=self.iteration.gamma)
+                if callback is not None:
+                    callback(record)
+        finally:
+            if bar is not None:
+                bar.close()
+            if writer is not None:
+                writer.close()
+        return self.history
+
+    def _state(self) -> dict[str, np.ndarray]:
+        state = {
+            "step": np.array(self.step),
+            "t": np.array(self.t),
+            "dt": np.array(self.dt),
+            "gamma": np.array(self.iteration.gamma),
+        }
+        for _, sub, _ in self._owned:
+            state[f"u/{sub.name}"] = sub.u.x.array
+            state[f"velocity/{sub.name}"] = sub.velocity.x.array
+            state[f"acceleration/{sub.name}"] = sub.acceleration.x.array
+        for z in self.zones:
+            state[f"active/{z.contact.name}"] = self.iteration.active[z.contact.name]
+            state[f"alpha/{z.contact.name}"] = np.array(self.iteration.alpha[z.contact.name])
+        return state
+
+    def _restore(self, state: dict[str, np.ndarray], history: list[dict]) -> None:
+        if float(state["dt"]) != self.dt:
+            raise InputError(
+                f"resume: the checkpoint was written with dt = {float(state['dt'])}, this run "
+                f"has dt = {self.dt}; use the same time step or start a new output directory"
+            )
+        for _, sub, _ in self._owned:
+            for name in ("u", "velocity", "acceleration"):
+                key = f"{name}/{sub.name}"
+                target = getattr(sub, name).x.array
+                if key not in state or state[key].shape != target.shape:
+                    raise InputError(
+                        f"resume: the checkpoint does not match subdomain {sub.name!r} "
+                        "(different scene or mesh); start a new output directory"
+                    )
+                target[:] = state[key]
+        self.step, self.t = int(state["step"]), float(state["t"])
+        self.iteration.gamma = int(state["gamma"])
+        for z in self.zones:
+            self.iteration.active[z.contact.name] = state[f"active/{z.contact.name}"]
+            self.iteration.alpha[z.contact.name] = int(state[f"alpha/{z.contact.name}"])
+        self.history = history[: self.step]
+        self._surfaces_from_subdomains()
+        self._started = True
+
+    def _surfaces_from_subdomains(self) -> None:
+        """After a restore, recompute v and w of the last step (exactly: same solve)."""
+        # The state (u, u', u'') fully determines the next step; v and w are re-derived only
+        # for output and energy, from the saved subdomain displacements.
+        u0 = {block: sub.u.x.array[: sub.num_dofs].copy() for _, sub, block in self._owned}
+        surfaces = self._surfaces_at(u0)
+        if self.scene.interface is not None:
+            self.scene.interface.v.x.array[:] = surfaces[f"v:{self.scene.interface.name}"]
+        for z in self.zones:
+            if z.block in surfaces:
+                z.contact.w.x.array[:] = surfaces[z.block][z.dofs]

@@ -21,7 +21,16 @@ import ufl
 
 from dd_contact import meshes
 
-__all__ = ["DEFAULT_KAPPA", "Interface", "Material", "Penalty", "Scene", "Subdomain"]
+__all__ = [
+    "DEFAULT_KAPPA",
+    "ContactBoundary",
+    "ContactInterface",
+    "Interface",
+    "Material",
+    "Penalty",
+    "Scene",
+    "Subdomain",
+]
 
 #: Default dimensionless penalty kappa = h / (E * eps): ties 1e6 times stiffer than the
 #: elements behind them, so the penalty gap costs about 1e-6 of the response.
@@ -133,8 +142,14 @@ class Subdomain:
         self.name = name
         self.V = fem.functionspace(mesh, ("Lagrange", degree, (3,)))
         self.u = fem.Function(self.V, name=f"u_{name}")
+        #: Velocity: set it (e.g. ``interpolate``) for the initial velocity of a dynamic run.
+        self.velocity = fem.Function(self.V, name=f"velocity_{name}")
+        self.acceleration = fem.Function(self.V, name=f"acceleration_{name}")
+        #: Time t, updated by the solvers before loads are assembled: use it in UFL loads.
+        self.time = fem.Constant(mesh, 0.0)
         self.body_force: ufl.core.expr.Expr | None = None
         self.tractions: list[tuple[dolfinx.mesh.MeshTags, ufl.core.expr.Expr]] = []
+        self._timed: list[tuple[fem.Constant, Callable[[float], Sequence[float]]]] = []
         self._fixed_dofs: list[np.ndarray] = []
         self._fixed_values: list[np.ndarray] = []
 
@@ -190,13 +205,18 @@ class Subdomain:
             self._fixed_values.append(vals[c])
         return self
 
-    def add_traction(self, where: Where, traction: ufl.core.expr.Expr | Sequence[float]):
+    def add_traction(
+        self,
+        where: Where,
+        traction: ufl.core.expr.Expr | Sequence[float] | Callable[[float], Sequence[float]],
+    ):
         """Apply a surface traction (force per area) on a boundary region.
 
         Args:
             where: Locator ``x -> bool``, facet indices, or ``(meshtags, value)``.
-            traction: A UFL vector expression on this mesh (a ``fem.Constant`` or
-                ``fem.Function`` too), or a 3-vector.
+            traction: A UFL vector expression on this mesh (it may use :attr:`time` or any
+                ``fem.Constant``), a 3-vector, or a callable ``t -> 3-vector`` evaluated by
+                the solver at every time.
 
         Returns:
             The subdomain, so calls can be chained.
@@ -205,12 +225,51 @@ class Subdomain:
         tags = dolfinx.mesh.meshtags(
             self.mesh, self.mesh.topology.dim - 1, facets, np.ones_like(facets)
         )
-        if not isinstance(traction, ufl.core.expr.Expr):
-            values = np.asarray(traction, dtype=float)
-            _check_finite(f"subdomain {self.name!r} traction", values)
-            traction = fem.Constant(self.mesh, values)
-        self.tractions.append((tags, traction))
+        self.tractions.append((tags, self._load_expression(traction, "traction")))
         return self
+
+    def set_body_force(
+        self, force: ufl.core.expr.Expr | Sequence[float] | Callable[[float], Sequence[float]]
+    ) -> Subdomain:
+        """Body force per volume: a UFL expression, a 3-vector or a callable ``t -> 3-vector``."""
+        self.body_force = self._load_expression(force, "body force")
+        return self
+
+    def _load_expression(self, value, what: str) -> ufl.core.expr.Expr:
+        if isinstance(value, ufl.core.expr.Expr):
+            return value
+        if callable(value):
+            constant = fem.Constant(self.mesh, np.zeros(3))
+            self._timed.append((constant, value))
+            self.set_time(0.0)
+            return constant
+        values = np.asarray(value, dtype=float)
+        _check_finite(f"subdomain {self.name!r} {what}", values)
+        return fem.Constant(self.mesh, values)
+
+    def set_time(self, t: float) -> None:
+        """Set :attr:`time` and evaluate the callable loads at ``t``."""
+        self.time.value = t
+        for constant, load in self._timed:
+            values = np.asarray(load(t), dtype=float).reshape(3)
+            if not np.all(np.isfinite(values)):
+                raise InputError(
+                    f"subdomain {self.name!r}: a load callable returned {values} at t = {t}; "
+                    "loads must be finite"
+                )
+            constant.value[:] = values
+
+    @property
+    def time_dependent_loads(self) -> bool:
+        """Whether loads can change with time (callables, or UFL loads that use :attr:`time`)."""
+        if self._timed:
+            return True
+        exprs = [t for _, t in self.tractions]
+        if self.body_force is not None:
+            exprs.append(self.body_force)
+        return any(
+            c is self.time for e in exprs for c in ufl.algorithms.analysis.extract_constants(e)
+        )
 
     @property
     def dirichlet(self) -> tuple[np.ndarray, np.ndarray]:
@@ -309,6 +368,183 @@ class Interface:
         return self.V.dofmap.index_map.size_local * 3
 
 
+def _facet_copy(volume: dolfinx.mesh.Mesh, facets: np.ndarray) -> dolfinx.mesh.Mesh:
+    """A surface mesh that is a conforming copy of some boundary facets (on COMM_SELF)."""
+    tdim = volume.topology.dim
+    nodes = dolfinx.mesh.entities_to_geometry(volume, tdim - 1, facets)
+    used, cells = np.unique(nodes, return_inverse=True)
+    facet_type = volume.topology.entity_types[tdim - 1][0].name
+    return meshes.surface_mesh(
+        MPI.COMM_SELF, volume.geometry.x[used], cells.reshape(nodes.shape), facet_type
+    )
+
+
+class _ContactBase:
+    """What every contact region has: an obstacle, a contact penalty, a scheme, a surface."""
+
+    def _setup_contact(
+        self,
+        mesh: dolfinx.mesh.Mesh,
+        subdomain: Subdomain,
+        obstacle,
+        contact_kappa: float | None,
+        contact_epsilon: float | None,
+        points: str,
+        name: str,
+    ) -> None:
+        from dd_contact.contact import SCHEMES
+        from dd_contact.obstacles import Obstacle
+
+        if mesh.topology.dim != 2 or mesh.geometry.dim != 3:
+            raise InputError(
+                f"contact {name!r}: needs a surface mesh (topological dimension 2) in 3-D, got "
+                f"topological dimension {mesh.topology.dim} in {mesh.geometry.dim}-D"
+            )
+        if mesh.geometry.cmaps[0].degree != 1:
+            raise InputError(f"contact {name!r}: the surface mesh must be first order")
+        if not isinstance(obstacle, Obstacle):
+            raise InputError(
+                f"contact {name!r}: obstacle must be a dd_contact.obstacles.Obstacle (Plane, "
+                f"Sphere, Cylinder or UserObstacle), got {type(obstacle).__name__}"
+            )
+        if points not in SCHEMES:
+            raise InputError(f"contact {name!r}: points must be one of {SCHEMES}, got {points!r}")
+        _check_finite(f"contact {name!r} mesh coordinates", mesh.geometry.x)
+        self.mesh = mesh
+        self.subdomain = subdomain
+        self.obstacle = obstacle
+        self.contact_penalty = Penalty(kappa=contact_kappa, epsilon=contact_epsilon)
+        self.points = points
+        self.name = name
+        self.V = fem.functionspace(mesh, ("Lagrange", 1, (3,)))
+        self.w = fem.Function(self.V, name=f"w_{name}")
+        self.pressure = fem.Function(
+            fem.functionspace(mesh, ("Lagrange", 1)), name=f"pressure_{name}"
+        )
+
+    @property
+    def num_dofs(self) -> int:
+        """Number of displacement dofs of the contact surface (3 per node)."""
+        return self.V.dofmap.index_map.size_local * 3
+
+
+class ContactInterface(_ContactBase):
+    """A contact interface Gamma_C^(k): an independent surface mesh with displacement w.
+
+    It is tied to ``subdomain`` by a penalty eps_CI (eqs. 7, 9, 11) and pressed against a
+    rigid ``obstacle`` by the exterior penalty eps_C (eq. 5).
+
+    Args:
+        mesh: A first-order surface mesh in 3-D on a communicator of size one, lying on the
+            subdomain's boundary.
+        subdomain: The subdomain it is tied to.
+        obstacle: The rigid obstacle (:mod:`dd_contact.obstacles`).
+        kappa: Dimensionless tie penalty h / (E eps_CI) (default :data:`DEFAULT_KAPPA`).
+        epsilon: Absolute tie penalty eps_CI instead of kappa.
+        contact_kappa: Dimensionless contact penalty h / (E eps_C) (default DEFAULT_KAPPA).
+        contact_epsilon: Absolute contact penalty eps_C instead.
+        points: Where contact is checked, ``"nodes"`` or ``"quadrature"``
+            (see :mod:`dd_contact.contact`).
+        tolerance: Largest surface-to-boundary distance still counted as touching.
+        name: Name in messages and output.
+    """
+
+    def __init__(
+        self,
+        mesh: dolfinx.mesh.Mesh,
+        subdomain: Subdomain,
+        obstacle,
+        kappa: float | None = None,
+        epsilon: float | None = None,
+        contact_kappa: float | None = None,
+        contact_epsilon: float | None = None,
+        points: str = "nodes",
+        tolerance: float | None = None,
+        name: str = "contact",
+    ):
+        if mesh.comm.size != 1:
+            raise InputError(f"contact {name!r}: its mesh is distributed; use MPI.COMM_SELF")
+        if tolerance is not None and not tolerance > 0:
+            raise InputError(f"contact {name!r}: tolerance must be positive, got {tolerance}")
+        self._setup_contact(mesh, subdomain, obstacle, contact_kappa, contact_epsilon, points, name)
+        self.penalty = Penalty(kappa=kappa, epsilon=epsilon)
+        self.tolerance = tolerance
+
+    @classmethod
+    def from_boundary(
+        cls,
+        subdomain: Subdomain,
+        where: Where,
+        obstacle,
+        resolution: tuple[int, int] | None = None,
+        cell_type: str = "quadrilateral",
+        **kwargs,
+    ) -> ContactInterface:
+        """A contact interface generated on a region of ``subdomain``'s boundary.
+
+        Args:
+            subdomain: The subdomain it belongs to.
+            where: The region: locator, facet indices or ``(meshtags, value)``.
+            obstacle: The rigid obstacle.
+            resolution: Cells along the edges of a planar rectangular region (``where``
+                must then be a locator), or ``None`` for a copy of the region's facets.
+            cell_type: ``"quadrilateral"`` or ``"triangle"`` (with ``resolution``).
+            **kwargs: Passed to :class:`ContactInterface`.
+        """
+        if resolution is None:
+            mesh = _facet_copy(subdomain.mesh, subdomain.locate_facets(where))
+        else:
+            if not callable(where):
+                raise InputError("ContactInterface.from_boundary: resolution needs a locator")
+            mesh = meshes.surface_from_boundary(
+                subdomain.mesh, where, resolution, cell_type, comm=MPI.COMM_SELF
+            )
+        return cls(mesh, subdomain, obstacle, **kwargs)
+
+
+class ContactBoundary(_ContactBase):
+    """Contact directly on a region of a subdomain's boundary, without a contact interface.
+
+    The contact term acts on the subdomain's own boundary dofs, so the subdomain matrix
+    changes with the contact state: the classical approach (FULL) and the v-u order.
+
+    Args:
+        subdomain: The subdomain (first-order Lagrange displacement).
+        where: The region: locator, facet indices or ``(meshtags, value)``.
+        obstacle: The rigid obstacle.
+        contact_kappa: Dimensionless contact penalty h / (E eps_C) (default DEFAULT_KAPPA).
+        contact_epsilon: Absolute contact penalty eps_C instead.
+        points: ``"nodes"`` or ``"quadrature"`` (see :mod:`dd_contact.contact`).
+        name: Name in messages and output.
+    """
+
+    def __init__(
+        self,
+        subdomain: Subdomain,
+        where: Where,
+        obstacle,
+        contact_kappa: float | None = None,
+        contact_epsilon: float | None = None,
+        points: str = "nodes",
+        name: str = "contact",
+    ):
+        if subdomain.V.element.basix_element.degree != 1:
+            raise InputError(
+                f"contact {name!r}: contact directly on a boundary needs a degree-1 subdomain; "
+                "use a ContactInterface for higher degrees"
+            )
+        self.facets = subdomain.locate_facets(where)
+        mesh = _facet_copy(subdomain.mesh, self.facets)
+        self._setup_contact(mesh, subdomain, obstacle, contact_kappa, contact_epsilon, points, name)
+        # Surface node -> subdomain node, matched by position (the copy has the same nodes).
+        from scipy.spatial import cKDTree
+
+        volume_x = subdomain.V.tabulate_dof_coordinates()
+        surface_x = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local]
+        distance, self.node_map = cKDTree(volume_x).query(surface_x)
+        assert np.all(distance < 1e-10 * (1 + np.abs(volume_x).max()))
+
+
 class Scene:
     """Subdomains and (optionally) one interface: everything the solvers need.
 
@@ -320,6 +556,8 @@ class Scene:
         comm: Communicator of the analysis.
         subdomains: The subdomains, in order.
         interface: The interface, if the body is decomposed.
+        contacts: Contact interfaces and contact boundaries; each belongs to one subdomain
+            and is owned by that subdomain's rank.
     """
 
     def __init__(
@@ -327,6 +565,7 @@ class Scene:
         comm: MPI.Comm,
         subdomains: Sequence[Subdomain],
         interface: Interface | None = None,
+        contacts: Sequence[ContactInterface | ContactBoundary] = (),
     ):
         if len(subdomains) == 0:
             raise InputError("Scene: give at least one subdomain")
@@ -345,9 +584,32 @@ class Scene:
                 f"Scene: {len(subdomains)} subdomains but no interface to tie them; add an "
                 "Interface (or merge the meshes into one subdomain)"
             )
+        contact_names = [c.name for c in contacts]
+        if len(set(contact_names)) != len(contact_names):
+            raise InputError(f"Scene: contact names must be unique, got {contact_names}")
+        for c in contacts:
+            if not isinstance(c, _ContactBase):
+                raise InputError(
+                    f"Scene: contacts must be ContactInterface or ContactBoundary, got "
+                    f"{type(c).__name__}"
+                )
+            if all(c.subdomain is not t for t in subdomains):
+                raise InputError(
+                    f"Scene: contact {c.name!r} belongs to subdomain {c.subdomain.name!r}, "
+                    "which is not in the scene's subdomain list"
+                )
         self.comm = comm
         self.subdomains = list(subdomains)
         self.interface = interface
+        self.contacts = list(contacts)
+
+    def index(self, subdomain: Subdomain) -> int:
+        """Position of a subdomain in the scene."""
+        return next(k for k, s in enumerate(self.subdomains) if s is subdomain)
+
+    def contact_owner(self, contact: ContactInterface | ContactBoundary) -> int:
+        """Rank that owns a contact region: its subdomain's owner."""
+        return self.owner(self.index(contact.subdomain))
 
     def owner(self, k: int) -> int:
         """Rank that owns subdomain ``k``."""
@@ -363,6 +625,8 @@ class Scene:
         groups = [tied] if tied else []
         groups += [[s] for s in self.subdomains if all(s is not t for t in tied)]
         for group in groups:
+            if any(c.subdomain is s for c in self.contacts for s in group):
+                continue  # contact may support it; a singular factorisation will say if not
             rows = []
             for sub in group:
                 dofs, _ = sub.dirichlet

@@ -1,6 +1,6 @@
 """Solvers of the block system (14): FULL and (later) the block-elimination engine."""
 
-from dd_contact.solvers.full import MonolithicSystem
-from dd_contact.solvers.linalg import SparseCholesky, WorkLog, WorkRecord
+from dd_contact.solvers.full import MonolithicSolver
+from dd_contact.solvers.linalg import SingularMatrixError, SparseCholesky, WorkLog, WorkRecord
 
-__all__ = ["MonolithicSystem", "SparseCholesky", "WorkLog", "WorkRecord"]
+__all__ = ["MonolithicSolver", "SingularMatrixError", "SparseCholesky", "WorkLog", "WorkRecord"]

@@ -1,39 +1,52 @@
 """FULL: the block system (14) assembled into one matrix and factorised as a whole.
 
 This is the classical approach and the baseline the decomposition orders are measured
-against. It is also the reference for their correctness: the monolithic solution.
+against: every change of the contact state re-factorises the whole matrix. It is also the
+reference for the orders' correctness: the monolithic solution.
 """
 
 from __future__ import annotations
 
+from mpi4py import MPI
 from petsc4py import PETSc
 
 import numpy as np
+import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
 from dd_contact.solvers.linalg import SparseCholesky, WorkLog, coo_of, petsc_matrix
 
-__all__ = ["MonolithicSystem"]
+__all__ = ["MonolithicSolver"]
 
 
 def _cat(arrays: list[np.ndarray], dtype) -> np.ndarray:
     return np.concatenate(arrays).astype(dtype) if arrays else np.zeros(0, dtype)
 
 
-class MonolithicSystem:
-    """Block system (14) as one distributed PETSc matrix.
+class MonolithicSolver:
+    """Block system (14) as one distributed PETSc matrix, plus contact terms.
 
     Blocks are numbered rank by rank (all blocks of rank 0 first), so that each rank's rows
-    form one contiguous range, as PETSc requires.
+    form one contiguous range, as PETSc requires. Each contact region reserves its
+    pattern once; :meth:`set_contact` changes its values, and the next :meth:`solve`
+    re-factorises (numerically; the symbolic analysis is kept).
 
     Args:
         comm: Communicator.
-        system: This rank's pieces of the block system.
+        system: This rank's pieces of the (constrained) block system.
+        contacts: ``key -> (block, dofs, pattern)`` of this rank's contact regions: the block
+            dof of each surface dof and the surface-numbered sparsity pattern.
+        log: Where factorisations and solves are recorded.
     """
 
-    def __init__(self, comm, system: BlockSystem):
-        self.comm = comm
-        self.system = system
+    def __init__(
+        self,
+        comm,
+        system: BlockSystem,
+        contacts: dict[str, tuple[str, np.ndarray, sp.csr_array]],
+        log: WorkLog,
+    ):
+        self.comm, self.system, self.log = comm, system, log
         order = sorted(system.sizes, key=lambda b: system.owners[b])
         self.offsets, start = {}, 0
         for name in order:
@@ -48,34 +61,69 @@ class MonolithicSystem:
             rows.append(r), cols.append(c), vals.append(v)
             if rb != cb:  # the transpose is implied
                 rows.append(c), cols.append(r), vals.append(v)
+        self._base_values = _cat(vals, np.float64)
+        # Contact entries follow the base entries in the COO list, zero until set.
+        self._contact_slices: dict[str, tuple[slice, np.ndarray, np.ndarray]] = {}
+        position = len(self._base_values)
+        for key, (block, dofs, pattern) in contacts.items():
+            r, c, _ = coo_of(pattern)
+            rows.append(dofs[r] + self.offsets[block]), cols.append(dofs[c] + self.offsets[block])
+            self._contact_slices[key] = (slice(position, position + len(r)), r, c)
+            position += len(r)
+        self._values = np.zeros(position)
+        self._values[: len(self._base_values)] = self._base_values
         self.A = petsc_matrix(
             comm,
             self.local_size,
             self.size,
             _cat(rows, np.int64),
             _cat(cols, np.int64),
-            _cat(vals, np.float64),
+            self._values,
         )
-        self.b = self.A.createVecRight()
-        for name, vector in system.rhs.items():
-            idx = np.arange(len(vector), dtype=PETSc.IntType) + self.offsets[name]
-            self.b.setValues(idx, vector, addv=PETSc.InsertMode.ADD_VALUES)
-        self.b.assemble()
+        self._factor: SparseCholesky | None = None
+        self._dirty = True
 
-    def solve(self, log: WorkLog) -> dict[str, np.ndarray]:
-        """Factorise and solve; every rank gets every block of the solution."""
-        factor = SparseCholesky(self.A, log, "FULL")
-        x = factor.solve(self.b)
-        factor.destroy()
+    def set_contact(self, key: str, matrix: sp.csr_array) -> None:
+        """Replace the contact matrix of region ``key`` (surface dof numbering)."""
+        where, r, c = self._contact_slices[key]
+        values = np.asarray(matrix[r, c]).ravel()
+        if not np.array_equal(values, self._values[where]):
+            self._values[where] = values
+            self._dirty = True
+
+    def _refactorise(self) -> None:
+        """Collective: push new values to PETSc and factorise (once per contact change)."""
+        dirty = self.comm.allreduce(self._dirty, op=MPI.LOR)
+        if not dirty:
+            return
+        self.A.setValuesCOO(self._values.astype(PETSc.ScalarType), PETSc.InsertMode.INSERT_VALUES)
+        self.A.assemble()
+        if self._factor is None:
+            self._factor = SparseCholesky(self.A, self.log, "FULL")
+        else:
+            self._factor.refactorise()
+        self._dirty = False
+
+    def solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Solve with this rank's right-hand-side contributions; every rank gets every block."""
+        self._refactorise()
+        b = self.A.createVecRight()
+        for name, vector in rhs.items():
+            idx = np.arange(len(vector), dtype=PETSc.IntType) + self.offsets[name]
+            b.setValues(idx, vector, addv=PETSc.InsertMode.ADD_VALUES)
+        b.assemble()
+        x = self._factor.solve(b)
         scatter, x_all = PETSc.Scatter.toAll(x)
         scatter.scatter(x, x_all, addv=PETSc.InsertMode.INSERT_VALUES)
         values = x_all.getArray().copy()
-        scatter.destroy(), x_all.destroy(), x.destroy()
+        for obj in (scatter, x_all, x, b):
+            obj.destroy()
         return {
             name: values[off : off + self.system.sizes[name]] for name, off in self.offsets.items()
         }
 
     def destroy(self) -> None:
         """Free PETSc objects."""
+        if self._factor is not None:
+            self._factor.destroy()
         self.A.destroy()
-        self.b.destroy()

@@ -15,7 +15,17 @@ from petsc4py import PETSc
 import numpy as np
 import scipy.sparse as sp
 
-__all__ = ["SparseCholesky", "WorkLog", "WorkRecord", "petsc_matrix"]
+__all__ = [
+    "SingularMatrixError",
+    "SparseCholesky",
+    "WorkLog",
+    "WorkRecord",
+    "petsc_matrix",
+]
+
+
+class SingularMatrixError(RuntimeError):
+    """A factorisation met a singular matrix: part of the model is not held."""
 
 
 @dataclass
@@ -96,25 +106,33 @@ class SparseCholesky:
         pc.setType(PETSc.PC.Type.CHOLESKY)
         pc.setFactorSolverType("mumps")
         pc.setFactorSetUpSolverType()
-        factor = pc.getFactorMatrix()
-        factor.setMumpsIcntl(24, 1)  # detect null pivots: a singular matrix fails loudly
+        pc.getFactorMatrix().setMumpsIcntl(24, 1)  # detect null pivots: singular fails loudly
+        self._factorise()
+
+    def refactorise(self) -> None:
+        """Numeric re-factorisation after the matrix values changed (same pattern)."""
+        self.ksp.setOperators(self.A)
+        self._factorise()
+
+    def _factorise(self) -> None:
         start = time.perf_counter()
         self.ksp.setUp()
+        factor = self.ksp.getPC().getFactorMatrix()
         info = factor.getMumpsInfog(1)
         if info < 0:
-            raise RuntimeError(
-                f"MUMPS factorisation of block {block!r} failed (INFOG(1) = {info}); "
+            raise SingularMatrixError(
+                f"MUMPS factorisation of block {self.block!r} failed (INFOG(1) = {info}); "
                 "the matrix is singular or not positive definite"
             )
         if factor.getMumpsInfog(28) > 0:
-            raise RuntimeError(
-                f"block {block!r} is singular ({factor.getMumpsInfog(28)} null pivots): "
-                "part of the model can move freely; check its supports and ties"
+            raise SingularMatrixError(
+                f"block {self.block!r} is singular ({factor.getMumpsInfog(28)} null pivots): "
+                "part of the model can move freely; check its supports, ties and contacts"
             )
         self.log.add(
-            block,
+            self.block,
             "sparse_factor",
-            A.getSize()[0],
+            self.A.getSize()[0],
             0,
             time.perf_counter() - start,
             factor.getMumpsRinfog(3),
