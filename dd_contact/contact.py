@@ -30,6 +30,7 @@ where ``a`` are the points' area weights.
 from __future__ import annotations
 
 import hashlib
+import warnings
 from dataclasses import dataclass
 
 import basix
@@ -42,6 +43,7 @@ from dd_contact.obstacles import Obstacle
 
 __all__ = [
     "SCHEMES",
+    "ContactCycleWarning",
     "ContactIteration",
     "ContactIterationError",
     "ContactOperator",
@@ -201,21 +203,27 @@ class ContactIterationError(RuntimeError):
     """The contact iteration did not settle: it cycles or hit its iteration limit."""
 
 
+class ContactCycleWarning(UserWarning):
+    """The contact iteration cycled and the cycle was resolved (``on_cycle="union"``)."""
+
+
 @dataclass
 class ContactSettings:
     """How the contact iteration runs.
 
     Attributes:
         max_iterations: Largest number of solves in one step (or one static solve).
-        on_cycle: What to do when an active set repeats within a step: ``"raise"`` (stop with
-            a message that says where) or ``"union"`` (make every point of the cycle active,
-            solve once more and go on; a few points may then carry a small tension).
+        on_cycle: What to do when an active set repeats within a step: ``"union"`` (default:
+            make every point of the cycle active, solve once more and go on, with a
+            :class:`ContactCycleWarning` that says where; a few points may then carry a small
+            tension) or ``"raise"`` (stop with a :class:`ContactIterationError` that says
+            where).
         penetration_tolerance: Largest initial overlap of body and obstacle accepted at the
             start (default: 1e-3 of the mean contact-surface cell size).
     """
 
     max_iterations: int = 50
-    on_cycle: str = "raise"
+    on_cycle: str = "union"
     penetration_tolerance: float | None = None
 
     def __post_init__(self):
@@ -279,8 +287,17 @@ class ContactIteration:
             self.active = new
             key = self._global_digest()
             if key in seen:
+                message = self._cycle_message(previous, new, seen[key], iteration, where)
                 if self.settings.on_cycle == "raise":
-                    self._raise_cycle(previous, new, seen[key], iteration, where)
+                    raise ContactIterationError(
+                        message + ". Remedies: a smaller time step or load increment, a softer "
+                        "contact penalty (contact_kappa), or ContactSettings(on_cycle='union')"
+                    )
+                warnings.warn(
+                    message + "; resolved by making every point of the cycle active",
+                    ContactCycleWarning,
+                    stacklevel=2,
+                )
                 for j in range(seen[key], len(sets)):
                     for name in self.active:
                         self.active[name] = self.active[name] | sets[j][name]
@@ -309,7 +326,7 @@ class ContactIteration:
         local = tuple(digest(self.active[z.contact.name]) for z in self.zones)
         return tuple(self.comm.allgather(local))
 
-    def _raise_cycle(self, previous, new, first, iteration, where) -> None:
+    def _cycle_message(self, previous, new, first, iteration, where) -> str:
         lines = []
         for z in self.zones:
             flips = np.flatnonzero(previous[z.contact.name] != new[z.contact.name])
@@ -320,9 +337,7 @@ class ContactIteration:
                     f"e.g. at {x}"
                 )
         lines = [line for part in self.comm.allgather(lines) for line in part]
-        raise ContactIterationError(
+        return (
             f"contact iteration cycles at {where}: iteration {iteration} returns to the active "
-            f"set of iteration {first}. " + "; ".join(lines) + ". Remedies: a smaller time step "
-            "or load increment, a softer contact penalty (contact_kappa), or "
-            "ContactSettings(on_cycle='union')"
+            f"set of iteration {first}. " + "; ".join(lines)
         )

@@ -307,8 +307,16 @@ class TransientProblem(_Analysis):
         self._started = False
 
     # -- state ---------------------------------------------------------------------------
+    def start(self) -> None:
+        """Set up the initial state (done by the first step if not called; idempotent).
+
+        Checks the initial data, puts the interface and contact interfaces in equilibrium
+        with the initial displacement, and computes the initial acceleration.
+        """
+        if not self._started:
+            self._start()
+
     def _start(self) -> None:
-        """Check the initial data; initial acceleration and contact state at t0."""
         for _, sub, _ in self._owned:
             for f in (sub.u, sub.velocity):
                 if not np.all(np.isfinite(f.x.array)):
@@ -331,6 +339,7 @@ class TransientProblem(_Analysis):
         x0 = {f"u:{s.name}": s.u.x.array.copy() for s in self.scene.subdomains}
         if moved:
             x0.update(self._surfaces_at(u0))
+            self._publish_surfaces(x0)
         residual = {}
         for _, sub, block in self._owned:
             r = loads[block].copy()
@@ -532,16 +541,11 @@ class TransientProblem(_Analysis):
         for z in self.zones:
             self.iteration.active[z.contact.name] = state[f"active/{z.contact.name}"]
             self.iteration.alpha[z.contact.name] = int(state[f"alpha/{z.contact.name}"])
+        # v and w need no restoring: they are massless and solved afresh in every step.
         self.history = history[: self.step]
-        self._surfaces_from_subdomains()
         self._started = True
 
-    def _surfaces_from_subdomains(self) -> None:
-        """After a restore, recompute v and w of the last step (exactly: same solve)."""
-        # The state (u, u', u'') fully determines the next step; v and w are re-derived only
-        # for output and energy, from the saved subdomain displacements.
-        u0 = {block: sub.u.x.array[: sub.num_dofs].copy() for _, sub, block in self._owned}
-        surfaces = self._surfaces_at(u0)
+    def _publish_surfaces(self, surfaces: dict[str, np.ndarray]) -> None:
         if self.scene.interface is not None:
             self.scene.interface.v.x.array[:] = surfaces[f"v:{self.scene.interface.name}"]
         for z in self.zones:

@@ -6,19 +6,38 @@ The scene builders are public so tests, demos and benchmarks use the same models
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 from mpi4py import MPI
 
+import dolfinx.mesh
 import numpy as np
 
 from dd_contact import meshes
+from dd_contact.obstacles import Plane
 from dd_contact.post import boundary_average, cell_stress
-from dd_contact.problem import StaticProblem
-from dd_contact.scene import Interface, Material, Scene, Subdomain
+from dd_contact.problem import StaticProblem, TransientProblem
+from dd_contact.scene import (
+    ContactBoundary,
+    ContactInterface,
+    Interface,
+    Material,
+    Scene,
+    Subdomain,
+)
 
-__all__ = ["CASES", "Record", "bent_bar", "patch_test", "run_cases"]
+__all__ = [
+    "CASES",
+    "Record",
+    "bar_impact",
+    "bent_bar",
+    "free_vibration",
+    "hertz",
+    "patch_test",
+    "run_cases",
+]
 
 
 @dataclass
@@ -137,6 +156,214 @@ def bent_bar(
     )
     StaticProblem(Scene(comm, [left, right], interface)).solve()
     return float(boundary_average(right, _on(0, L))[2]), float(reference)
+
+
+# -- Hertz ---------------------------------------------------------------------------------
+#: The Hertz model: a quarter hemisphere of radius R (E, nu) pushed by its flat face onto a
+#: rigid plane; the approach is prescribed, the force is what the contact carries.
+HERTZ = {"radius": 1.0, "E": 1.0, "nu": 0.3, "approach": 0.03, "h_far": 0.2}
+
+
+def hertz(
+    h_contact: float,
+    points: str = "nodes",
+    contact: str = "boundary",
+    contact_kappa: float | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> dict:
+    """Elastic hemisphere on a rigid plane against Hertz's closed form.
+
+    The flat face z = R is pushed down by ``approach``; symmetry planes x = 0 and y = 0.
+    Hertz (E* = E / (1 - nu^2), rigid plane): a = (3 F R / (4 E*))^(1/3), p0 = 3F/(2 pi a^2),
+    evaluated with the computed contact force F.
+
+    Args:
+        h_contact: Mesh size near the pole.
+        points: Contact scheme, ``"nodes"`` or ``"quadrature"``.
+        contact: ``"boundary"`` (contact on the body's own boundary, the FULL baseline) or
+            ``"interface"`` (a contact interface, a copy of the cap's facets, tied to it).
+        contact_kappa: Dimensionless contact penalty.
+        comm: Communicator of the analysis.
+
+    Returns:
+        force, contact radius (``a``: radius of the circle with the active area; ``a_edge``:
+        largest radius of an active point), peak pressure, the Hertz values, iterations,
+        state changes, dofs, and the pressure profile (r, p) at the contact points.
+    """
+    R, E, nu = HERTZ["radius"], HERTZ["E"], HERTZ["nu"]
+    mesh, tags = meshes.hemisphere(MPI.COMM_SELF, R, 0.18 * R, h_contact, HERTZ["h_far"] * R)
+    ball = Subdomain(mesh, Material(E, nu), "ball")
+    ball.fix((tags, meshes.HEMISPHERE_TOP), components=[2], value=[0, 0, -HERTZ["approach"]])
+    ball.fix((tags, meshes.HEMISPHERE_SYMMETRY_X), components=[0])
+    ball.fix((tags, meshes.HEMISPHERE_SYMMETRY_Y), components=[1])
+    plane = Plane([0.0, 0.0, 0.0], [0.0, 0.0, 1.0])
+    cap = (tags, meshes.HEMISPHERE_CURVED)
+    cap_facets = ball.locate_facets(cap)
+    # Only the cap near the pole can touch: keep the contact surface small.
+    mid = mesh.geometry.x[dolfinx.mesh.entities_to_geometry(mesh, 2, cap_facets)].mean(axis=1)
+    near = cap_facets[mid[:, 2] < 0.15 * R]
+    kwargs = {"contact_kappa": contact_kappa, "points": points, "name": "cap"}
+    if contact == "boundary":
+        zone = ContactBoundary(ball, near, plane, **kwargs)
+    else:
+        zone = ContactInterface.from_boundary(ball, near, plane, **kwargs)
+    problem = StaticProblem(Scene(comm, [ball], contacts=[zone]))
+    problem.solve()
+    force = 4.0 * problem.contact_forces()["cap"][2]  # quarter model
+    E_star = E / (1.0 - nu**2)
+    a_ref = (3.0 * force * R / (4.0 * E_star)) ** (1.0 / 3.0)
+    p0_ref = 3.0 * force / (2.0 * np.pi * a_ref**2)
+    result = {"force": force, "a_ref": a_ref, "p0_ref": p0_ref, "dofs": ball.num_dofs}
+    result.update(problem.changes)
+    result["iterations"] = problem.iterations
+    local = None
+    if problem.zones:
+        op = problem.zones[0].operator
+        p = op.point_pressure(zone.w.x.array[: op.num_dofs])
+        active = p > 0
+        r = np.linalg.norm(op.points.x[:, :2], axis=1)
+        order = np.argsort(r[active])
+        local = {
+            "a": float(np.sqrt(4.0 * op.points.weight[active].sum() / np.pi)),
+            "a_edge": float(r[active].max()),
+            "p_max": float(p.max()),
+            "profile_r": r[active][order].tolist(),
+            "profile_p": p[active][order].tolist(),
+        }
+    for part in comm.allgather(local):
+        if part is not None:
+            result.update(part)
+    return result
+
+
+# -- bar impact ----------------------------------------------------------------------------
+#: An elastic bar (E = rho = 1, nu = 0 so it is exactly one-dimensional, c = 1) of length 1
+#: and section 0.1 x 0.1 hits a rigid wall at x = 0 with speed v0.
+BAR_IMPACT = {"length": 1.0, "section": 0.1, "v0": 0.01}
+
+
+def bar_impact(
+    n: int = 40,
+    cfl: float = 0.5,
+    contact_kappa: float | None = 1.0,
+    contact: str = "boundary",
+    end_time: float = 3.0,
+    split: bool = False,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> dict:
+    """Bar impact on a rigid wall: contact duration, rebound velocity and energy.
+
+    The exact answer (1-D wave theory): contact lasts 2L/c, the bar leaves with velocity
+    -v0 and no strain, so kinetic energy is restored.
+
+    Args:
+        n: Elements along the bar.
+        cfl: Time step in units of h / c.
+        contact_kappa: Dimensionless contact penalty (a stiff penalty chatters; see docs).
+        contact: ``"boundary"`` or ``"interface"`` (a 1x1 contact interface on the end).
+        end_time: Simulated time (in units of L / c).
+        split: Cut the bar in the middle into two subdomains tied by an interface.
+        comm: Communicator.
+
+    Returns:
+        duration, rebound (mean velocity after / -v0), energy ratio after/before, changes,
+        factorisations, steps.
+    """
+    L, a, v0 = BAR_IMPACT["length"], BAR_IMPACT["section"], BAR_IMPACT["v0"]
+    material = Material(1.0, 0.0, 1.0)
+    cuts = [0.0, L / 2, L] if split else [0.0, L]
+    parts = [
+        Subdomain(
+            meshes.box(MPI.COMM_SELF, [x0, 0, 0], [x1, a, a], [round(n * (x1 - x0) / L), 1, 1]),
+            material,
+            f"bar{k}" if split else "bar",
+        )
+        for k, (x0, x1) in enumerate(itertools.pairwise(cuts))
+    ]
+    for part in parts:
+        part.velocity.interpolate(
+            lambda x: np.vstack([np.full(x.shape[1], -v0), 0 * x[0], 0 * x[0]])
+        )
+    bar = parts[0]
+    interface = (
+        Interface.from_boundary(bar, _on(0, L / 2), parts, resolution=(1, 1)) if split else None
+    )
+    wall = Plane([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    end = _on(0, 0.0)
+    if contact == "boundary":
+        zone = ContactBoundary(bar, end, wall, contact_kappa=contact_kappa, name="end")
+    else:
+        zone = ContactInterface.from_boundary(
+            bar, end, wall, resolution=(1, 1), contact_kappa=contact_kappa, name="end"
+        )
+    dt = cfl * L / n
+    problem = TransientProblem(Scene(comm, parts, interface, contacts=[zone]), dt)
+    # The signed penetration of the end: positive in contact, negative once the bar has left.
+    penetration = []
+
+    def record(_):
+        local = None
+        if problem.zones:
+            op = problem.zones[0].operator
+            local = float(op.penetration(zone.w.x.array[: op.num_dofs]).mean())
+        penetration.append(next(p for p in comm.allgather(local) if p is not None))
+
+    problem.run(round(end_time / dt), callback=record, progress=False)
+    g = np.array(penetration)
+    times = dt * np.arange(1, len(g) + 1)
+    k = int(np.argmax(g < 0))  # first step apart
+    duration = times[k - 1] + dt * g[k - 1] / (g[k - 1] - g[k])
+    momentum, mass = 0.0, 0.0
+    for part in parts:
+        M = problem.model.mass.get(f"u:{part.name}")
+        if M is not None:  # owned here
+            ones = np.zeros(part.num_dofs)
+            ones[0::3] = 1.0
+            momentum += float(ones @ (M @ part.velocity.x.array))
+            mass += float(ones @ (M @ ones))
+    momentum, mass = comm.allreduce(momentum), comm.allreduce(mass)
+    energy0 = 0.5 * mass * v0**2
+    return {
+        "duration": float(duration),
+        "duration_ref": 2.0 * L,
+        "rebound": momentum / mass / v0,
+        "energy_ratio": problem.energy()["total"] / energy0,
+        "changes": problem.changes["gamma"],
+        "factorisations": comm.allreduce(problem.work.count("sparse_factor", "FULL"), op=MPI.MAX),
+        "steps": len(g),
+    }
+
+
+# -- free vibration ------------------------------------------------------------------------
+def free_vibration(steps: int = 1000, comm: MPI.Comm = MPI.COMM_WORLD) -> dict:
+    """Energy of a tied two-part cantilever in free vibration (no contact, no load).
+
+    The cantilever 4 x 1 x 1 (E = 1000, nu = 0.3, rho = 1) is clamped at x = 0, cut at x = 2
+    into two non-matching halves tied by an interface, and released from a bent shape with
+    an initial velocity. The trapezoidal rule conserves energy exactly for a linear system.
+
+    Returns:
+        Initial energy, the largest relative drift over the run, and the energies.
+    """
+    material = Material(1000.0, 0.3, 1.0)
+    left = Subdomain(meshes.box(MPI.COMM_SELF, [0, 0, 0], [2, 1, 1], [6, 3, 3]), material, "left")
+    right = Subdomain(meshes.box(MPI.COMM_SELF, [2, 0, 0], [4, 1, 1], [5, 2, 2]), material, "right")
+    left.fix(_on(0, 0.0))
+    interface = Interface.from_boundary(left, _on(0, 2.0), [left, right], resolution=(3, 3))
+    for sub in (left, right):
+        sub.u.interpolate(lambda x: np.vstack([0 * x[0], 0 * x[0], 1e-3 * x[0] ** 2]))
+        sub.velocity.interpolate(lambda x: np.vstack([0 * x[0], 1e-2 * x[0], 0 * x[0]]))
+    left.u.x.array[left.dirichlet[0]] = 0.0
+    problem = TransientProblem(Scene(comm, [left, right], interface), dt=0.01)
+    problem.start()
+    e0 = problem.energy()["total"]
+    history = problem.run(steps, progress=False)
+    energies = np.array([h["energy"]["total"] for h in history])
+    return {
+        "energy0": e0,
+        "drift": float(np.max(np.abs(energies - e0)) / e0),
+        "energies": energies.tolist(),
+    }
 
 
 # -- cases ---------------------------------------------------------------------------------

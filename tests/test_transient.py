@@ -1,0 +1,166 @@
+"""Time stepping: quasi-static steps, checkpoints and resume, progress, bad input."""
+
+from __future__ import annotations
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+import dd_contact as dd
+from dd_contact import meshes, verify
+
+
+def _on(axis, value):
+    return lambda x: np.isclose(x[axis], value)
+
+
+def _block(name="block"):
+    block = dd.Subdomain(
+        meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [2, 2, 2]),
+        dd.Material(1000.0, 0.0, 1.0),
+        name,
+    )
+    return block.fix(_on(0, 0.0), components=[0]).fix(_on(1, 0.0), components=[1])
+
+
+def test_quasi_static_steps_follow_the_load():
+    block = _block()
+    block.add_traction(_on(2, 1.0), lambda t: [0.0, 0.0, -100.0 * t])
+    zone = dd.ContactBoundary(block, _on(2, 0.0), dd.Plane([0, 0, 0], [0, 0, 1]))
+    problem = dd.TransientProblem(
+        dd.Scene(MPI.COMM_WORLD, [block], contacts=[zone]), dt=0.1, inertia=False
+    )
+    history = problem.run(5, progress=False)
+    # Equilibrium: the wall carries the whole load at every step, whatever the penalty.
+    for record in history:
+        assert record["force"]["contact"][2] == pytest.approx(100.0 * record["t"], rel=1e-9)
+    assert [r["step"] for r in history] == [1, 2, 3, 4, 5]
+
+
+def _falling_bar():
+    """A bar flying at a wall 0.002 away: contact from about step 2 to step 22."""
+    bar = dd.Subdomain(
+        meshes.box(MPI.COMM_SELF, [0.002, 0, 0], [1.002, 0.1, 0.1], [10, 1, 1]),
+        dd.Material(1.0, 0.0, 1.0),
+        "bar",
+    )
+    bar.velocity.interpolate(lambda x: np.vstack([np.full(x.shape[1], -0.01), 0 * x[0], 0 * x[0]]))
+    zone = dd.ContactBoundary(bar, _on(0, 0.002), dd.Plane([0, 0, 0], [1, 0, 0]), contact_kappa=1.0)
+    problem = dd.TransientProblem(dd.Scene(MPI.COMM_WORLD, [bar], contacts=[zone]), dt=0.1)
+    return bar, problem
+
+
+@pytest.mark.mpi
+def test_resume_reproduces_the_uninterrupted_run(tmp_path):
+    comm = MPI.COMM_WORLD
+    out = comm.bcast(str(tmp_path) if comm.rank == 0 else None)
+    bar, problem = _falling_bar()
+    reference = problem.run(30, progress=False)
+    u_ref, v_ref = bar.u.x.array.copy(), bar.velocity.x.array.copy()
+    assert problem.changes["gamma"] >= 2  # contact made and lost inside the run
+
+    class Interrupt(Exception):
+        pass
+
+    def stop_at_12(record):
+        if record["step"] == 12:
+            raise Interrupt
+
+    bar, problem = _falling_bar()
+    with pytest.raises(Interrupt):
+        problem.run(30, output=out, checkpoint_every=5, callback=stop_at_12, progress=False)
+    bar, problem = _falling_bar()
+    resumed = problem.run(30, output=out, checkpoint_every=5, resume=True, progress=False)
+    assert resumed[10]["step"] == 11  # it went on from the checkpoint of step 10
+    assert np.array_equal(bar.u.x.array, u_ref)
+    assert np.array_equal(bar.velocity.x.array, v_ref)
+    assert [r["force"] for r in resumed] == [r["force"] for r in reference]
+    assert problem.changes["gamma"] == reference_changes(reference)
+    if comm.rank == 0:
+        names = sorted(p.name for p in tmp_path.iterdir())
+        assert "u_bar.bp" in names and "u_bar.from000010.bp" in names
+        assert "history.json" in names and "checkpoint.rank0.npz" in names
+
+
+def reference_changes(history):
+    return sum(r["changes"] for r in history)
+
+
+def test_progress_bar_is_shown_when_asked(capsys):
+    _, problem = _falling_bar()
+    problem.run(3, progress=True)
+    if MPI.COMM_WORLD.rank == 0:
+        assert "3/3" in capsys.readouterr().err
+
+
+@pytest.mark.mpi
+def test_split_bar_impact_on_two_ranks():
+    # Two subdomains tied by an interface (one per rank under mpiexec -n 2), contact on the end.
+    r = verify.bar_impact(n=40, cfl=0.5, contact_kappa=1.0, split=True)
+    assert r["duration"] == pytest.approx(2.0, rel=0.03)
+    assert r["rebound"] == pytest.approx(1.0, rel=0.03)
+    assert r["energy_ratio"] == pytest.approx(1.0, rel=0.03)
+
+
+# -- bad input -----------------------------------------------------------------------------
+def _scene(block, zone):
+    return dd.Scene(MPI.COMM_WORLD, [block], contacts=[zone])
+
+
+def test_obstacle_penetrating_at_start_is_refused():
+    block = _block()
+    zone = dd.ContactBoundary(block, _on(2, 0.0), dd.Plane([0, 0, 0.05], [0, 0, 1]))
+    with pytest.raises(dd.InputError, match=r"penetrates the body at t = 0.0 by 0.05 at \["):
+        dd.TransientProblem(_scene(block, zone), dt=0.1)
+
+
+def test_obstacle_normal_into_the_body_is_refused():
+    block = _block()
+    zone = dd.ContactBoundary(block, _on(2, 0.0), dd.Plane([0, 0, 0], [0, 0, -1]))
+    with pytest.raises(dd.InputError, match="normal points into the body"):
+        dd.StaticProblem(_scene(block, zone))
+
+
+def test_contact_interface_off_the_boundary_is_refused():
+    block = _block()
+    far = meshes.surface_mesh(
+        MPI.COMM_SELF,
+        [[0, 0, -0.3], [1, 0, -0.3], [0, 1, -0.3], [1, 1, -0.3]],
+        [[0, 1, 2, 3]],
+        "quadrilateral",
+    )
+    zone = dd.ContactInterface(far, block, dd.Plane([0, 0, -1], [0, 0, 1]))
+    with pytest.raises(dd.InputError, match="does not touch subdomain 'block'"):
+        dd.StaticProblem(_scene(block, zone))
+
+
+def test_non_positive_time_step_is_refused():
+    _, problem = _falling_bar()
+    with pytest.raises(dd.InputError, match="dt must be a positive"):
+        dd.TransientProblem(problem.scene, dt=0.0)
+
+
+def test_nan_in_initial_velocity_is_refused():
+    bar, problem = _falling_bar()
+    bar.velocity.x.array[4] = np.nan
+    with pytest.raises(dd.InputError, match="initial velocity_bar contains NaN"):
+        problem.run(1, progress=False)
+
+
+def test_nan_in_a_load_is_refused_with_the_time():
+    block = _block()
+    block.add_traction(_on(2, 1.0), lambda t: [0.0, 0.0, np.nan if t > 0.25 else -t])
+    zone = dd.ContactBoundary(block, _on(2, 0.0), dd.Plane([0, 0, 0], [0, 0, 1]))
+    problem = dd.TransientProblem(_scene(block, zone), dt=0.1, inertia=False)
+    with pytest.raises(dd.InputError, match=r"load callable returned .* at t = 0.3"):
+        problem.run(5, progress=False)
+    assert problem.step == 2  # the steps before the bad load are kept
+
+
+def test_dynamic_problem_needs_density():
+    block = dd.Subdomain(
+        meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [1, 1, 1]), dd.Material(1.0, 0.0), "b"
+    )
+    with pytest.raises(dd.InputError, match="no density"):
+        dd.TransientProblem(dd.Scene(MPI.COMM_WORLD, [block]), dt=0.1)
