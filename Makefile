@@ -26,6 +26,7 @@ test: venv
 
 demo: venv
 	$(PY) demos/demo_tied_bar.py
+	$(PY) demos/demo_hertz.py
 
 lint: venv
 	$(VENV)/bin/ruff check $(LINTED)

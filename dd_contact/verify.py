@@ -335,12 +335,19 @@ def bar_impact(
 
 
 # -- free vibration ------------------------------------------------------------------------
-def free_vibration(steps: int = 1000, comm: MPI.Comm = MPI.COMM_WORLD) -> dict:
+def free_vibration(
+    steps: int = 1000, kappa: float | None = None, comm: MPI.Comm = MPI.COMM_WORLD
+) -> dict:
     """Energy of a tied two-part cantilever in free vibration (no contact, no load).
 
     The cantilever 4 x 1 x 1 (E = 1000, nu = 0.3, rho = 1) is clamped at x = 0, cut at x = 2
     into two non-matching halves tied by an interface, and released from a bent shape with
     an initial velocity. The trapezoidal rule conserves energy exactly for a linear system.
+
+    Args:
+        steps: Number of time steps (dt = 0.01, about 1/30 of the first period).
+        kappa: Tie penalty (default :data:`dd_contact.scene.DEFAULT_KAPPA`).
+        comm: Communicator.
 
     Returns:
         Initial energy, the largest relative drift over the run, and the energies.
@@ -349,7 +356,9 @@ def free_vibration(steps: int = 1000, comm: MPI.Comm = MPI.COMM_WORLD) -> dict:
     left = Subdomain(meshes.box(MPI.COMM_SELF, [0, 0, 0], [2, 1, 1], [6, 3, 3]), material, "left")
     right = Subdomain(meshes.box(MPI.COMM_SELF, [2, 0, 0], [4, 1, 1], [5, 2, 2]), material, "right")
     left.fix(_on(0, 0.0))
-    interface = Interface.from_boundary(left, _on(0, 2.0), [left, right], resolution=(3, 3))
+    interface = Interface.from_boundary(
+        left, _on(0, 2.0), [left, right], resolution=(3, 3), kappa=kappa
+    )
     for sub in (left, right):
         sub.u.interpolate(lambda x: np.vstack([0 * x[0], 0 * x[0], 1e-3 * x[0] ** 2]))
         sub.velocity.interpolate(lambda x: np.vstack([0 * x[0], 1e-2 * x[0], 0 * x[0]]))
@@ -388,11 +397,37 @@ def _case_bent_bar() -> list[Record]:
     return records
 
 
+def _case_hertz() -> list[Record]:
+    r = hertz(0.015)
+    return [
+        _record("hertz", "contact radius a", r["a"], r["a_ref"], 0.05),
+        _record("hertz", "peak pressure p0", r["p_max"], r["p0_ref"], 0.10),
+    ]
+
+
+def _case_bar_impact() -> list[Record]:
+    r = bar_impact()
+    return [
+        _record("bar-impact", "contact duration", r["duration"], r["duration_ref"], 0.03),
+        _record("bar-impact", "rebound velocity / -v0", r["rebound"], 1.0, 0.03),
+        _record("bar-impact", "energy after / before", r["energy_ratio"], 1.0, 0.03),
+    ]
+
+
+def _case_free_vibration() -> list[Record]:
+    r = free_vibration(1000)
+    quantity = "1 + max energy drift over 1000 steps"
+    return [_record("free-vibration", quantity, 1.0 + r["drift"], 1.0, 1e-8)]
+
+
 CASES: dict[str, Callable[[], list[Record]]] = {
     "patch-hex-quad": _case_patch("patch-hex-quad", "quadrilateral", "hexahedron"),
     "patch-hex-tri": _case_patch("patch-hex-tri", "triangle", "hexahedron"),
     "patch-tet-tri": _case_patch("patch-tet-tri", "triangle", "tetrahedron"),
     "bent-bar": _case_bent_bar,
+    "hertz": _case_hertz,
+    "bar-impact": _case_bar_impact,
+    "free-vibration": _case_free_vibration,
 }
 
 

@@ -1,10 +1,11 @@
 """`dd-contact verify`: table, JSON records, exit status."""
 
 import json
+from pathlib import Path
 
 import pytest
 
-from dd_contact import cli, verify
+from dd_contact import cli, cost, verify
 
 FIELDS = {"case", "quantity", "value", "reference", "rel_error", "tolerance", "passed"}
 
@@ -29,3 +30,172 @@ def test_verify_exits_1_when_a_case_fails(monkeypatch):
 def test_verify_unknown_case():
     with pytest.raises(ValueError, match=r"unknown case.*valid: patch-hex-quad"):
         cli.main(["verify", "--case", "nope"])
+
+
+# --------------------------------------------------------------------------- dd-contact flops
+
+MESH_KEYS = {
+    "name",
+    "dofs",
+    "half_bandwidth",
+    "decompositions",
+    "substitutions",
+    "gflops_decomposition",
+    "gflops_substitution",
+}
+DOCS = Path(__file__).resolve().parents[1] / "docs"
+
+
+def api_json(sizes) -> dict:
+    return json.loads(json.dumps(cost.to_json_dict(cost.compare(sizes))))
+
+
+def test_flops_parallelepiped_defaults_json(tmp_path, capsys):
+    path = tmp_path / "bar.json"
+    assert cli.main(["flops", "parallelepiped", "--json", str(path)]) == 0
+    data = json.loads(path.read_text())
+    assert list(data) == ["FULL", "v-w-u", "w-v-u", "w-u", "v-u"]
+    for alg in data.values():
+        assert set(alg) == {"gflops_total", "percent_of_full", "meshes"}
+        assert all(set(m) == MESH_KEYS for m in alg["meshes"])
+    assert data == api_json(cost.parallelepiped_sizes())
+    # the paper's bar: counts by hand
+    full = data["FULL"]["meshes"][0]
+    assert (full["dofs"], full["half_bandwidth"], full["decompositions"]) == (1336533, 3372, 20001)
+    assert full["substitutions"] == 30000
+    assert [m["name"] for m in data["v-w-u"]["meshes"]] == [
+        "Omega1",
+        "Omega2",
+        "Gamma_C1",
+        "Gamma_I",
+    ]
+    assert data["v-w-u"]["meshes"][2]["substitutions"] == 20001 * 3333 + 30000 + 30000
+    pct = {a: round(v["percent_of_full"], 4) for a, v in data.items()}
+    assert pct == {"FULL": 100.0, "v-w-u": 0.6451, "w-v-u": 0.1981, "w-u": 0.1902, "v-u": 198.9302}
+    out = capsys.readouterr().out
+    assert "1,336,533 dofs, B = 3,372" in out and "(0.6451 % of FULL)" in out
+
+    # explicit paper arguments, and --json given before the model name, give the same file
+    explicit = tmp_path / "explicit.json"
+    argv = ["flops", "--json", str(explicit), "parallelepiped", "--elements", "400", "100", "10"]
+    argv += ["--split", "5:5", "--interface", "100", "10", "--contact", "100", "10"]
+    assert cli.main([*argv, "--steps", "10000", "--changes", "20000"]) == 0
+    assert json.loads(explicit.read_text()) == data
+
+
+def test_flops_parallelepiped_options(tmp_path):
+    path = tmp_path / "bar.json"
+    argv = ["flops", "parallelepiped", "--elements", "40", "10", "2", "--split", "1:3"]
+    argv += ["--interface", "5", "1", "--contact", "10", "2", "--steps", "7", "--changes", "9"]
+    assert cli.main([*argv, "--json", str(path)]) == 0
+    sizes = cost.parallelepiped_sizes((40, 10, 2), (1, 3), (5, 1), (10, 2), 7, 9)
+    assert json.loads(path.read_text()) == api_json(sizes)
+    assert sizes.subdomains[0].dofs == 11 * 11 * 3 * 3 and sizes.interface_dofs == 6 * 2 * 3
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["flops", "parallelepiped", "--split", "5-5"])
+    assert exc.value.code == 2
+    # a split that does not divide the layers is a clean error, not a traceback
+    assert cli.main(["flops", "parallelepiped", "--split", "1:6"]) == 2
+
+
+def test_flops_pin_joint(tmp_path, capsys):
+    path = tmp_path / "pin.json"
+    assert cli.main(["flops", "pin-joint", "--active-holes", "2", "--json", str(path)]) == 0
+    data = json.loads(path.read_text())
+    assert data == api_json(cost.pin_joint_sizes(2))
+    assert len(data["v-w-u"]["meshes"]) == 12 + 2 + 1
+    assert data["w-v-u"]["percent_of_full"] < data["v-w-u"]["percent_of_full"]
+    out = capsys.readouterr().out
+    assert "174,080 hexahedra, 201,672 nodes, 605,016 dofs" in out
+    assert "2 of 10 holes in contact" in out
+    assert cli.main(["flops", "pin-joint", "--active-holes", "11"]) == 2
+    assert "active_holes must be in 1..10" in capsys.readouterr().err
+
+
+def test_flops_scene_example_matches_parallelepiped(tmp_path):
+    path = tmp_path / "scene.json"
+    assert (
+        cli.main(["flops", "--scene", str(DOCS / "scene_example.json"), "--json", str(path)]) == 0
+    )
+    assert json.loads(path.read_text()) == api_json(cost.parallelepiped_sizes())
+
+
+SCENE = {
+    "n_steps": 3,
+    "gamma": 2,
+    "interface": {"dofs": 6},
+    "subdomains": [
+        {"name": "Omega1", "dofs": 30, "half_bandwidth": 9},
+        {"name": "Omega2", "dofs": 30, "half_bandwidth": 9},
+    ],
+    "contacts": [{"dofs": 6, "subdomain": "Omega1", "alpha": 2}],
+}
+
+
+@pytest.mark.parametrize(
+    "edit,message",
+    [
+        (lambda d: d.pop("n_steps"), "missing key 'n_steps'"),
+        (lambda d: d["subdomains"][0].pop("half_bandwidth"), "subdomains[0]: missing key"),
+        (lambda d: d["subdomains"][1].update(dofs=-30), "subdomains[1].dofs must be a positive"),
+        (lambda d: d["contacts"][0].update(alpha=-1), "contacts[0].alpha must be a non-negative"),
+        (lambda d: d["contacts"][0].update(subdomain="Omega9"), "'Omega9' is not a subdomain"),
+        (lambda d: d["contacts"][0].update(subdomain=5), "index 5 is not a subdomain"),
+    ],
+)
+def test_flops_scene_validation_errors(tmp_path, capsys, edit, message):
+    data = json.loads(json.dumps(SCENE))
+    edit(data)
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(data))
+    assert cli.main(["flops", "--scene", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"dd-contact flops: error: {path}: ")
+    assert message in err
+
+
+def test_flops_scene_ok_and_usage_errors(tmp_path, capsys):
+    path = tmp_path / "scene.json"
+    path.write_text(json.dumps(SCENE))
+    out_json = tmp_path / "out.json"
+    assert cli.main(["flops", "--scene", str(path), "--json", str(out_json)]) == 0
+    # no "whole": summed dofs and largest bandwidth; v-w-u as in test_cost.test_tiny_vwu_table1
+    data = json.loads(out_json.read_text())
+    assert data["FULL"]["meshes"][0]["dofs"] == 60
+    assert data["v-w-u"]["gflops_total"] == pytest.approx(30402e-9, rel=1e-12)
+    assert cli.main(["flops"]) == 2
+    assert "give a model" in capsys.readouterr().err
+    assert cli.main(["flops", "--scene", str(path), "parallelepiped"]) == 2
+    assert "exclude each other" in capsys.readouterr().err
+    assert cli.main(["flops", "--scene", str(tmp_path / "missing.json")]) == 2
+    assert "missing.json" in capsys.readouterr().err
+
+
+def is_png(path: Path) -> bool:
+    return path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and path.stat().st_size > 10_000
+
+
+def test_flops_sweep_writes_charts(tmp_path):
+    measured = tmp_path / "measured.json"
+    measured.write_text(json.dumps({"bar_steps": {"w-u": [[100, 3.0]]}}))
+    out = tmp_path / "charts"
+    argv = ["flops", "parallelepiped", "--sweep", str(out), "--measured", str(measured)]
+    assert cli.main(argv) == 0
+    names = ["bar_steps", "bar_split", "bar_changes", "bar_contact_elements"]
+    for name in names:
+        assert is_png(out / f"flops_{name}.png")
+        assert json.loads((out / f"flops_{name}.json").read_text())["name"] == name
+    steps = json.loads((out / "flops_bar_steps.json").read_text())
+    assert steps["measured"] == {"w-u": [[100, 3.0]]}
+    bar = cost.compare(cost.parallelepiped_sizes())
+    assert steps["percent_of_full"]["v-w-u"][-1] == pytest.approx(bar["v-w-u"].percent_of_full)
+
+    assert cli.main(["flops", "pin-joint", "--sweep", str(out)]) == 0
+    holes = json.loads((out / "flops_pin_holes.json").read_text())
+    assert holes["x"] == list(range(2, 11))
+    assert is_png(out / "flops_pin_holes.png") and is_png(out / "flops_pin_steps.png")
+
+    scene = tmp_path / "scene.json"
+    scene.write_text(json.dumps(SCENE))
+    assert cli.main(["flops", "--scene", str(scene), "--sweep", str(out)]) == 0
+    assert is_png(out / "flops_scene_steps.png") and is_png(out / "flops_scene_changes.png")

@@ -59,3 +59,25 @@ def test_demo_tied_bar_two_ranks(tmp_path):
     stdout = _run(cmd, tmp_path)
     assert stdout.count("tip deflection, tied subdomains") == 1  # rank 0 prints alone
     _check_tied_bar(stdout, out)
+
+
+def _check_hertz(stdout, out):
+    a = re.search(r"contact radius a\s+: (\S+)\s+Hertz (\S+)", stdout)
+    p = re.search(r"peak pressure p0\s+: (\S+)\s+Hertz (\S+)", stdout)
+    # The coarse demo mesh (h = 0.03 R, a/h = 6) is still within the Hertz test tolerances.
+    assert float(a.group(1)) == pytest.approx(float(a.group(2)), rel=0.05)
+    assert float(p.group(1)) == pytest.approx(float(p.group(2)), rel=0.10)
+    assert (out / "hertz_pressure.png").stat().st_size > 10_000
+    assert (out / "hertz_profile.png").stat().st_size > 10_000
+    assert (out / "w_cap.bp").is_dir()
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_demo_hertz(tmp_path, ranks):
+    if ranks > 1 and not MPIEXEC.exists():
+        pytest.skip("no mpiexec beside the interpreter")
+    out = tmp_path / "out"
+    cmd = [sys.executable, ROOT / "demos/demo_hertz.py", "--small", "--out", out]
+    stdout = _run([MPIEXEC, "-n", str(ranks), *cmd] if ranks > 1 else cmd, tmp_path)
+    assert stdout.count("contact radius a") == 1
+    _check_hertz(stdout, out)
