@@ -114,17 +114,23 @@ def _add_tie(system: BlockSystem, u: str, s: str, ops: coupling.TieOperators, ep
     system.add(s, s, coupling.blocked(ops.P4) / eps)
 
 
-def _check_covered(scene: Scene, surface, what: str, coverage: np.ndarray) -> None:
-    """Every surface cell must lie on a subdomain boundary (else it ties nothing)."""
-    total = np.empty_like(coverage)
-    scene.comm.Allreduce(coverage, total, op=MPI.MAX)
-    loose = np.flatnonzero(total < 0.999)
+def _check_covered(surface, what: str, coverage: np.ndarray, comm: MPI.Comm | None) -> None:
+    """Every surface cell must lie on a subdomain boundary (else it ties nothing).
+
+    ``coverage`` is each cell's covered fraction; with ``comm`` it is first maximised over
+    the ranks (each rank ties only its own subdomains).
+    """
+    if comm is not None:
+        total = np.empty_like(coverage)
+        comm.Allreduce(coverage, total, op=MPI.MAX)
+        coverage = total
+    loose = np.flatnonzero(coverage < 0.999)
     if loose.size:
         nodes = surface.mesh.geometry.x[surface.mesh.geometry.dofmaps[0][loose[0]]]
         raise InputError(
-            f"{what} {surface.name!r}: {loose.size} of its {total.size} cells do not lie "
+            f"{what} {surface.name!r}: {loose.size} of its {coverage.size} cells do not lie "
             f"on a subdomain boundary (cell {loose[0]} near {np.round(nodes.mean(axis=0), 6)} is "
-            f"{100 * (1 - total[loose[0]]):.1f}% uncovered); the surface mesh must lie on the "
+            f"{100 * (1 - coverage[loose[0]]):.1f}% uncovered); the surface mesh must lie on the "
             "boundary it ties to: move it, trim it to the shared face, or raise its tolerance"
         )
 
@@ -257,20 +263,13 @@ def assemble(scene: Scene) -> Model:
             system.penalties[(sub.name, iface.name)] = eps
             coverage = np.maximum(coverage, ops.covered_area / ops.cell_area)
     if tied:
-        _check_covered(scene, iface, "interface", coverage)
+        _check_covered(iface, "interface", coverage, scene.comm)
     for c in scene.contacts:
         k = scene.index(c.subdomain)
         if scene.owner(k) != rank:
             continue
         zone, cover = _contact_zone(scene, system, c, k)
-        if cover is not None and np.any(cover < 0.999):
-            loose = np.flatnonzero(cover < 0.999)
-            nodes = c.mesh.geometry.x[c.mesh.geometry.dofmaps[0][loose[0]]]
-            raise InputError(
-                f"contact interface {c.name!r}: {loose.size} of its {cover.size} cells do not "
-                f"lie on subdomain {c.subdomain.name!r}'s boundary (cell {loose[0]} near "
-                f"{np.round(nodes.mean(axis=0), 6)}); generate it with "
-                "ContactInterface.from_boundary or move it onto the boundary"
-            )
+        if cover is not None:
+            _check_covered(c, "contact interface", cover, None)
         model.zones.append(zone)
     return model

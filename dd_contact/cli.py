@@ -205,6 +205,20 @@ def _flops(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_history_options(parser: argparse.ArgumentParser, alpha: str) -> None:
+    """--steps and --changes, with the paper's study defaults."""
+    parser.add_argument(
+        "--steps", type=_non_negative_int, default=10000, metavar="N_TS", help="default 10000"
+    )
+    parser.add_argument(
+        "--changes",
+        type=_non_negative_int,
+        default=20000,
+        metavar="GAMMA",
+        help=f"contact state changes, {alpha} (default 20000)",
+    )
+
+
 def _add_flops(sub: Any) -> None:
     flops = sub.add_parser(
         "flops",
@@ -250,16 +264,7 @@ def _add_flops(sub: Any) -> None:
         metavar=("NY", "NZ"),
         help="quads of the contact interface mesh (default: 100 10)",
     )
-    bar.add_argument(
-        "--steps", type=_non_negative_int, default=10000, metavar="N_TS", help="default 10000"
-    )
-    bar.add_argument(
-        "--changes",
-        type=_non_negative_int,
-        default=20000,
-        metavar="GAMMA",
-        help="contact state changes, alpha = gamma (default 20000)",
-    )
+    _add_history_options(bar, "alpha = gamma")
     _add_output_options(bar, suppress=True)
 
     pin = models.add_parser(
@@ -306,16 +311,7 @@ def _add_flops(sub: Any) -> None:
         metavar="N",
         help="elements along the grip (default 72)",
     )
-    pin.add_argument(
-        "--steps", type=_non_negative_int, default=10000, metavar="N_TS", help="default 10000"
-    )
-    pin.add_argument(
-        "--changes",
-        type=_non_negative_int,
-        default=20000,
-        metavar="GAMMA",
-        help="contact state changes, each alpha = gamma (default 20000)",
-    )
+    _add_history_options(pin, "each alpha = gamma")
     _add_output_options(pin, suppress=True)
     flops.set_defaults(run=_flops, model=None)
 

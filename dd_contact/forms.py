@@ -16,7 +16,14 @@ import ufl
 if TYPE_CHECKING:
     from dd_contact.scene import Material, Subdomain
 
-__all__ = ["assemble_load", "assemble_mass", "assemble_stiffness", "strain", "stress"]
+__all__ = [
+    "assemble_load",
+    "assemble_mass",
+    "assemble_stiffness",
+    "load_forms",
+    "strain",
+    "stress",
+]
 
 
 def strain(u: ufl.core.expr.Expr) -> ufl.core.expr.Expr:
@@ -46,8 +53,8 @@ def assemble_mass(sub: Subdomain) -> sp.csr_array:
     return _to_csr(sub.material.rho * ufl.inner(u, du) * ufl.dx)
 
 
-def assemble_load(sub: Subdomain) -> np.ndarray:
-    """r_D = int f . du dx + sum of int t . du ds over the traction regions (owned dofs)."""
+def load_forms(sub: Subdomain) -> list[fem.Form]:
+    """Compiled load forms: int f . du dx and int t . du ds for each traction region."""
     du = ufl.TestFunction(sub.V)
     forms = []
     if sub.body_force is not None:
@@ -56,8 +63,12 @@ def assemble_load(sub: Subdomain) -> np.ndarray:
         # One measure per traction: traction regions may overlap, meshtags may not.
         ds = ufl.Measure("ds", domain=sub.mesh, subdomain_data=tags)
         forms.append(ufl.inner(traction, du) * ds(1))
-    size = sub.V.dofmap.index_map.size_local * sub.V.dofmap.index_map_bs
-    load = np.zeros(size)
-    for form in forms:
-        load += fem.assemble_vector(fem.form(form)).array[:size]
+    return [fem.form(f) for f in forms]
+
+
+def assemble_load(sub: Subdomain, forms: list[fem.Form] | None = None) -> np.ndarray:
+    """r_D on the owned dofs, from :func:`load_forms` (compiled now if not given)."""
+    load = np.zeros(sub.num_dofs)
+    for form in load_forms(sub) if forms is None else forms:
+        load += fem.assemble_vector(form).array[: sub.num_dofs]
     return load

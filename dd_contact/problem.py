@@ -16,8 +16,8 @@ from mpi4py import MPI
 
 import dolfinx.fem as fem
 import numpy as np
-import ufl
 
+from dd_contact import forms
 from dd_contact.assembly import Model, assemble
 from dd_contact.contact import ContactIteration, ContactSettings
 from dd_contact.io import Checkpoint, ResultWriter
@@ -73,7 +73,7 @@ class _Analysis:
             for k, s in enumerate(scene.subdomains)
             if scene.owner(k) == self.comm.rank
         ]
-        self._load_forms = {block: _load_forms(sub) for _, sub, block in self._owned}
+        self._load_forms = {block: forms.load_forms(sub) for _, sub, block in self._owned}
         self._constant_loads: dict[str, np.ndarray] = {}
 
     # -- pieces ----------------------------------------------------------------------------
@@ -116,9 +116,7 @@ class _Analysis:
                 loads[block] = self._constant_loads[block]
                 continue
             sub.set_time(t)
-            vector = np.zeros(sub.num_dofs)
-            for form in self._load_forms[block]:
-                vector += fem.assemble_vector(form).array[: sub.num_dofs]
+            vector = forms.assemble_load(sub, self._load_forms[block])
             if not np.all(np.isfinite(vector)):
                 raise InputError(
                     f"subdomain {sub.name!r}: the load at t = {t} contains NaN or inf; check "
@@ -200,18 +198,6 @@ class _Analysis:
         if self.scene.interface is not None:
             out.append(self.scene.interface.v)
         return out + [c.w for c in self.scene.contacts]
-
-
-def _load_forms(sub) -> list[fem.Form]:
-    """Compiled load forms of a subdomain: body force and each traction."""
-    du = ufl.TestFunction(sub.V)
-    forms = []
-    if sub.body_force is not None:
-        forms.append(ufl.inner(sub.body_force, du) * ufl.dx)
-    for tags, traction in sub.tractions:
-        ds = ufl.Measure("ds", domain=sub.mesh, subdomain_data=tags)
-        forms.append(ufl.inner(traction, du) * ds(1))
-    return [fem.form(f) for f in forms]
 
 
 def _outward_normals(contact) -> np.ndarray:

@@ -113,6 +113,22 @@ def _check_finite(name: str, values: np.ndarray) -> None:
         raise InputError(f"{name} contains NaN or inf; check the data that defines it")
 
 
+def _check_mesh(mesh: dolfinx.mesh.Mesh, tdim: int, what: str, hint: str) -> None:
+    """A mesh of topological dimension ``tdim`` in 3-D, on one rank, with finite nodes."""
+    kind = "3-D volume mesh" if tdim == 3 else "surface mesh (topological dimension 2) in 3-D"
+    if mesh.topology.dim != tdim or mesh.geometry.dim != 3:
+        raise InputError(
+            f"{what}: needs a {kind}, got topological dimension {mesh.topology.dim} in "
+            f"{mesh.geometry.dim}-D; {hint}"
+        )
+    if mesh.comm.size != 1:
+        raise InputError(
+            f"{what}: its mesh is distributed over {mesh.comm.size} ranks, but every mesh of a "
+            f"scene belongs to one rank; create it on MPI.COMM_SELF ({hint})"
+        )
+    _check_finite(f"{what} mesh coordinates", mesh.geometry.x)
+
+
 class Subdomain:
     """An independently meshed part of the body, Omega^(k).
 
@@ -124,19 +140,13 @@ class Subdomain:
     """
 
     def __init__(self, mesh: dolfinx.mesh.Mesh, material: Material, name: str, degree: int = 1):
-        if mesh.topology.dim != 3 or mesh.geometry.dim != 3:
-            raise InputError(
-                f"subdomain {name!r}: needs a 3-D volume mesh, got topological dimension "
-                f"{mesh.topology.dim} in {mesh.geometry.dim}-D; surface meshes belong in an "
-                "Interface or ContactInterface"
-            )
-        if mesh.comm.size != 1:
-            raise InputError(
-                f"subdomain {name!r}: its mesh is distributed over {mesh.comm.size} ranks, but "
-                "each subdomain belongs to one rank; create it on MPI.COMM_SELF, e.g. "
-                "dd_contact.meshes.box(MPI.COMM_SELF, ...)"
-            )
-        _check_finite(f"subdomain {name!r} mesh coordinates", mesh.geometry.x)
+        _check_mesh(
+            mesh,
+            3,
+            f"subdomain {name!r}",
+            "surface meshes belong in an Interface or ContactInterface; create subdomain "
+            "meshes with e.g. dd_contact.meshes.box(MPI.COMM_SELF, ...)",
+        )
         self.mesh = mesh
         self.material = material
         self.name = name
@@ -313,21 +323,17 @@ class Interface:
         tolerance: float | None = None,
         name: str = "interface",
     ):
-        if mesh.topology.dim != 2 or mesh.geometry.dim != 3:
-            raise InputError(
-                f"interface {name!r}: needs a surface mesh (topological dimension 2) in 3-D, got "
-                f"topological dimension {mesh.topology.dim} in {mesh.geometry.dim}-D; build it "
-                "with dd_contact.meshes.surface_mesh or Interface.from_boundary"
-            )
-        if mesh.comm.size != 1:
-            raise InputError(
-                f"interface {name!r}: its mesh is distributed; create it on MPI.COMM_SELF"
-            )
+        _check_mesh(
+            mesh,
+            2,
+            f"interface {name!r}",
+            "build it with dd_contact.meshes.surface_mesh(MPI.COMM_SELF, ...) or "
+            "Interface.from_boundary",
+        )
         if len(subdomains) == 0:
             raise InputError(f"interface {name!r}: give the subdomains it ties")
         if tolerance is not None and not tolerance > 0:
             raise InputError(f"interface {name!r}: tolerance must be positive, got {tolerance}")
-        _check_finite(f"interface {name!r} mesh coordinates", mesh.geometry.x)
         self.mesh = mesh
         self.subdomains = list(subdomains)
         self.penalty = Penalty(kappa=kappa, epsilon=epsilon)
@@ -395,11 +401,12 @@ class _ContactBase:
         from dd_contact.contact import SCHEMES
         from dd_contact.obstacles import Obstacle
 
-        if mesh.topology.dim != 2 or mesh.geometry.dim != 3:
-            raise InputError(
-                f"contact {name!r}: needs a surface mesh (topological dimension 2) in 3-D, got "
-                f"topological dimension {mesh.topology.dim} in {mesh.geometry.dim}-D"
-            )
+        _check_mesh(
+            mesh,
+            2,
+            f"contact {name!r}",
+            "build it with ContactInterface.from_boundary or dd_contact.meshes.surface_mesh",
+        )
         if mesh.geometry.cmaps[0].degree != 1:
             raise InputError(f"contact {name!r}: the surface mesh must be first order")
         if not isinstance(obstacle, Obstacle):
@@ -409,7 +416,6 @@ class _ContactBase:
             )
         if points not in SCHEMES:
             raise InputError(f"contact {name!r}: points must be one of {SCHEMES}, got {points!r}")
-        _check_finite(f"contact {name!r} mesh coordinates", mesh.geometry.x)
         self.mesh = mesh
         self.subdomain = subdomain
         self.obstacle = obstacle
@@ -462,8 +468,6 @@ class ContactInterface(_ContactBase):
         tolerance: float | None = None,
         name: str = "contact",
     ):
-        if mesh.comm.size != 1:
-            raise InputError(f"contact {name!r}: its mesh is distributed; use MPI.COMM_SELF")
         if tolerance is not None and not tolerance > 0:
             raise InputError(f"contact {name!r}: tolerance must be positive, got {tolerance}")
         self._setup_contact(mesh, subdomain, obstacle, contact_kappa, contact_epsilon, points, name)
