@@ -6,6 +6,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+import ufl
 
 import dd_contact as dd
 from dd_contact import meshes, verify
@@ -24,9 +25,13 @@ def _block(name="block"):
     return block.fix(_on(0, 0.0), components=[0]).fix(_on(1, 0.0), components=[1])
 
 
-def test_quasi_static_steps_follow_the_load():
+@pytest.mark.parametrize("load", ["callable", "ufl"])
+def test_quasi_static_steps_follow_the_load(load):
     block = _block()
-    block.add_traction(_on(2, 1.0), lambda t: [0.0, 0.0, -100.0 * t])
+    if load == "callable":
+        block.add_traction(_on(2, 1.0), lambda t: [0.0, 0.0, -100.0 * t])
+    else:  # a UFL expression of the solver-updated time constant
+        block.add_traction(_on(2, 1.0), ufl.as_vector((0.0, 0.0, -100.0 * block.time)))
     zone = dd.ContactBoundary(block, _on(2, 0.0), dd.Plane([0, 0, 0], [0, 0, 1]))
     problem = dd.TransientProblem(
         dd.Scene(MPI.COMM_WORLD, [block], contacts=[zone]), dt=0.1, inertia=False
@@ -36,6 +41,23 @@ def test_quasi_static_steps_follow_the_load():
     for record in history:
         assert record["force"]["contact"][2] == pytest.approx(100.0 * record["t"], rel=1e-9)
     assert [r["step"] for r in history] == [1, 2, 3, 4, 5]
+
+
+def test_moving_wall_pushes_a_held_block():
+    block = dd.Subdomain(
+        meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [2, 2, 2]), dd.Material(1000.0, 0.0), "b"
+    )
+    block.fix(_on(2, 1.0))
+    wall = dd.Plane([0, 0, -0.001], [0, 0, 1], motion=lambda t: [0.0, 0.0, 0.002 * t])
+    zone = dd.ContactBoundary(block, _on(2, 0.0), wall)
+    problem = dd.TransientProblem(
+        dd.Scene(MPI.COMM_WORLD, [block], contacts=[zone]), dt=0.25, inertia=False
+    )
+    forces = [r["force"]["contact"][2] for r in problem.run(4, progress=False)]
+    # The wall reaches the block at t = 0.5, then compresses it by 0.002 (t - 0.5):
+    # force = E A d / L (nu = 0), up to the penalty compliance.
+    expected = [1000.0 * 0.002 * max(t - 0.5, 0.0) for t in (0.25, 0.5, 0.75, 1.0)]
+    assert forces == pytest.approx(expected, rel=1e-5, abs=1e-12)
 
 
 def _falling_bar():
