@@ -244,7 +244,9 @@ class StaticProblem(_Analysis):
     def solve(self, t: float = 0.0) -> list[fem.Function]:
         """Solve at load time ``t``; returns subdomain, interface and contact displacements."""
         self.iteration.start(t)
-        x, self.iterations, _ = self._solve(t, self._rhs(self._loads(t)), f"t = {t}")
+        x, self.iterations, _ = self._solve(
+            t, self._rhs(collective(self.comm, lambda: self._loads(t))), f"t = {t}"
+        )
         self._publish(x)
         return self._functions()
 
@@ -303,12 +305,16 @@ class TransientProblem(_Analysis):
             self._start()
 
     def _start(self) -> None:
-        for _, sub, _ in self._owned:
-            for f in (sub.u, sub.velocity):
-                if not np.all(np.isfinite(f.x.array)):
-                    raise_on = f"subdomain {sub.name!r} initial {f.name}"
-                    raise InputError(f"{raise_on} contains NaN or inf")
-        collective(self.comm, lambda: None)
+        def check_initial_data():
+            for _, sub, _ in self._owned:
+                for f in (sub.u, sub.velocity):
+                    if not np.all(np.isfinite(f.x.array)):
+                        raise InputError(
+                            f"subdomain {sub.name!r} initial {f.name} contains NaN "
+                            "or inf; check the data interpolated into it"
+                        )
+
+        collective(self.comm, check_initial_data)
         for _, sub, block in self._owned:
             fixed = self.model.free(block) == 0
             sub.velocity.x.array[fixed] = 0.0
@@ -319,7 +325,7 @@ class TransientProblem(_Analysis):
 
     def _initial_acceleration(self) -> None:
         """M u''(t0) = r(t0) - K u(t0) - tie forces (massless surfaces in equilibrium)."""
-        loads = self._loads(self.t0)
+        loads = collective(self.comm, lambda: self._loads(self.t0))
         u0 = {block: sub.u.x.array[: sub.num_dofs].copy() for _, sub, block in self._owned}
         moved = self.comm.allreduce(any(np.any(u != 0) for u in u0.values()))
         x0 = {f"u:{s.name}": s.u.x.array.copy() for s in self.scene.subdomains}
@@ -395,7 +401,7 @@ class TransientProblem(_Analysis):
         if not self._started:
             self._start()
         t_new = self.t + self.dt
-        loads = self._loads(t_new)
+        loads = collective(self.comm, lambda: self._loads(t_new))
         if self.inertia:
             for _, sub, block in self._owned:
                 history = self.newmark.history(
