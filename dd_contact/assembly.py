@@ -218,15 +218,12 @@ def _contact_zone(scene: Scene, system: BlockSystem, contact, k: int) -> tuple:
     eps_c = contact.contact_penalty.epsilon_for(height, sub.material.E)
     system.penalties[(sub.name, f"contact:{contact.name}")] = eps_c
     operator = ContactOperator(contact_points(contact.V, contact.points), contact.obstacle, eps_c)
-    fixed, values = sub.dirichlet
-    prescribed_full = np.zeros(sub.num_dofs)
-    prescribed_full[fixed] = values
-    free_full = np.ones(sub.num_dofs, bool)
-    free_full[fixed] = False
-    if block == u:
-        free, prescribed = free_full[dofs], prescribed_full[dofs]
-    else:
-        free, prescribed = np.ones(len(dofs), bool), np.zeros(len(dofs))
+    free, prescribed = np.ones(len(dofs), bool), np.zeros(len(dofs))
+    if block == u:  # contact on the subdomain's own dofs: some may be prescribed
+        fixed, values = sub.dirichlet
+        prescribed_full = np.zeros(sub.num_dofs)
+        prescribed_full[fixed] = values
+        free, prescribed = ~np.isin(dofs, fixed), prescribed_full[dofs]
     zone = ContactZone(contact, block, dofs, operator, free, prescribed)
     return zone, coverage
 

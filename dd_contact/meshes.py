@@ -24,6 +24,7 @@ __all__ = [
     "HEMISPHERE_SYMMETRY_Y",
     "HEMISPHERE_TOP",
     "box",
+    "facet_surface",
     "hemisphere",
     "surface_from_boundary",
     "surface_mesh",
@@ -123,6 +124,24 @@ def _rectangle_grid(
     return points, cells
 
 
+def facet_surface(
+    volume: dolfinx.mesh.Mesh, facets: npt.NDArray[np.int32], comm: MPI.Comm | None = None
+) -> dolfinx.mesh.Mesh:
+    """A surface mesh that is a conforming copy of some boundary facets of a volume mesh.
+
+    Args:
+        volume: The volume mesh.
+        facets: Indices of its (boundary) facets to copy.
+        comm: Communicator of the new mesh (default ``volume.comm``).
+    """
+    comm = volume.comm if comm is None else comm
+    tdim = volume.topology.dim
+    nodes = dolfinx.mesh.entities_to_geometry(volume, tdim - 1, facets)
+    used, cells = np.unique(nodes, return_inverse=True)
+    facet_type = volume.topology.entity_types[tdim - 1][0].name
+    return surface_mesh(comm, volume.geometry.x[used], cells.reshape(nodes.shape), facet_type)
+
+
 def surface_from_boundary(
     volume: dolfinx.mesh.Mesh,
     locator: Callable[[np.ndarray], np.ndarray],
@@ -154,11 +173,7 @@ def surface_from_boundary(
             "check the locator against the mesh's bounding box"
         )
     if resolution is None:
-        nodes = dolfinx.mesh.entities_to_geometry(volume, tdim - 1, facets)
-        used, cells = np.unique(nodes, return_inverse=True)
-        points = volume.geometry.x[used]
-        facet_type = volume.topology.entity_types[tdim - 1][0].name
-        return surface_mesh(comm, points, cells.reshape(nodes.shape), facet_type)
+        return facet_surface(volume, facets, comm)
 
     facet_nodes = dolfinx.mesh.entities_to_geometry(volume, tdim - 1, facets)
     x = volume.geometry.x[np.unique(facet_nodes)]

@@ -18,18 +18,23 @@ import dolfinx.fem as fem
 import numpy as np
 
 from dd_contact import forms
-from dd_contact.assembly import Model, assemble
+from dd_contact.assembly import BlockSystem, Model, assemble
 from dd_contact.contact import ContactIteration, ContactSettings
 from dd_contact.io import Checkpoint, ResultWriter
 from dd_contact.scene import InputError, Scene
 from dd_contact.solvers import MonolithicSolver, SingularMatrixError, SparseCholesky, WorkLog
-from dd_contact.solvers.linalg import petsc_matrix
+from dd_contact.solvers.linalg import coo_of, petsc_matrix
 from dd_contact.timestepping import Newmark
 
 __all__ = ["ALGORITHMS", "StaticProblem", "TransientProblem"]
 
 #: Elimination orders (method.md section 5). Only FULL is available so far.
 ALGORITHMS = ("FULL",)
+
+
+def gathered(comm: MPI.Comm, local: dict) -> dict:
+    """Collective: the union of every rank's dict (each rank holds its own entries)."""
+    return {k: v for part in comm.allgather(local) for k, v in part.items()}
 
 
 def collective(comm: MPI.Comm, action: Callable):
@@ -144,13 +149,15 @@ class _Analysis:
                 "needs some points in contact from the start, or Dirichlet conditions"
             ) from None
 
+    def _active_counts(self) -> dict[str, int]:
+        """Number of active contact points per contact region (collective)."""
+        local = {n: int(a.sum()) for n, a in self.iteration.active.items()}
+        return gathered(self.comm, local)
+
     def _active_summary(self) -> str:
-        counts = {
-            z.contact.name: int(self.iteration.active[z.contact.name].sum()) for z in self.zones
-        }
-        merged = {k: v for part in self.comm.allgather(counts) for k, v in part.items()}
+        counts = self._active_counts()
         return "active contact points: " + (
-            ", ".join(f"{k}: {v}" for k, v in merged.items()) if merged else "none"
+            ", ".join(f"{k}: {v}" for k, v in counts.items()) if counts else "none"
         )
 
     def _publish(self, x: dict[str, np.ndarray]) -> None:
@@ -175,23 +182,17 @@ class _Analysis:
             z.contact.name: z.operator.force(z.contact.w.x.array[: z.operator.num_dofs])
             for z in self.zones
         }
-        return {k: v for part in self.comm.allgather(local) for k, v in part.items()}
+        return gathered(self.comm, local)
 
     @property
     def penalties(self) -> dict[tuple[str, str], float]:
         """Absolute penalty eps of every tie and contact, from all ranks (collective)."""
-        merged: dict[tuple[str, str], float] = {}
-        for part in self.comm.allgather(self.model.system.penalties):
-            merged.update(part)
-        return merged
+        return gathered(self.comm, self.model.system.penalties)
 
     @property
     def changes(self) -> dict[str, int]:
         """Contact state changes so far: ``"gamma"`` (whole model) and one count per contact."""
-        alpha = {
-            k: v for part in self.comm.allgather(self.iteration.alpha) for k, v in part.items()
-        }
-        return {"gamma": self.iteration.gamma, **alpha}
+        return {"gamma": self.iteration.gamma, **gathered(self.comm, self.iteration.alpha)}
 
     def _functions(self) -> list[fem.Function]:
         out = [s.u for s in self.scene.subdomains]
@@ -345,13 +346,14 @@ class TransientProblem(_Analysis):
             if not np.any(residual[block]):
                 sub.acceleration.x.array[:] = 0.0
                 continue
-            M = self.model.mass[block].tolil()
+            # M with the prescribed dofs eliminated, as in the effective matrix.
+            mass = BlockSystem(
+                {block: sub.num_dofs}, {block: 0}, {(block, block): self.model.mass[block]}
+            )
             fixed = np.flatnonzero(self.model.free(block) == 0)
-            M[fixed, :] = 0.0
-            M[:, fixed] = 0.0
-            M[fixed, fixed] = 1.0
-            coo = M.tocoo()
-            A = petsc_matrix(MPI.COMM_SELF, sub.num_dofs, sub.num_dofs, coo.row, coo.col, coo.data)
+            mass.constrain(block, fixed, np.zeros(fixed.size))
+            row, col, val = coo_of(mass.matrices[(block, block)])
+            A = petsc_matrix(MPI.COMM_SELF, sub.num_dofs, sub.num_dofs, row, col, val)
             factor = SparseCholesky(A, self.work, f"mass:{sub.name}")
             b = A.createVecRight()
             b.array[:] = residual[block]
@@ -420,16 +422,7 @@ class TransientProblem(_Analysis):
         self._publish(x)
         self.t, self.step = t_new, self.step + 1
         record = {"step": self.step, "t": t_new, "iterations": iterations, "changes": changes}
-        record["active"] = {
-            k: v
-            for part in self.comm.allgather(
-                {
-                    z.contact.name: int(self.iteration.active[z.contact.name].sum())
-                    for z in self.zones
-                }
-            )
-            for k, v in part.items()
-        }
+        record["active"] = self._active_counts()
         record["force"] = {k: v.tolist() for k, v in self.contact_forces().items()}
         if self.inertia:
             record["energy"] = self.energy()

@@ -374,17 +374,6 @@ class Interface:
         return self.V.dofmap.index_map.size_local * 3
 
 
-def _facet_copy(volume: dolfinx.mesh.Mesh, facets: np.ndarray) -> dolfinx.mesh.Mesh:
-    """A surface mesh that is a conforming copy of some boundary facets (on COMM_SELF)."""
-    tdim = volume.topology.dim
-    nodes = dolfinx.mesh.entities_to_geometry(volume, tdim - 1, facets)
-    used, cells = np.unique(nodes, return_inverse=True)
-    facet_type = volume.topology.entity_types[tdim - 1][0].name
-    return meshes.surface_mesh(
-        MPI.COMM_SELF, volume.geometry.x[used], cells.reshape(nodes.shape), facet_type
-    )
-
-
 class _ContactBase:
     """What every contact region has: an obstacle, a contact penalty, a scheme, a surface."""
 
@@ -496,7 +485,9 @@ class ContactInterface(_ContactBase):
             **kwargs: Passed to :class:`ContactInterface`.
         """
         if resolution is None:
-            mesh = _facet_copy(subdomain.mesh, subdomain.locate_facets(where))
+            mesh = meshes.facet_surface(
+                subdomain.mesh, subdomain.locate_facets(where), MPI.COMM_SELF
+            )
         else:
             if not callable(where):
                 raise InputError("ContactInterface.from_boundary: resolution needs a locator")
@@ -538,7 +529,7 @@ class ContactBoundary(_ContactBase):
                 "use a ContactInterface for higher degrees"
             )
         self.facets = subdomain.locate_facets(where)
-        mesh = _facet_copy(subdomain.mesh, self.facets)
+        mesh = meshes.facet_surface(subdomain.mesh, self.facets, MPI.COMM_SELF)
         self._setup_contact(mesh, subdomain, obstacle, contact_kappa, contact_epsilon, points, name)
         # Surface node -> subdomain node, matched by position (the copy has the same nodes).
         from scipy.spatial import cKDTree

@@ -61,17 +61,17 @@ class MonolithicSolver:
             rows.append(r), cols.append(c), vals.append(v)
             if rb != cb:  # the transpose is implied
                 rows.append(c), cols.append(r), vals.append(v)
-        self._base_values = _cat(vals, np.float64)
+        base = _cat(vals, np.float64)
         # Contact entries follow the base entries in the COO list, zero until set.
         self._contact_slices: dict[str, tuple[slice, np.ndarray, np.ndarray]] = {}
-        position = len(self._base_values)
+        position = len(base)
         for key, (block, dofs, pattern) in contacts.items():
             r, c, _ = coo_of(pattern)
             rows.append(dofs[r] + self.offsets[block]), cols.append(dofs[c] + self.offsets[block])
             self._contact_slices[key] = (slice(position, position + len(r)), r, c)
             position += len(r)
         self._values = np.zeros(position)
-        self._values[: len(self._base_values)] = self._base_values
+        self._values[: len(base)] = base
         self.A = petsc_matrix(
             comm,
             self.local_size,
