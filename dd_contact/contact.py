@@ -236,8 +236,10 @@ class ContactSettings:
 class ContactIteration:
     """Active-set iteration: solve, update the active sets, repeat until none changes.
 
-    Works with any solver offering ``set_contact(name, matrix)`` and ``solve(rhs)`` and with
-    the zones of :class:`dd_contact.assembly.Model`. Every iteration in which some active set
+    Works with any solver offering ``set_contact(name, matrix)``, ``solve(rhs)`` (which must
+    return at least the blocks of this rank's zones) and ``finish()`` (every block of the last
+    solution: a decomposition solver back-substitutes the rest only once the contact state has
+    settled), and with the zones of :class:`dd_contact.assembly.Model`. Every iteration in which some active set
     changed is one *contact state change* (gamma); a change on zone k also counts in alpha[k].
 
     Args:
@@ -278,7 +280,7 @@ class ContactIteration:
             new = {z.contact.name: z.operator.active_set(x[z.block][z.dofs]) for z in self.zones}
             changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
             if not self.comm.allreduce(len(changed)):
-                return x, iteration, changes_this_solve
+                return solver.finish(), iteration, changes_this_solve
             self.gamma += 1
             changes_this_solve += 1
             for name in changed:
@@ -298,12 +300,20 @@ class ContactIteration:
                     ContactCycleWarning,
                     stacklevel=2,
                 )
+                before = dict(self.active)
                 for j in range(seen[key], len(sets)):
                     for name in self.active:
                         self.active[name] = self.active[name] | sets[j][name]
                 self.cycles_resolved += 1
-                x = self._solve_once(solver, rhs)
-                return x, iteration + 1, changes_this_solve
+                # The union is one more contact state (counted like any other change).
+                grown = [n for n in self.active if not np.array_equal(before[n], self.active[n])]
+                if self.comm.allreduce(len(grown)):
+                    self.gamma += 1
+                    changes_this_solve += 1
+                    for name in grown:
+                        self.alpha[name] += 1
+                self._solve_once(solver, rhs)
+                return solver.finish(), iteration + 1, changes_this_solve
             seen[key] = iteration
             sets.append(dict(self.active))
         raise ContactIterationError(

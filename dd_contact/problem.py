@@ -21,15 +21,16 @@ from dd_contact import forms
 from dd_contact.assembly import BlockSystem, Model, assemble
 from dd_contact.contact import ContactIteration, ContactSettings
 from dd_contact.io import Checkpoint, ResultWriter
-from dd_contact.scene import InputError, Scene
+from dd_contact.scene import ContactBoundary, InputError, Scene
 from dd_contact.solvers import MonolithicSolver, SingularMatrixError, SparseCholesky, WorkLog
+from dd_contact.solvers.engine import ORDERS, BlockEliminationSolver, valid_orders
 from dd_contact.solvers.linalg import coo_of, petsc_matrix
 from dd_contact.timestepping import Newmark
 
 __all__ = ["ALGORITHMS", "StaticProblem", "TransientProblem"]
 
-#: Elimination orders (method.md section 5). Only FULL is available so far.
-ALGORITHMS = ("FULL",)
+#: Elimination orders (method.md section 5): FULL and the decomposition orders.
+ALGORITHMS = ("FULL", *ORDERS)
 
 
 def gathered(comm: MPI.Comm, local: dict) -> dict:
@@ -60,8 +61,17 @@ class _Analysis:
         mass_coefficient: float,
         contact: ContactSettings | None,
     ):
-        if algorithm not in ALGORITHMS:
-            raise InputError(f"unknown algorithm {algorithm!r}; valid: {', '.join(ALGORITHMS)}")
+        has_interface = scene.interface is not None
+        has_w = any(not isinstance(c, ContactBoundary) for c in scene.contacts)
+        valid = valid_orders(has_interface, has_w)
+        if algorithm not in valid:
+            what = "unknown algorithm" if algorithm not in ALGORITHMS else "algorithm"
+            parts = ["an interface" if has_interface else "no interface"]
+            parts.append("contact interfaces" if has_w else "no contact interfaces")
+            raise InputError(
+                f"{what} {algorithm!r} does not fit this scene ({' and '.join(parts)}); valid "
+                f"for it: {', '.join(valid)} (v needs an interface, w contact interfaces)"
+            )
         self.scene, self.comm, self.algorithm = scene, scene.comm, algorithm
         self.work = WorkLog()
         self.model: Model = collective(self.comm, lambda: assemble(scene))
@@ -71,7 +81,12 @@ class _Analysis:
         self.settings = contact or ContactSettings()
         collective(self.comm, self._check_contact_geometry)
         contacts = {z.contact.name: (z.block, z.dofs, z.operator.pattern()) for z in self.zones}
-        self.solver = MonolithicSolver(self.comm, system, contacts, self.work)
+        if algorithm == "FULL":
+            self.solver = MonolithicSolver(self.comm, system, contacts, self.work)
+        else:
+            self.solver = BlockEliminationSolver(
+                self.comm, system, contacts, self.work, algorithm
+            )
         self.iteration = ContactIteration(self.comm, self.zones, self.settings)
         self._owned = [
             (k, s, f"u:{s.name}")

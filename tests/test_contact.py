@@ -121,7 +121,11 @@ class _ScriptedSolver:
     def solve(self, rhs):
         answer = self.answers[min(self.calls, len(self.answers) - 1)]
         self.calls += 1
-        return {"w:zone": np.array(answer, dtype=float)}
+        self.last = {"w:zone": np.array(answer, dtype=float)}
+        return self.last
+
+    def finish(self):
+        return self.last
 
 
 def test_cycling_is_detected_and_located():
@@ -144,6 +148,8 @@ def test_cycle_resolved_by_union():
         iteration.solve(solver, {}, 0.0, "step 1")
     assert iteration.active["zone"].tolist() == [True, True]
     assert iteration.cycles_resolved == 1
+    # {} -> {0} -> {1} -> {0} (the cycle) -> {0, 1} (the union): four states, four changes.
+    assert iteration.gamma == 4 and iteration.alpha["zone"] == 4
 
 
 def test_iteration_limit_is_a_setting():

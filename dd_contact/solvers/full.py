@@ -14,7 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
-from dd_contact.solvers.linalg import SparseCholesky, WorkLog, coo_of, petsc_matrix
+from dd_contact.solvers.linalg import PatternedMatrix, SparseCholesky, WorkLog, coo_of
 
 __all__ = ["MonolithicSolver"]
 
@@ -61,53 +61,38 @@ class MonolithicSolver:
             rows.append(r), cols.append(c), vals.append(v)
             if rb != cb:  # the transpose is implied
                 rows.append(c), cols.append(r), vals.append(v)
-        base = _cat(vals, np.float64)
-        # Contact entries follow the base entries in the COO list, zero until set.
-        self._contact_slices: dict[str, tuple[slice, np.ndarray, np.ndarray]] = {}
-        position = len(base)
-        for key, (block, dofs, pattern) in contacts.items():
-            r, c, _ = coo_of(pattern)
-            rows.append(dofs[r] + self.offsets[block]), cols.append(dofs[c] + self.offsets[block])
-            self._contact_slices[key] = (slice(position, position + len(r)), r, c)
-            position += len(r)
-        self._values = np.zeros(position)
-        self._values[: len(base)] = base
-        self.A = petsc_matrix(
+        base = (_cat(rows, np.int64), _cat(cols, np.int64), _cat(vals, np.float64))
+        self.matrix = PatternedMatrix(
             comm,
             self.local_size,
             self.size,
-            _cat(rows, np.int64),
-            _cat(cols, np.int64),
-            self._values,
+            base,
+            {
+                key: (dofs + self.offsets[block], pattern)
+                for key, (block, dofs, pattern) in contacts.items()
+            },
         )
         self._factor: SparseCholesky | None = None
-        self._dirty = True
+        self._last: dict[str, np.ndarray] = {}
 
     def set_contact(self, key: str, matrix: sp.csr_array) -> None:
         """Replace the contact matrix of region ``key`` (surface dof numbering)."""
-        where, r, c = self._contact_slices[key]
-        values = np.asarray(matrix[r, c]).ravel()
-        if not np.array_equal(values, self._values[where]):
-            self._values[where] = values
-            self._dirty = True
+        self.matrix.set_contact(key, matrix)
 
     def _refactorise(self) -> None:
         """Collective: push new values to PETSc and factorise (once per contact change)."""
-        dirty = self.comm.allreduce(self._dirty, op=MPI.LOR)
-        if not dirty:
+        if not self.comm.allreduce(self.matrix.dirty, op=MPI.LOR):
             return
-        self.A.setValuesCOO(self._values.astype(PETSc.ScalarType), PETSc.InsertMode.INSERT_VALUES)
-        self.A.assemble()
+        self.matrix.push()
         if self._factor is None:
-            self._factor = SparseCholesky(self.A, self.log, "FULL")
+            self._factor = SparseCholesky(self.matrix.A, self.log, "FULL")
         else:
             self._factor.refactorise()
-        self._dirty = False
 
     def solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Solve with this rank's right-hand-side contributions; every rank gets every block."""
         self._refactorise()
-        b = self.A.createVecRight()
+        b = self.matrix.A.createVecRight()
         for name, vector in rhs.items():
             idx = np.arange(len(vector), dtype=PETSc.IntType) + self.offsets[name]
             b.setValues(idx, vector, addv=PETSc.InsertMode.ADD_VALUES)
@@ -118,12 +103,17 @@ class MonolithicSolver:
         values = x_all.getArray().copy()
         for obj in (scatter, x_all, x, b):
             obj.destroy()
-        return {
+        self._last = {
             name: values[off : off + self.system.sizes[name]] for name, off in self.offsets.items()
         }
+        return self._last
+
+    def finish(self) -> dict[str, np.ndarray]:
+        """Every block of the last solution (nothing is left to back-substitute)."""
+        return self._last
 
     def destroy(self) -> None:
         """Free PETSc objects."""
         if self._factor is not None:
             self._factor.destroy()
-        self.A.destroy()
+        self.matrix.A.destroy()

@@ -1,7 +1,9 @@
-"""Factorisations that count their work: MUMPS for sparse blocks.
+"""Factorisations that count their work: MUMPS for sparse blocks, LAPACK for dense ones.
 
 Every factorisation and solve is appended to a :class:`WorkLog` (kind, size, right-hand
-sides, wall time, MUMPS's flop count), so a run can report what it did.
+sides, wall time, flop count: MUMPS's own for sparse factorisations, LAPACK's operation
+count for dense ones), so a run can report what it did and compare it with the paper's
+counting (``dd_contact.cost``).
 """
 
 from __future__ import annotations
@@ -13,9 +15,12 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 
 __all__ = [
+    "DenseCholesky",
+    "PatternedMatrix",
     "SingularMatrixError",
     "SparseCholesky",
     "WorkLog",
@@ -33,11 +38,12 @@ class WorkRecord:
     """One factorisation or solve."""
 
     block: str
-    kind: str  # "sparse_factor", "sparse_solve", ...
+    kind: str  # "sparse_factor", "sparse_solve", "dense_factor", "dense_solve", "schur"
     size: int
     nrhs: int
     seconds: float
     flops: float | None = None
+    what: str = ""  # what was solved for, e.g. "condense", "u_hat", "u"
 
 
 @dataclass
@@ -55,14 +61,68 @@ class WorkLog:
         return sum(r.kind == kind and block in (None, r.block) for r in self.records)
 
     def summary(self) -> dict[str, dict[str, float]]:
-        """Per kind: count, total seconds, total flops."""
+        """Per kind: count, right-hand sides, total seconds, total flops."""
         out: dict[str, dict[str, float]] = {}
         for r in self.records:
-            s = out.setdefault(r.kind, {"count": 0, "seconds": 0.0, "flops": 0.0})
+            s = out.setdefault(r.kind, {"count": 0, "nrhs": 0, "seconds": 0.0, "flops": 0.0})
             s["count"] += 1
+            s["nrhs"] += r.nrhs
             s["seconds"] += r.seconds
             s["flops"] += r.flops or 0.0
         return out
+
+    def per_block(self) -> dict[str, dict]:
+        """Per block: matrix kind and size, decompositions, substitutions (right-hand sides
+        summed, as the paper counts them), Schur complements, seconds and flops of each."""
+        out: dict[str, dict] = {}
+        for r in self.records:
+            b = out.setdefault(
+                r.block,
+                {
+                    "matrix": r.kind.split("_")[0],
+                    "size": r.size,
+                    "decompositions": 0,
+                    "substitutions": 0,
+                    "schur": 0,
+                    "seconds_decomposition": 0.0,
+                    "seconds_substitution": 0.0,
+                    "seconds_schur": 0.0,
+                    "gflops_decomposition": 0.0,
+                    "gflops_substitution": 0.0,
+                },
+            )
+            if r.kind.endswith("_factor"):
+                b["decompositions"] += 1
+                b["seconds_decomposition"] += r.seconds
+                b["gflops_decomposition"] += (r.flops or 0.0) / 1e9
+            elif r.kind.endswith("_solve"):
+                b["substitutions"] += r.nrhs
+                b["seconds_substitution"] += r.seconds
+                b["gflops_substitution"] += (r.flops or 0.0) / 1e9
+            else:
+                b["schur"] += 1
+                b["seconds_schur"] += r.seconds
+        return out
+
+    def merged(self, comm: MPI.Comm) -> WorkLog:
+        """Collective: one log with the records of every rank."""
+        if comm.size == 1:
+            return self
+        return WorkLog([r for part in comm.allgather(self.records) for r in part])
+
+    def table(self) -> str:
+        """The per-block summary as a text table."""
+        rows = [
+            f"{'block':<28} {'matrix':<7} {'size':>8} {'dec.':>6} {'subst.':>8} "
+            f"{'t dec [s]':>10} {'t subst [s]':>11} {'GFLOP dec':>10}"
+        ]
+        for name, b in self.per_block().items():
+            rows.append(
+                f"{name:<28} {b['matrix']:<7} {b['size']:>8} {b['decompositions']:>6} "
+                f"{b['substitutions']:>8} {b['seconds_decomposition']:>10.3f} "
+                f"{b['seconds_substitution']:>11.3f} {b['gflops_decomposition']:>10.3g}"
+            )
+        return "\n".join(rows)
 
 
 def petsc_matrix(
@@ -138,17 +198,118 @@ class SparseCholesky:
             factor.getMumpsRinfog(3),
         )
 
-    def solve(self, b: PETSc.Vec) -> PETSc.Vec:
+    def solve(self, b: PETSc.Vec, what: str = "") -> PETSc.Vec:
         """Forward/back substitution for one right-hand side."""
         x = b.duplicate()
         start = time.perf_counter()
         self.ksp.solve(b, x)
-        self.log.add(self.block, "sparse_solve", b.getSize(), 1, time.perf_counter() - start)
+        self.log.add(self.block, "sparse_solve", b.getSize(), 1, time.perf_counter() - start, None, what)
         return x
+
+    def solve_array(self, b: np.ndarray, what: str = "") -> np.ndarray:
+        """:meth:`solve` for a serial factorisation, on numpy arrays."""
+        vb = PETSc.Vec().createWithArray(np.ascontiguousarray(b, dtype=PETSc.ScalarType), comm=self.A.comm)
+        x = self.solve(vb, what)
+        out = x.getArray().copy()
+        x.destroy(), vb.destroy()
+        return out
+
+    def solve_many(self, B: np.ndarray, what: str = "") -> np.ndarray:
+        """Substitutions for the columns of a dense matrix at once (MUMPS multi-RHS)."""
+        n, m = B.shape
+        Bm = PETSc.Mat().createDense((n, m), array=np.asfortranarray(B, PETSc.ScalarType), comm=self.A.comm)
+        Xm = PETSc.Mat().createDense((n, m), comm=self.A.comm)
+        Xm.setUp()
+        start = time.perf_counter()
+        self.ksp.getPC().getFactorMatrix().matSolve(Bm, Xm)
+        self.log.add(self.block, "sparse_solve", n, m, time.perf_counter() - start, None, what)
+        X = Xm.getDenseArray().copy()
+        Bm.destroy(), Xm.destroy()
+        return X
 
     def destroy(self) -> None:
         """Free the factorisation."""
         self.ksp.destroy()
+
+
+class DenseCholesky:
+    """A LAPACK Cholesky factorisation (potrf) of a dense SPD matrix; solves with potrs.
+
+    Args:
+        A: The matrix; overwritten by the factor.
+        log: Where to record the work.
+        block: Name of the block, for the log.
+    """
+
+    def __init__(self, A: np.ndarray, log: WorkLog, block: str):
+        self.log, self.block, self.size = log, block, A.shape[0]
+        start = time.perf_counter()
+        try:
+            self.factor = sla.cho_factor(A, lower=True, overwrite_a=True, check_finite=False)
+        except np.linalg.LinAlgError:
+            raise SingularMatrixError(
+                f"dense block {block!r} is singular or not positive definite: part of the "
+                "model can move freely; check its supports, ties and contacts"
+            ) from None
+        n = self.size
+        log.add(block, "dense_factor", n, 0, time.perf_counter() - start, n**3 / 3.0)
+
+    def solve(self, B: np.ndarray, what: str = "") -> np.ndarray:
+        """Forward/back substitution for a vector or the columns of a matrix."""
+        start = time.perf_counter()
+        X = sla.cho_solve(self.factor, B, check_finite=False)
+        nrhs = 1 if B.ndim == 1 else B.shape[1]
+        n = self.size
+        self.log.add(
+            self.block, "dense_solve", n, nrhs, time.perf_counter() - start, 2.0 * n * n * nrhs, what
+        )
+        return X
+
+
+class PatternedMatrix:
+    """A PETSc AIJ matrix whose contact entries are reserved once and rewritten in place.
+
+    The base entries (COO, global numbering) are fixed; each contact region adds the
+    entries of its pattern at given rows/columns, zero until :meth:`set_contact`. A change
+    of values marks the matrix dirty; :meth:`push` sends the values to PETSc.
+
+    Args:
+        comm: Communicator.
+        local_rows: Rows owned by this rank.
+        size: Global size.
+        base: Base (rows, cols, values), duplicates summed.
+        contacts: ``key -> (dofs, pattern)``: matrix dof of every contact-surface dof and
+            the surface-numbered sparsity pattern.
+    """
+
+    def __init__(self, comm, local_rows: int, size: int, base, contacts: dict):
+        rows, cols, vals = [base[0]], [base[1]], [base[2]]
+        self._slices: dict[str, tuple[slice, np.ndarray, np.ndarray]] = {}
+        position = len(base[2])
+        for key, (dofs, pattern) in contacts.items():
+            r, c, _ = coo_of(pattern)
+            rows.append(dofs[r]), cols.append(dofs[c]), vals.append(np.zeros(len(r)))
+            self._slices[key] = (slice(position, position + len(r)), r, c)
+            position += len(r)
+        self.values = np.concatenate(vals).astype(np.float64)
+        self.A = petsc_matrix(
+            comm, local_rows, size, np.concatenate(rows), np.concatenate(cols), self.values
+        )
+        self.dirty = True
+
+    def set_contact(self, key: str, matrix: sp.csr_array) -> None:
+        """Replace the contact matrix of region ``key`` (surface dof numbering)."""
+        where, r, c = self._slices[key]
+        values = np.asarray(matrix[r, c]).ravel()
+        if not np.array_equal(values, self.values[where]):
+            self.values[where] = values
+            self.dirty = True
+
+    def push(self) -> None:
+        """Send the current values to PETSc."""
+        self.A.setValuesCOO(self.values.astype(PETSc.ScalarType), PETSc.InsertMode.INSERT_VALUES)
+        self.A.assemble()
+        self.dirty = False
 
 
 def coo_of(matrix: sp.sparray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
