@@ -239,8 +239,9 @@ class ContactIteration:
     Works with any solver offering ``set_contact(name, matrix)``, ``solve(rhs)`` (which must
     return at least the blocks of this rank's zones) and ``finish()`` (every block of the last
     solution: a decomposition solver back-substitutes the rest only once the contact state has
-    settled), and with the zones of :class:`dd_contact.assembly.Model`. Every iteration in which some active set
-    changed is one *contact state change* (gamma); a change on zone k also counts in alpha[k].
+    settled), and with the zones of :class:`dd_contact.assembly.Model`. Every iteration in
+    which some active set changed is one *contact state change* (gamma); a change on zone k
+    also counts in alpha[k].
 
     Args:
         comm: Communicator (the zones are spread over ranks).

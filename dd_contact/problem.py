@@ -84,9 +84,7 @@ class _Analysis:
         if algorithm == "FULL":
             self.solver = MonolithicSolver(self.comm, system, contacts, self.work)
         else:
-            self.solver = BlockEliminationSolver(
-                self.comm, system, contacts, self.work, algorithm
-            )
+            self.solver = BlockEliminationSolver(self.comm, system, contacts, self.work, algorithm)
         self.iteration = ContactIteration(self.comm, self.zones, self.settings)
         self._owned = [
             (k, s, f"u:{s.name}")
@@ -203,6 +201,18 @@ class _Analysis:
     def penalties(self) -> dict[tuple[str, str], float]:
         """Absolute penalty eps of every tie and contact, from all ranks (collective)."""
         return gathered(self.comm, self.model.system.penalties)
+
+    def work_summary(self) -> dict[str, dict]:
+        """Work per block so far, from all ranks (collective).
+
+        Matrix kind and size, decompositions, substitutions (right-hand sides, as the paper
+        counts them), seconds and GFLOPs; see :meth:`dd_contact.solvers.WorkLog.per_block`.
+        """
+        return self.work.merged(self.comm).per_block()
+
+    def work_table(self) -> str:
+        """:meth:`work_summary` as a text table (collective)."""
+        return self.work.merged(self.comm).table()
 
     @property
     def changes(self) -> dict[str, int]:
@@ -453,6 +463,7 @@ class TransientProblem(_Analysis):
         resume: bool = False,
         progress: bool | None = None,
         callback: Callable[[dict], None] | None = None,
+        summary: bool = True,
     ) -> list[dict]:
         """Advance to step ``n_steps`` (counted from t0), writing results as it goes.
 
@@ -464,6 +475,7 @@ class TransientProblem(_Analysis):
             resume: Continue from the checkpoint in ``output`` if there is one.
             progress: Show a progress bar (default: when stderr is a terminal, on rank 0).
             callback: Called with each step's record after the step.
+            summary: Print the work per block (:meth:`work_table`) at the end, on rank 0.
 
         Returns:
             The history: one record per step (time, iterations, contact state changes,
@@ -502,6 +514,13 @@ class TransientProblem(_Analysis):
                 bar.close()
             if writer is not None:
                 writer.close()
+        if summary:
+            table = self.work_table()
+            if self.comm.rank == 0:
+                print(
+                    f"{self.algorithm}: {self.step} steps, {self.iteration.gamma} contact "
+                    f"state changes\n{table}"
+                )
         return self.history
 
     def _state(self) -> dict[str, np.ndarray]:

@@ -30,11 +30,14 @@ from dd_contact.scene import (
 
 __all__ = [
     "CASES",
+    "ORDER_SCENES",
     "Record",
     "bar_impact",
     "bent_bar",
     "free_vibration",
     "hertz",
+    "order_scene",
+    "orders_agreement",
     "patch_test",
     "run_cases",
 ]
@@ -375,6 +378,117 @@ def free_vibration(
     }
 
 
+# -- every elimination order against FULL ----------------------------------------------------
+#: Scene kinds of :func:`order_scene` and the decomposition orders each one admits.
+ORDER_SCENES = {
+    "interface": ("v-w-u", "w-v-u"),  # two blocks, an interface, a contact interface
+    "boundary": ("v-u",),  # two blocks, an interface, contact on a block's own boundary
+    "single": ("w-u",),  # one block with a contact interface
+}
+
+
+def order_scene(
+    kind: str, dynamic: bool, kappa: float | None = None, comm: MPI.Comm = MPI.COMM_WORLD
+) -> Scene:
+    """A small scene whose contact state changes, for comparing elimination orders.
+
+    Non-matching blocks A = [0,1]^3 and B = [1,2]x[0,1]^2 (``"single"``: A only) against a
+    rigid wall at x = -0.002. Statically, the far end is pushed and tilted so part of the end
+    face A touches and part lifts off; dynamically, both blocks fly at the wall with a
+    velocity that varies across the section, so the contact area grows and shrinks.
+
+    Args:
+        kind: One of :data:`ORDER_SCENES`.
+        dynamic: Flying blocks (for TransientProblem) instead of a pushed, held bar.
+        kappa: Tie penalty of the interface and contact interface (default: the default).
+        comm: Communicator.
+    """
+    material = Material(1000.0, 0.3, 1.0)
+    a = Subdomain(meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [4, 3, 3]), material, "A")
+    parts = [a]
+    if kind != "single":
+        parts.append(
+            Subdomain(meshes.box(MPI.COMM_SELF, [1, 0, 0], [2, 1, 1], [3, 4, 4]), material, "B")
+        )
+    far = parts[-1]
+    if dynamic:
+        for part in parts:
+            part.velocity.interpolate(
+                lambda x: np.vstack([-1.0 - 0.8 * (x[1] - 0.5), 0 * x[0], 0.2 + 0 * x[0]])
+            )
+    else:
+        end = float(len(parts))
+        far.fix(
+            _on(0, end),
+            value=lambda x: np.vstack([-0.004 - 0.02 * (x[1] - 0.5), 0 * x[0], 0 * x[0]]),
+        )
+    interface = None
+    if kind != "single":
+        interface = Interface.from_boundary(a, _on(0, 1.0), parts, resolution=(3, 3), kappa=kappa)
+    wall = Plane([-0.002, 0, 0], [1, 0, 0])
+    if kind == "boundary":
+        zone = ContactBoundary(a, _on(0, 0.0), wall, contact_kappa=1.0, name="end")
+    else:
+        zone = ContactInterface.from_boundary(
+            a, _on(0, 0.0), wall, resolution=(3, 3), kappa=kappa, contact_kappa=1.0, name="end"
+        )
+    return Scene(comm, parts, interface, contacts=[zone])
+
+
+def _displacements(scene: Scene) -> np.ndarray:
+    parts = [s.u.x.array for s in scene.subdomains]
+    if scene.interface is not None:
+        parts.append(scene.interface.v.x.array)
+    return np.concatenate(parts)
+
+
+def _run_order(kind, dynamic, kappa, order, comm, steps, dt):
+    scene = order_scene(kind, dynamic, kappa, comm)
+    if dynamic:
+        problem = TransientProblem(scene, dt, algorithm=order)
+        states = []
+        problem.run(steps, progress=False, callback=lambda _: states.append(_displacements(scene)))
+        path = [r["changes"] for r in problem.history]
+    else:
+        problem = StaticProblem(scene, algorithm=order)
+        problem.solve()
+        states, path = [_displacements(scene)], [problem.changes["gamma"]]
+    return np.array(states), path, problem
+
+
+def orders_agreement(
+    kappa: float | None = 1e4,
+    steps: int = 40,
+    dt: float = 0.01,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> list[dict]:
+    """Every decomposition order against FULL on the same scenes (static and dynamic).
+
+    Returns:
+        One dict per scene kind, static/dynamic and order: ``difference`` (largest over the
+        steps of ||x - x_FULL|| / ||x_FULL||, x the subdomain and interface displacements),
+        ``same_path`` (the contact state changes at the same steps) and ``changes`` (gamma).
+    """
+    out = []
+    for kind, orders in ORDER_SCENES.items():
+        for dynamic in (False, True):
+            ref, ref_path, _ = _run_order(kind, dynamic, kappa, "FULL", comm, steps, dt)
+            for order in orders:
+                x, path, _ = _run_order(kind, dynamic, kappa, order, comm, steps, dt)
+                diff = np.linalg.norm(x - ref, axis=1) / np.linalg.norm(ref, axis=1)
+                out.append(
+                    {
+                        "scene": kind,
+                        "dynamic": dynamic,
+                        "order": order,
+                        "difference": float(diff.max()),
+                        "same_path": path == ref_path,
+                        "changes": int(sum(path)),
+                    }
+                )
+    return out
+
+
 # -- cases ---------------------------------------------------------------------------------
 def _case_patch(name: str, surface_cell: str, volume_cell: str) -> Callable[[], list[Record]]:
     def run() -> list[Record]:
@@ -420,6 +534,28 @@ def _case_free_vibration() -> list[Record]:
     return [_record("free-vibration", quantity, 1.0 + r["drift"], 1.0, 1e-8)]
 
 
+def _case_orders() -> list[Record]:
+    records = []
+    for r in orders_agreement():
+        what = f"{r['order']}, {r['scene']}, {'dynamic' if r['dynamic'] else 'static'}"
+        records.append(
+            _record(
+                "orders", f"1 + |u - u_FULL| / |u_FULL|, {what}", 1.0 + r["difference"], 1.0, 1e-9
+            )
+        )
+        changes = r["changes"] if r["same_path"] else -1
+        records.append(
+            _record(
+                "orders",
+                f"contact changes on FULL's path, {what}",
+                1 + changes,
+                1 + r["changes"],
+                0.0,
+            )
+        )
+    return records
+
+
 CASES: dict[str, Callable[[], list[Record]]] = {
     "patch-hex-quad": _case_patch("patch-hex-quad", "quadrilateral", "hexahedron"),
     "patch-hex-tri": _case_patch("patch-hex-tri", "triangle", "hexahedron"),
@@ -428,6 +564,7 @@ CASES: dict[str, Callable[[], list[Record]]] = {
     "hertz": _case_hertz,
     "bar-impact": _case_bar_impact,
     "free-vibration": _case_free_vibration,
+    "orders": _case_orders,
 }
 
 

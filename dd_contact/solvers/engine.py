@@ -58,11 +58,12 @@ _CHUNK = 256  # right-hand sides per MUMPS multi-RHS solve when condensing
 
 def valid_orders(has_interface: bool, has_contact_interfaces: bool) -> tuple[str, ...]:
     """The orders that make sense for a scene: v needs an interface, w contact interfaces."""
-    return ("FULL",) + tuple(
+    fitting = [
         name
         for name, levels in ORDERS.items()
         if ("v" in levels) == has_interface and ("w" in levels) == has_contact_interfaces
-    )
+    ]
+    return ("FULL", *fitting)
 
 
 def _kind(block: str) -> str:
@@ -139,7 +140,7 @@ class _Subdomain:
         return -(self.C.T @ self.u_hat)
 
     def back_substitute(self, surface: dict[str, np.ndarray]) -> np.ndarray:
-        """u = K^-1 (b - C x_surface) (eq. 17), once per new surface solution."""
+        """U = K^-1 (b - C x_surface) (eq. 17), once per new surface solution."""
         if self.u is None:
             xs = np.concatenate([surface[s][J] for s, J in self.layout] or [np.zeros(0)])
             self.u = self.factor.solve_array(self._b - self.C @ xs, "u")
@@ -262,8 +263,9 @@ class _Surface:
                     g.key, g.version = key, g.version + 1
                 if g.last or not g.neighbours:
                     continue
-                xkey = (g.version,) + tuple(
-                    E[(a, r)][1] for a in g.blocks for r in g.neighbours if (a, r) in E
+                xkey = (
+                    g.version,
+                    *(E[(a, r)][1] for a in g.blocks for r in g.neighbours if (a, r) in E),
                 )
                 if xkey != g.xkey:
                     self._couple(g, E)
@@ -313,8 +315,10 @@ class _Surface:
         g.BtX = g.B.T @ g.X
 
     def solve(self, g: dict[str, np.ndarray], complete: bool) -> dict[str, np.ndarray]:
-        """Forward elimination of the right-hand side, solve of the last level, and
-        back-substitution of the earlier levels if ``complete``."""
+        """Eliminate the right-hand side forward and solve the last level.
+
+        With ``complete``, back-substitute the earlier levels too.
+        """
         g = {b: v.copy() for b, v in g.items()}
         for level in self.groups:
             for grp in level:
@@ -322,7 +326,11 @@ class _Surface:
                 if grp.last:
                     self._split(grp, grp.factor.solve(rhs, "x"), g)
                     continue
-                if grp.y is None or grp.yversion != grp.version or not np.array_equal(rhs, grp.g_in):
+                if (
+                    grp.y is None
+                    or grp.yversion != grp.version
+                    or not np.array_equal(rhs, grp.g_in)
+                ):
                     grp.y, grp.g_in, grp.yversion = grp.factor.solve(rhs, "y"), rhs, grp.version
                 if grp.neighbours:
                     correction = grp.B.T @ grp.y
@@ -391,9 +399,7 @@ class BlockEliminationSolver:
         # Anything but the last level is found by back-substitution; u needs every surface block.
         self._needs_all_surface = any(_kind(b) != ORDERS[order][-1] for b in needed)
         self._needed_u = needed & set(self.subdomains)
-        pieces = [
-            (r, c, A) for (r, c), A in system.matrices.items() if _kind(r) != "u" != _kind(c)
-        ]
+        pieces = [(r, c, A) for (r, c), A in system.matrices.items() if _kind(r) != "u" != _kind(c)]
         pieces = _gather(comm, pieces)
         self.surface: _Surface | None = None
         if rank == _ROOT:

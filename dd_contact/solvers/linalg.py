@@ -72,8 +72,11 @@ class WorkLog:
         return out
 
     def per_block(self) -> dict[str, dict]:
-        """Per block: matrix kind and size, decompositions, substitutions (right-hand sides
-        summed, as the paper counts them), Schur complements, seconds and flops of each."""
+        """Per block: what was done with its matrix.
+
+        Matrix kind (sparse/dense) and size, decompositions, substitutions (right-hand sides
+        summed, as the paper counts them), Schur complements, seconds and GFLOPs of each.
+        """
         out: dict[str, dict] = {}
         for r in self.records:
             b = out.setdefault(
@@ -113,14 +116,14 @@ class WorkLog:
     def table(self) -> str:
         """The per-block summary as a text table."""
         rows = [
-            f"{'block':<28} {'matrix':<7} {'size':>8} {'dec.':>6} {'subst.':>8} "
-            f"{'t dec [s]':>10} {'t subst [s]':>11} {'GFLOP dec':>10}"
+            f"{'block':<24} {'matrix':<6} {'size':>8} {'decompositions':>14} "
+            f"{'substitutions':>13} {'s decomp.':>10} {'s subst.':>9} {'GFLOP decomp.':>13}"
         ]
         for name, b in self.per_block().items():
             rows.append(
-                f"{name:<28} {b['matrix']:<7} {b['size']:>8} {b['decompositions']:>6} "
-                f"{b['substitutions']:>8} {b['seconds_decomposition']:>10.3f} "
-                f"{b['seconds_substitution']:>11.3f} {b['gflops_decomposition']:>10.3g}"
+                f"{name:<24} {b['matrix']:<6} {b['size']:>8} {b['decompositions']:>14} "
+                f"{b['substitutions']:>13} {b['seconds_decomposition']:>10.3f} "
+                f"{b['seconds_substitution']:>9.3f} {b['gflops_decomposition']:>13.3g}"
             )
         return "\n".join(rows)
 
@@ -203,12 +206,16 @@ class SparseCholesky:
         x = b.duplicate()
         start = time.perf_counter()
         self.ksp.solve(b, x)
-        self.log.add(self.block, "sparse_solve", b.getSize(), 1, time.perf_counter() - start, None, what)
+        self.log.add(
+            self.block, "sparse_solve", b.getSize(), 1, time.perf_counter() - start, None, what
+        )
         return x
 
     def solve_array(self, b: np.ndarray, what: str = "") -> np.ndarray:
         """:meth:`solve` for a serial factorisation, on numpy arrays."""
-        vb = PETSc.Vec().createWithArray(np.ascontiguousarray(b, dtype=PETSc.ScalarType), comm=self.A.comm)
+        vb = PETSc.Vec().createWithArray(
+            np.ascontiguousarray(b, dtype=PETSc.ScalarType), comm=self.A.comm
+        )
         x = self.solve(vb, what)
         out = x.getArray().copy()
         x.destroy(), vb.destroy()
@@ -217,7 +224,9 @@ class SparseCholesky:
     def solve_many(self, B: np.ndarray, what: str = "") -> np.ndarray:
         """Substitutions for the columns of a dense matrix at once (MUMPS multi-RHS)."""
         n, m = B.shape
-        Bm = PETSc.Mat().createDense((n, m), array=np.asfortranarray(B, PETSc.ScalarType), comm=self.A.comm)
+        Bm = PETSc.Mat().createDense(
+            (n, m), array=np.asfortranarray(B, PETSc.ScalarType), comm=self.A.comm
+        )
         Xm = PETSc.Mat().createDense((n, m), comm=self.A.comm)
         Xm.setUp()
         start = time.perf_counter()
@@ -261,7 +270,13 @@ class DenseCholesky:
         nrhs = 1 if B.ndim == 1 else B.shape[1]
         n = self.size
         self.log.add(
-            self.block, "dense_solve", n, nrhs, time.perf_counter() - start, 2.0 * n * n * nrhs, what
+            self.block,
+            "dense_solve",
+            n,
+            nrhs,
+            time.perf_counter() - start,
+            2.0 * n * n * nrhs,
+            what,
         )
         return X
 

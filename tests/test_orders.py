@@ -1,0 +1,118 @@
+"""The decomposition orders: agreement with FULL, the paper's work counts, valid orders, MPI."""
+
+from __future__ import annotations
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+import dd_contact as dd
+from dd_contact import cost, verify
+
+
+@pytest.fixture(scope="module")
+def agreement():
+    return {kappa: verify.orders_agreement(kappa) for kappa in (1e4, 1e6)}
+
+
+# Stiffer ties cost digits in every float64 solve, FULL's included (measured against an
+# extended-precision reference: FULL 5.9e-10, v-w-u 2.7e-10 at kappa 1e6, static), so the
+# orders agree with FULL to 1e-9 at kappa 1e4 and to a few 1e-9 at the default 1e6.
+@pytest.mark.parametrize(("kappa", "tolerance"), [(1e4, 1e-9), (1e6, 1e-8)])
+def test_every_order_reproduces_full(agreement, kappa, tolerance):
+    results = agreement[kappa]
+    expected = {(k, o) for k, orders in verify.ORDER_SCENES.items() for o in orders}
+    assert {(r["scene"], r["order"]) for r in results} == expected
+    for r in results:
+        assert r["difference"] < tolerance, r
+        assert r["same_path"], r
+        assert r["changes"] >= 1, r  # the contact state really changed
+
+
+def _sizes(problem, n_steps: int) -> cost.SceneSizes:
+    """The paper's model of a run of :func:`verify.order_scene` (sizes, N_TS, alpha, gamma)."""
+    sizes = problem.solver.system.sizes
+    subs = [cost.SubdomainCounts(b, n, 1) for b, n in sizes.items() if b.startswith("u:")]
+    changes = problem.changes
+    contacts = [cost.ContactCounts("w:end", 48, 0, changes["end"])]  # 4 x 4 nodes
+    return cost.SceneSizes(
+        subdomains=subs,
+        contacts=contacts,
+        interface_dofs=sizes.get("v:interface"),
+        n_steps=n_steps,
+        gamma=changes["gamma"],
+        whole=cost.MeshCounts("u:A" if len(subs) == 1 else "FULL", sum(sizes.values()), 1),
+        interface_name="v:interface",
+    )
+
+
+@pytest.mark.parametrize(
+    ("kind", "order"),
+    [
+        ("interface", "v-w-u"),
+        ("interface", "w-v-u"),
+        ("boundary", "v-u"),
+        ("single", "w-u"),
+        ("interface", "FULL"),
+    ],
+)
+def test_work_counts_equal_the_papers(kind, order):
+    n_steps = 25
+    problem = dd.TransientProblem(verify.order_scene(kind, True, 1e4), 0.01, algorithm=order)
+    problem.run(n_steps, progress=False, summary=False)
+    assert problem.changes["gamma"] >= 2
+    model = {m.name: m for m in cost.operation_counts(_sizes(problem, n_steps), order).meshes}
+    if kind == "boundary":
+        # v-u: the contact lives on A's own boundary; the model has no contact mesh.
+        model = {name: m for name, m in model.items() if not name.startswith("w:")}
+    done = problem.work_summary()
+    assert set(done) == set(model)
+    for name, m in model.items():
+        assert done[name]["decompositions"] == m.decompositions, name
+        assert done[name]["substitutions"] == m.substitutions, name
+
+
+def test_summary_table_is_printed_and_returned(capsys):
+    problem = dd.TransientProblem(verify.order_scene("single", True, 1e4), 0.01, algorithm="w-u")
+    problem.run(3, progress=False)
+    table = capsys.readouterr().out
+    summary = problem.work_summary()
+    assert summary["u:A"]["decompositions"] == 1 and summary["u:A"]["matrix"] == "sparse"
+    assert summary["w:end"]["matrix"] == "dense"
+    # 48 condensation columns + u_hat and u in each of the 3 steps.
+    assert summary["u:A"]["substitutions"] == 48 + 2 * 3
+    assert "u:A" in table and "w:end" in table and "decompositions" in table
+
+
+@pytest.mark.parametrize(
+    ("kind", "order", "valid"),
+    [
+        ("interface", "w-u", "FULL, v-w-u, w-v-u"),
+        ("interface", "v-u", "FULL, v-w-u, w-v-u"),
+        ("boundary", "v-w-u", "FULL, v-u"),
+        ("single", "w-v-u", "FULL, w-u"),
+    ],
+)
+def test_an_order_the_scene_cannot_use_is_refused(kind, order, valid):
+    with pytest.raises(dd.InputError, match=f"'{order}' does not fit.*valid for it: {valid} "):
+        dd.StaticProblem(verify.order_scene(kind, False, 1e4), algorithm=order)
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(("kind", "order"), [("interface", "v-w-u"), ("boundary", "v-u")])
+def test_ranks_own_whole_subdomains_and_match_serial(kind, order):
+    comm = MPI.COMM_WORLD
+    results = {}
+    for name, c in (("parallel", comm), ("serial", MPI.COMM_SELF)):
+        scene = verify.order_scene(kind, True, 1e4, c)
+        problem = dd.TransientProblem(scene, 0.01, algorithm=order)
+        problem.run(15, progress=False, summary=False)
+        results[name] = (verify._displacements(scene), problem.changes["gamma"])
+        owned = {b for b in problem.solver.subdomains}
+        # Subdomain k lives on rank k % size, and nowhere else.
+        expected = {f"u:{s.name}" for k, s in enumerate(scene.subdomains) if k % c.size == c.rank}
+        assert owned == expected
+    (xp, gp), (xs, gs) = results["parallel"], results["serial"]
+    assert gp == gs >= 1
+    assert np.linalg.norm(xp - xs) / np.linalg.norm(xs) < 1e-9
