@@ -60,6 +60,7 @@ class _Analysis:
         algorithm: str,
         mass_coefficient: float,
         contact: ContactSettings | None,
+        condensation: str,
     ):
         has_interface = scene.interface is not None
         has_w = any(not isinstance(c, ContactBoundary) for c in scene.contacts)
@@ -84,7 +85,9 @@ class _Analysis:
         if algorithm == "FULL":
             self.solver = MonolithicSolver(self.comm, system, contacts, self.work)
         else:
-            self.solver = BlockEliminationSolver(self.comm, system, contacts, self.work, algorithm)
+            self.solver = BlockEliminationSolver(
+                self.comm, system, contacts, self.work, algorithm, condensation
+            )
         self.iteration = ContactIteration(self.comm, self.zones, self.settings)
         self._owned = [
             (k, s, f"u:{s.name}")
@@ -254,6 +257,8 @@ class StaticProblem(_Analysis):
         scene: What is modelled.
         algorithm: Elimination order; ``"FULL"`` solves the block system as one matrix.
         contact: Contact iteration settings.
+        condensation: How the decomposition orders condense a subdomain: ``"schur"``
+            (MUMPS's Schur complement, the default) or ``"multi-rhs"``.
 
     Example:
         >>> problem = StaticProblem(scene)
@@ -261,10 +266,14 @@ class StaticProblem(_Analysis):
     """
 
     def __init__(
-        self, scene: Scene, algorithm: str = "FULL", contact: ContactSettings | None = None
+        self,
+        scene: Scene,
+        algorithm: str = "FULL",
+        contact: ContactSettings | None = None,
+        condensation: str = "schur",
     ):
         scene.check_static_supports()
-        super().__init__(scene, algorithm, 0.0, contact)
+        super().__init__(scene, algorithm, 0.0, contact, condensation)
         self.iterations = 0
 
     def solve(self, t: float = 0.0) -> list[fem.Function]:
@@ -290,6 +299,10 @@ class TransientProblem(_Analysis):
         inertia: ``False`` for quasi-static load stepping (no mass terms).
         contact: Contact iteration settings.
         t0: Initial time.
+        condensation: How the decomposition orders condense a subdomain (``"schur"`` or
+            ``"multi-rhs"``).
+        track_energy: Record the energy in every step's history record (one matrix-vector
+            product per block per step; switch it off when timing).
     """
 
     def __init__(
@@ -300,6 +313,8 @@ class TransientProblem(_Analysis):
         inertia: bool = True,
         contact: ContactSettings | None = None,
         t0: float = 0.0,
+        condensation: str = "schur",
+        track_energy: bool = True,
     ):
         self.newmark = Newmark(dt)
         self.inertia = inertia
@@ -312,9 +327,9 @@ class TransientProblem(_Analysis):
                 )
         else:
             scene.check_static_supports()
-        super().__init__(
-            scene, algorithm, self.newmark.mass_coefficient if inertia else 0.0, contact
-        )
+        mass_coefficient = self.newmark.mass_coefficient if inertia else 0.0
+        super().__init__(scene, algorithm, mass_coefficient, contact, condensation)
+        self.track_energy = track_energy
         self.dt, self.t0 = dt, t0
         self.t, self.step = t0, 0
         self.history: list[dict] = []
@@ -449,7 +464,7 @@ class TransientProblem(_Analysis):
         record = {"step": self.step, "t": t_new, "iterations": iterations, "changes": changes}
         record["active"] = self._active_counts()
         record["force"] = {k: v.tolist() for k, v in self.contact_forces().items()}
-        if self.inertia:
+        if self.inertia and self.track_energy:
             record["energy"] = self.energy()
         self.history.append(record)
         return record

@@ -311,7 +311,7 @@ def bar_impact(
             local = float(op.penetration(zone.w.x.array[: op.num_dofs]).mean())
         penetration.append(next(p for p in comm.allgather(local) if p is not None))
 
-    problem.run(round(end_time / dt), callback=record, progress=False)
+    problem.run(round(end_time / dt), callback=record, progress=False, summary=False)
     g = np.array(penetration)
     times = dt * np.arange(1, len(g) + 1)
     k = int(np.argmax(g < 0))  # first step apart
@@ -369,7 +369,7 @@ def free_vibration(
     problem = TransientProblem(Scene(comm, [left, right], interface), dt=0.01)
     problem.start()
     e0 = problem.energy()["total"]
-    history = problem.run(steps, progress=False)
+    history = problem.run(steps, progress=False, summary=False)
     energies = np.array([h["energy"]["total"] for h in history])
     return {
         "energy0": e0,
@@ -447,7 +447,12 @@ def _run_order(kind, dynamic, kappa, order, comm, steps, dt):
     if dynamic:
         problem = TransientProblem(scene, dt, algorithm=order)
         states = []
-        problem.run(steps, progress=False, callback=lambda _: states.append(_displacements(scene)))
+        problem.run(
+            steps,
+            progress=False,
+            summary=False,
+            callback=lambda _: states.append(_displacements(scene)),
+        )
         path = [r["changes"] for r in problem.history]
     else:
         problem = StaticProblem(scene, algorithm=order)

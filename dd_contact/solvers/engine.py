@@ -41,7 +41,7 @@ from dd_contact.solvers.linalg import (
     coo_of,
 )
 
-__all__ = ["ORDERS", "BlockEliminationSolver", "valid_orders"]
+__all__ = ["CONDENSATIONS", "ORDERS", "BlockEliminationSolver", "valid_orders"]
 
 #: Surface levels eliminated after the subdomains, first to last, for every order. The name
 #: lists the unknowns in the order they are obtained, i.e. the levels read backwards.
@@ -51,6 +51,9 @@ ORDERS: dict[str, tuple[str, ...]] = {
     "w-u": ("w",),
     "v-u": ("v",),
 }
+
+#: Ways to form the condensed subdomain operators (see :class:`BlockEliminationSolver`).
+CONDENSATIONS = ("schur", "multi-rhs")
 
 _ROOT = 0
 _CHUNK = 256  # right-hand sides per MUMPS multi-RHS solve when condensing
@@ -88,12 +91,9 @@ class _Subdomain:
         version: Increases with every factorisation (the condensation follows it).
     """
 
-    def __init__(self, block, system: BlockSystem, contacts: dict, log: WorkLog):
+    def __init__(self, block, system: BlockSystem, contacts: dict, log: WorkLog, condensation: str):
         self.block, self.log = block, log
         n = system.sizes[block]
-        self.matrix = PatternedMatrix(
-            MPI.COMM_SELF, n, n, coo_of(system.matrices[(block, block)]), contacts
-        )
         self.layout, columns = [], []
         for (row, col), A in system.matrices.items():
             if row == col or block not in (row, col):
@@ -104,6 +104,19 @@ class _Subdomain:
             self.layout.append((col if row == block else row, J))
             columns.append(A[:, J])
         self.C = sp.csr_array(sp.hstack(columns)) if columns else sp.csr_array((n, 0))
+        m = self.C.shape[1]
+        # MUMPS's Schur complement: factorise [[K, C], [C^T, 0]] with the last m as Schur
+        # block; it gives -Z directly, and solves with K alone (zero-padded vectors).
+        self.schur = m if condensation == "schur" else 0
+        rows, cols, values = coo_of(system.matrices[(block, block)])
+        if self.schur:
+            cr, cc, cv = coo_of(self.C)
+            diagonal = n + np.arange(m)  # the Schur block's pattern, zero
+            rows = np.concatenate([rows, cr, cc + n, diagonal])
+            cols = np.concatenate([cols, cc + n, cr, diagonal])
+            values = np.concatenate([values, cv, cv, np.zeros(m)])
+        size = n + self.schur
+        self.matrix = PatternedMatrix(MPI.COMM_SELF, size, size, (rows, cols, values), contacts)
         self.factor: SparseCholesky | None = None
         self.version, self.Z, self.u_hat, self._b = 0, None, None, None
         self.u: np.ndarray | None = None
@@ -117,24 +130,32 @@ class _Subdomain:
         """(Re-)factorise K_hat and condense the coupling columns: Z = C^T K^-1 C."""
         self.matrix.push()
         if self.factor is None:
-            self.factor = SparseCholesky(self.matrix.A, self.log, self.block)
+            self.factor = SparseCholesky(self.matrix.A, self.log, self.block, self.schur)
         else:
             self.factor.refactorise()
         self.version += 1
-        m = self.C.shape[1]
-        self.Z = np.zeros((m, m))
-        Csc = self.C.tocsc()
-        for j0 in range(0, m, _CHUNK):
-            j1 = min(m, j0 + _CHUNK)
-            X = self.factor.solve_many(Csc[:, j0:j1].toarray(), "condense")
-            self.Z[:, j0:j1] = self.C.T @ X
+        if self.schur:
+            self.Z = -self.factor.schur_complement
+        else:
+            m = self.C.shape[1]
+            self.Z = np.zeros((m, m))
+            Csc = self.C.tocsc()
+            for j0 in range(0, m, _CHUNK):
+                j1 = min(m, j0 + _CHUNK)
+                X = self.factor.solve_many(Csc[:, j0:j1].toarray(), "condense")
+                self.Z[:, j0:j1] = self.C.T @ X
         self.Z = 0.5 * (self.Z + self.Z.T)  # symmetric up to round-off; make it exact
         self._b = None
+
+    def _solve(self, b: np.ndarray, what: str) -> np.ndarray:
+        if not self.schur:
+            return self.factor.solve_array(b, what)
+        return self.factor.solve_array(np.concatenate([b, np.zeros(self.schur)]), what)[: len(b)]
 
     def surface_rhs(self, b: np.ndarray) -> np.ndarray:
         """-C^T u_hat for right-hand side b (u_hat is solved for only when b or K changed)."""
         if self._b is None or not np.array_equal(b, self._b):
-            self.u_hat = self.factor.solve_array(b, "u_hat")
+            self.u_hat = self._solve(b, "u_hat")
             self._b = b.copy()
         self.u = None
         return -(self.C.T @ self.u_hat)
@@ -143,7 +164,7 @@ class _Subdomain:
         """U = K^-1 (b - C x_surface) (eq. 17), once per new surface solution."""
         if self.u is None:
             xs = np.concatenate([surface[s][J] for s, J in self.layout] or [np.zeros(0)])
-            self.u = self.factor.solve_array(self._b - self.C @ xs, "u")
+            self.u = self._solve(self._b - self.C @ xs, "u")
         return self.u
 
 
@@ -375,6 +396,10 @@ class BlockEliminationSolver:
         contacts: ``key -> (block, dofs, pattern)`` of this rank's contact regions.
         log: Where factorisations and solves are recorded.
         order: One of :data:`ORDERS`.
+        condensation: How ``C^T K^-1 C`` is formed: ``"schur"`` (default: MUMPS computes the
+            Schur complement of ``[[K, C], [C^T, 0]]`` within the factorisation; measured
+            about 3x faster at 150k dofs) or ``"multi-rhs"`` (one substitution per coupling
+            column, in blocks of 256, as the paper counts it).
     """
 
     def __init__(
@@ -384,7 +409,12 @@ class BlockEliminationSolver:
         contacts: dict[str, tuple[str, np.ndarray, sp.csr_array]],
         log: WorkLog,
         order: str,
+        condensation: str = "schur",
     ):
+        if condensation not in CONDENSATIONS:
+            raise ValueError(
+                f"unknown condensation {condensation!r}; valid: {', '.join(CONDENSATIONS)}"
+            )
         self.comm, self.system, self.log, self.order = comm, system, log, order
         rank = comm.rank
         self._zone_block = {key: block for key, (block, _, _) in contacts.items()}
@@ -392,7 +422,7 @@ class BlockEliminationSolver:
         for block, owner in system.owners.items():
             if _kind(block) == "u" and owner == rank:
                 mine = {k: (d, p) for k, (b, d, p) in contacts.items() if b == block}
-                self.subdomains[block] = _Subdomain(block, system, mine, log)
+                self.subdomains[block] = _Subdomain(block, system, mine, log, condensation)
         surface_sizes = {b: n for b, n in system.sizes.items() if _kind(b) != "u"}
         # Blocks the contact check reads (any rank): they are solved in every iteration.
         needed = {b for part in comm.allgather(set(self._zone_block.values())) for b in part}

@@ -8,6 +8,8 @@ counting (``dd_contact.cost``).
 
 from __future__ import annotations
 
+import ctypes
+import functools
 import time
 from dataclasses import dataclass, field
 
@@ -149,17 +151,35 @@ def petsc_matrix(
     return A
 
 
+@functools.cache
+def _libpetsc() -> ctypes.CDLL:
+    """The PETSc C library petsc4py is running on (for calls petsc4py does not wrap)."""
+    with open("/proc/self/maps") as maps:
+        for line in maps:
+            if "libpetsc.so" in line:
+                return ctypes.CDLL(line.split()[-1])
+    raise RuntimeError(
+        "cannot locate the PETSc library for MUMPS's Schur complement; use condensation='multi-rhs'"
+    )
+
+
 class SparseCholesky:
     """A MUMPS Cholesky factorisation of an SPD PETSc matrix.
 
+    With ``schur = m``, the last m rows and columns are a Schur block: MUMPS factorises the
+    leading block K only and returns ``S = A22 - A21 K^-1 A12`` (:attr:`schur_complement`);
+    solves then act on K alone (MUMPS ICNTL(26) = 0; pass vectors of the full size).
+
     Args:
-        A: The matrix (symmetric positive definite).
+        A: The matrix (symmetric positive definite, or its leading block if ``schur``).
         log: Where to record the work.
         block: Name of the block, for the log.
+        schur: Size of the trailing Schur block (0: none).
     """
 
-    def __init__(self, A: PETSc.Mat, log: WorkLog, block: str):
-        self.A, self.log, self.block = A, log, block
+    def __init__(self, A: PETSc.Mat, log: WorkLog, block: str, schur: int = 0):
+        self.A, self.log, self.block, self.schur = A, log, block, schur
+        self.schur_complement: np.ndarray | None = None
         A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
         A.setOption(PETSc.Mat.Option.SPD, True)
         self.ksp = PETSc.KSP().create(A.comm)
@@ -169,7 +189,12 @@ class SparseCholesky:
         pc.setType(PETSc.PC.Type.CHOLESKY)
         pc.setFactorSolverType("mumps")
         pc.setFactorSetUpSolverType()
-        pc.getFactorMatrix().setMumpsIcntl(24, 1)  # detect null pivots: singular fails loudly
+        factor = pc.getFactorMatrix()
+        factor.setMumpsIcntl(24, 1)  # detect null pivots: singular fails loudly
+        if schur:
+            n = A.getSize()[0]
+            self._schur_is = PETSc.IS().createStride(schur, n - schur, 1, comm=A.comm)
+            _check(_libpetsc().MatFactorSetSchurIS(_ptr(factor), _ptr(self._schur_is)))
         self._factorise()
 
     def refactorise(self) -> None:
@@ -195,11 +220,17 @@ class SparseCholesky:
         self.log.add(
             self.block,
             "sparse_factor",
-            self.A.getSize()[0],
+            self.A.getSize()[0] - self.schur,
             0,
             time.perf_counter() - start,
             factor.getMumpsRinfog(3),
+            f"with a Schur complement of {self.schur}" if self.schur else "",
         )
+        if self.schur:
+            factor.setMumpsIcntl(26, 0)  # solves: the internal problem K only (reset by PETSc)
+            start = time.perf_counter()
+            self.schur_complement = _schur_complement(factor, self.schur)
+            self.log.add(self.block, "schur", self.schur, 0, time.perf_counter() - start)
 
     def solve(self, b: PETSc.Vec, what: str = "") -> PETSc.Vec:
         """Forward/back substitution for one right-hand side."""
@@ -239,6 +270,30 @@ class SparseCholesky:
     def destroy(self) -> None:
         """Free the factorisation."""
         self.ksp.destroy()
+        if self.schur:
+            self._schur_is.destroy()
+
+
+def _ptr(obj) -> ctypes.c_void_p:
+    return ctypes.c_void_p(obj.handle)
+
+
+def _check(error: int) -> None:
+    if error:
+        raise RuntimeError(f"PETSc error {error} in MUMPS's Schur complement")
+
+
+def _schur_complement(factor: PETSc.Mat, m: int) -> np.ndarray:
+    """The dense Schur complement MUMPS computed with the factorisation (a copy)."""
+    lib = _libpetsc()
+    S, status = ctypes.c_void_p(), ctypes.c_int()
+    _check(lib.MatFactorCreateSchurComplement(_ptr(factor), ctypes.byref(S), ctypes.byref(status)))
+    data = ctypes.POINTER(ctypes.c_double)()
+    _check(lib.MatDenseGetArray(S, ctypes.byref(data)))
+    out = np.ctypeslib.as_array(data, shape=(m * m,)).reshape(m, m, order="F").copy()
+    _check(lib.MatDenseRestoreArray(S, ctypes.byref(data)))
+    _check(lib.MatDestroy(ctypes.byref(S)))
+    return out
 
 
 class DenseCholesky:
