@@ -134,3 +134,22 @@ def test_ranks_own_whole_subdomains_and_match_serial(kind, order):
     (xp, gp), (xs, gs) = results["parallel"], results["serial"]
     assert gp == gs >= 1
     assert np.linalg.norm(xp - xs) / np.linalg.norm(xs) < 1e-9
+
+
+@pytest.mark.parametrize("algorithm", ["FULL", "v-w-u", "w-v-u", "w-u", "v-u"])
+def test_parallelepiped_scene_for_every_algorithm(algorithm):
+    from dd_contact.examples import parallelepiped
+
+    nx, ny, nz = 12, 4, 2
+    scene = parallelepiped(algorithm, (nx, ny, nz), comm=MPI.COMM_SELF)
+    problem = dd.TransientProblem(scene, 1e-6, algorithm=algorithm, track_energy=False)
+    history = problem.run(4, progress=False, summary=False)
+    face = 3 * (ny + 1) * (nz + 1)  # dofs of an end face, the interface, a contact interface
+    split = algorithm in ("v-w-u", "w-v-u", "v-u")
+    volume = 3 * (nx + 2 if split else nx + 1) * (ny + 1) * (nz + 1)
+    surfaces = face * (split + algorithm.startswith(("v-w", "w-")))
+    assert sum(problem.solver.system.sizes.values()) == volume + surfaces
+    # The tilted wall: the contact area grows by two node rows (of ny + 1) per step.
+    active = [r["active"]["end"] for r in history]
+    assert active == [min(2 * k, ny + 1) * (nz + 1) for k in range(1, 5)]
+    assert problem.changes["gamma"] >= 3

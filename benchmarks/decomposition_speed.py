@@ -1,0 +1,211 @@
+"""Measured speed of every algorithm on the paper's rectangular parallelepiped (method.md 7.1).
+
+The bar (``dd_contact.examples.parallelepiped``) is pressed with one end against a tilted
+rigid wall, so the contact area grows row by row and the contact state changes in most
+steps. Every algorithm runs the same problem: FULL on one mesh with contact on its own end
+face (the classical approach), v-w-u and w-v-u on two subdomains with an interface and a
+contact interface, w-u on one mesh with a contact interface, v-u on two subdomains with
+contact on the first one's end face.
+
+Each run is its own process with every BLAS pinned to one thread (the PETSc wheel's
+OpenBLAS is single-threaded; numpy's is not), so both sides get one core. Per run it records
+the set-up time, the wall time of every time step and of every contact iteration, the work
+log per block, and the peak memory. Derived, per algorithm (medians over runs):
+
+* ``seconds_per_change``: a contact iteration that follows a state change (FULL:
+  re-factorise the whole matrix and solve; the orders: re-factorise the small dense
+  contact blocks and substitute);
+* ``seconds_per_step_base``: a step without its change iterations;
+* ``seconds_per_step_2_changes``: base + 2 x per change (the issue's "two changes per step");
+* ``floor_two_substitutions``: two forward/back substitutions with every subdomain factor
+  (u_hat and u), the least a decomposition step can cost.
+
+Writes benchmarks/results/decomposition_speed.json.
+
+Run: python benchmarks/decomposition_speed.py [--elements 250 36 10] [--steps 8]
+     [--full-steps 3] [--repeats 3] [--algorithms FULL w-v-u ...]
+(about 40 minutes at the default size; it resumes from the JSON if interrupted).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+HERE = Path(__file__).parent / "results"
+ALGORITHMS = ["FULL", "v-w-u", "w-v-u", "w-u", "v-u"]
+SLOW = ("FULL", "v-u")  # re-factorise a large sparse matrix on every change: fewer steps
+PINNED = {
+    "OPENBLAS_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "BLIS_NUM_THREADS": "1",
+}
+
+
+def worker(args) -> dict:
+    """One run of one algorithm (in its own process, BLAS already pinned)."""
+    import resource
+
+    from mpi4py import MPI
+
+    import numpy as np
+
+    import dd_contact as dd
+    from dd_contact.examples import parallelepiped
+
+    start = time.perf_counter()
+    scene = parallelepiped(args.worker, tuple(args.elements), comm=MPI.COMM_SELF)
+    problem = dd.TransientProblem(scene, args.dt, algorithm=args.worker, track_energy=False)
+    problem.start()
+    setup = time.perf_counter() - start
+    iterations: list[float] = []
+    solve_once = problem.iteration._solve_once
+
+    def timed(*a):
+        t0 = time.perf_counter()
+        out = solve_once(*a)
+        iterations.append(time.perf_counter() - t0)
+        return out
+
+    problem.iteration._solve_once = timed
+    steps = []
+    n_steps = args.full_steps if args.worker in SLOW else args.steps
+    for _ in range(n_steps):
+        iterations.clear()
+        t0 = time.perf_counter()
+        record = problem.advance()
+        seconds = time.perf_counter() - t0
+        steps.append(
+            {
+                "seconds": seconds,
+                "changes": record["changes"],
+                "iterations": list(iterations),
+                "active": record["active"]["end"],
+            }
+        )
+    records = problem.work.records
+    substitutions = {}
+    for block in {r.block for r in records if r.block.startswith("u:")}:
+        times = [r.seconds for r in records if r.block == block and r.what in ("u_hat", "u")]
+        substitutions[block] = statistics.median(times) if times else None
+    first_factor = [r for r in records if r.kind in ("sparse_factor", "schur", "sparse_solve")]
+    return {
+        "algorithm": args.worker,
+        "dofs": int(sum(problem.solver.system.sizes.values())),
+        "blocks": dict(problem.solver.system.sizes),
+        "setup_seconds": setup,
+        "first_solve_work_seconds": sum(
+            r.seconds for r in first_factor if r.what in ("", "condense") or r.kind == "schur"
+        ),
+        "steps": steps,
+        "median_substitution_seconds": substitutions,
+        "work": problem.work_summary(),
+        "peak_memory_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        "changes": problem.changes["gamma"],
+        "check": float(np.linalg.norm(scene.subdomains[0].u.x.array)),
+    }
+
+
+def derived(run: dict) -> dict:
+    """Per-change, per-step and floor times of one run."""
+    change = [t for s in run["steps"] for t in s["iterations"][1:]]
+    base = [s["seconds"] - sum(s["iterations"][1:]) for s in run["steps"]]
+    floor = None
+    if run["algorithm"] != "FULL":
+        floor = 2.0 * sum(v for v in run["median_substitution_seconds"].values() if v)
+    out = {
+        "seconds_per_change": statistics.median(change) if change else None,
+        "seconds_per_step_base": statistics.median(base),
+        "seconds_per_step": statistics.median(s["seconds"] for s in run["steps"]),
+        "changes_per_step": sum(s["changes"] for s in run["steps"]) / len(run["steps"]),
+        "floor_two_substitutions": floor,
+    }
+    if change:
+        out["seconds_per_step_2_changes"] = (
+            out["seconds_per_step_base"] + 2.0 * out["seconds_per_change"]
+        )
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--elements", type=int, nargs=3, default=[250, 36, 10])
+    parser.add_argument("--dt", type=float, default=1e-6)
+    parser.add_argument("--steps", type=int, default=8, help="steps of each decomposition run")
+    parser.add_argument("--full-steps", type=int, default=3, help="steps of FULL and v-u runs")
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--algorithms", nargs="+", default=ALGORITHMS, choices=ALGORITHMS)
+    parser.add_argument("--out", default=str(HERE / "decomposition_speed.json"))
+    parser.add_argument("--worker", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker:
+        print(json.dumps(worker(args)))
+        return
+    out = Path(args.out)
+    results = json.loads(out.read_text()) if out.exists() else {}
+    same = results.get("elements") == args.elements and results.get("dt") == args.dt
+    runs = results.get("runs", {}) if same else {}
+    env = {**os.environ, **PINNED}
+    for repeat in range(args.repeats):
+        for algorithm in args.algorithms:
+            if len(runs.get(algorithm, [])) > repeat:
+                continue  # resumed: this run is already in the file
+            command = [sys.executable, __file__, "--worker", algorithm, "--dt", str(args.dt)]
+            command += ["--elements", *map(str, args.elements)]
+            command += ["--steps", str(args.steps), "--full-steps", str(args.full_steps)]
+            print(f"run {repeat + 1}/{args.repeats}: {algorithm}", flush=True)
+            done = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
+            runs.setdefault(algorithm, []).append(json.loads(done.stdout.strip().splitlines()[-1]))
+            summarise(args, runs, out)
+    summarise(args, runs, out, show=True)
+
+
+def summarise(args, runs: dict, out: Path, show: bool = False) -> None:
+    """Medians over runs, FULL/order ratios, and the JSON file."""
+    summary = {}
+    for algorithm, rs in runs.items():
+        ds = [derived(r) for r in rs]
+        med = {}
+        for key in ds[0]:
+            values = [d[key] for d in ds if d.get(key) is not None]
+            med[key] = statistics.median(values) if values else None
+        med["setup_seconds"] = statistics.median(r["setup_seconds"] for r in rs)
+        med["peak_memory_mb"] = max(r["peak_memory_mb"] for r in rs)
+        med["dofs"] = rs[0]["dofs"]
+        med["runs"] = len(rs)
+        summary[algorithm] = med
+    full = summary.get("FULL")
+    if full:
+        for algorithm, med in summary.items():
+            if algorithm == "FULL":
+                continue
+            for key in ("seconds_per_change", "seconds_per_step_2_changes", "seconds_per_step"):
+                if med.get(key) and full.get(key):
+                    med[f"full_over_this_{key.removeprefix('seconds_')}"] = full[key] / med[key]
+            if med.get("floor_two_substitutions"):
+                for key in ("seconds_per_step_base", "seconds_per_step_2_changes"):
+                    med[f"{key}_over_floor"] = med[key] / med["floor_two_substitutions"]
+    data = {
+        "elements": args.elements,
+        "dt": args.dt,
+        "blas_threads": 1,
+        "note": "each run in its own process, every BLAS pinned to one thread (one core each)",
+        "summary": summary,
+        "runs": runs,
+    }
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(data, indent=1))
+    if show:
+        for algorithm, med in summary.items():
+            print(algorithm, json.dumps({k: v for k, v in med.items()}, indent=None))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,115 @@
+"""The paper's examples as scenes, at any size: the rectangular parallelepiped (method.md 7.1).
+
+Benchmarks and demos build their models here, so that every algorithm runs the same problem.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+from mpi4py import MPI
+
+import numpy as np
+
+from dd_contact import meshes
+from dd_contact.obstacles import Plane
+from dd_contact.scene import (
+    ContactBoundary,
+    ContactInterface,
+    Interface,
+    Material,
+    Scene,
+    Subdomain,
+)
+
+__all__ = ["PARALLELEPIPED_LAYOUTS", "parallelepiped"]
+
+#: How the bar is modelled for each algorithm: split in two or one mesh, contact on a
+#: contact interface (w) or on the subdomain's own boundary.
+PARALLELEPIPED_LAYOUTS = {
+    "FULL": ("one mesh", "boundary"),
+    "v-w-u": ("split", "interface"),
+    "w-v-u": ("split", "interface"),
+    "w-u": ("one mesh", "interface"),
+    "v-u": ("split", "boundary"),
+}
+
+
+def parallelepiped(
+    algorithm: str,
+    elements: tuple[int, int, int] = (40, 10, 4),
+    split: tuple[int, int] = (1, 1),
+    element_size: float = 1e-3,
+    speed: float = 1.0,
+    tilt: float = 5e-4,
+    pressure: float = 2.0e7,
+    ramp: float = 1e-5,
+    contact_kappa: float = 1.0,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> Scene:
+    """The bar of method.md 7.1 pressed with one end on a rigid wall, for a given algorithm.
+
+    A steel bar of ``elements`` 8-node hexahedra (size ``element_size``), long in x, moves at
+    ``speed`` towards a rigid plane through the origin whose normal is tilted by ``tilt``
+    (radians) about z: the bar's end touches it along the edge y = 0 first, and the contact
+    area then grows across the face by about ``speed * dt / (tilt * element_size)`` element
+    rows per time step dt, while a pressure (ramped up over ``ramp`` seconds) pushes the far
+    end.
+    For the decomposition orders it is cut across x in the ratio ``split`` into two
+    subdomains tied by an interface mesh on the cut; contact is on a contact interface
+    covering the end face of the first subdomain, or on that face itself, as
+    :data:`PARALLELEPIPED_LAYOUTS` says.
+
+    Args:
+        algorithm: The algorithm the scene is for (a key of :data:`PARALLELEPIPED_LAYOUTS`).
+        elements: Hexahedra along x, y, z.
+        split: Omega1 : Omega2 (element layers along x in this ratio).
+        element_size: Edge of the cubic elements [m].
+        speed: Initial speed towards the wall [m/s].
+        tilt: Angle between the wall and the end face [rad].
+        pressure: Pressure on the far end [Pa].
+        ramp: Time over which the pressure rises from zero [s].
+        contact_kappa: Dimensionless contact penalty (impact wants a soft one).
+        comm: Communicator.
+    """
+    nx, ny, nz = elements
+    h = element_size
+    length, width, height = nx * h, ny * h, nz * h
+    steel = Material(210e9, 0.3, 7850.0)
+    layout, contact = PARALLELEPIPED_LAYOUTS[algorithm]
+    cuts = [0, nx]
+    if layout == "split":
+        first = round(nx * split[0] / sum(split))
+        if not 0 < first < nx:
+            raise ValueError(f"split {split} leaves an empty subdomain of {nx} layers")
+        cuts = [0, first, nx]
+    parts = [
+        Subdomain(
+            meshes.box(MPI.COMM_SELF, [a * h, 0, 0], [b * h, width, height], [b - a, ny, nz]),
+            steel,
+            f"Omega{k + 1}",
+        )
+        for k, (a, b) in enumerate(itertools.pairwise(cuts))
+    ]
+
+    for part in parts:
+        part.velocity.interpolate(lambda x: np.vstack([-speed + 0 * x[0], 0 * x[0], 0 * x[0]]))
+    parts[-1].add_traction(
+        lambda x: np.isclose(x[0], length),
+        lambda t: [-pressure * min(t / ramp, 1.0), 0.0, 0.0],
+    )
+    interface = None
+    if len(parts) == 2:
+        cut = cuts[1] * h
+        interface = Interface.from_boundary(
+            parts[0], lambda x: np.isclose(x[0], cut), parts, resolution=(ny, nz)
+        )
+    wall = Plane([0.0, 0.0, 0.0], [np.cos(tilt), np.sin(tilt), 0.0])
+    end = lambda x: np.isclose(x[0], 0.0)  # noqa: E731
+    if contact == "interface":
+        zone = ContactInterface.from_boundary(
+            parts[0], end, wall, resolution=(ny, nz), contact_kappa=contact_kappa, name="end"
+        )
+    else:
+        zone = ContactBoundary(parts[0], end, wall, contact_kappa=contact_kappa, name="end")
+    return Scene(comm, parts, interface, contacts=[zone])
