@@ -418,6 +418,7 @@ class BlockEliminationSolver:
         self.comm, self.system, self.log, self.order = comm, system, log, order
         rank = comm.rank
         self._zone_block = {key: block for key, (block, _, _) in contacts.items()}
+        self._zone_dofs = {key: dofs for key, (_, dofs, _) in contacts.items()}
         self.subdomains: dict[str, _Subdomain] = {}
         for block, owner in system.owners.items():
             if _kind(block) == "u" and owner == rank:
@@ -444,19 +445,24 @@ class BlockEliminationSolver:
                     self.surface.condensed[b] = (None, layout)
             self.surface.plan()
             self.surface.condensed.clear()
-        self._pending_contact: dict[str, sp.csr_array] = {}
+        self._contact: dict[str, sp.csr_array] = {}  # latest contact matrix of each w block
+        self._pending_contact: dict[str, sp.csr_array] = {}  # changed since the last solve
         self._x: dict[str, np.ndarray] = {}
         self._complete = False
 
     def set_contact(self, key: str, matrix: sp.csr_array) -> None:
         """Replace the contact matrix of region ``key`` (surface dof numbering)."""
-        block = self._zone_block[key]
+        block, dofs = self._zone_block[key], self._zone_dofs[key]
         if block in self.subdomains:
             self.subdomains[block].matrix.set_contact(key, matrix)
             return
-        old = self._pending_contact.get(block, getattr(self, "_contact", {}).get(block))
+        n = self.system.sizes[block]
+        if not np.array_equal(dofs, np.arange(n)):  # to block numbering
+            r, c, v = coo_of(matrix)
+            matrix = sp.csr_array((v, (dofs[r], dofs[c])), shape=(n, n))
+        old = self._contact.get(block)
         if old is None or (old != matrix).nnz:
-            self._pending_contact[block] = matrix
+            self._contact[block] = self._pending_contact[block] = matrix
 
     def solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Solve with this rank's right-hand-side contributions (collective).
@@ -465,7 +471,6 @@ class BlockEliminationSolver:
         needs; the rest follows in :meth:`finish`.
         """
         payload = {"Z": {}, "g": [], "contact": self._pending_contact}
-        self._contact = {**getattr(self, "_contact", {}), **self._pending_contact}
         self._pending_contact = {}
         for block, sub in self.subdomains.items():
             if sub.changing:
