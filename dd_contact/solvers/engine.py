@@ -182,7 +182,6 @@ class _Group:
     version: int = 0
     xkey: tuple | None = None
     B: np.ndarray | None = None  # the non-zero coupling columns to the neighbours
-    X: np.ndarray | None = None  # A_GG^-1 B
     BtX: np.ndarray | None = None  # B^T A_GG^-1 B: what eliminating the group subtracts
     columns: list[tuple[str, np.ndarray]] = field(default_factory=list)
     offsets: np.ndarray | None = None
@@ -204,7 +203,7 @@ class _Surface:
         self.version: dict[tuple[str, str], int] = {}
         self.levels = levels
         self.groups: list[list[_Group]] = []
-        self._fill = None
+        self._eliminated: dict[tuple[str, str], tuple] = {}  # pair -> (key, matrix) cache
 
     # set-up
     def add_base(self, row: str, col: str, A: sp.sparray) -> None:
@@ -295,15 +294,18 @@ class _Surface:
                     for j, (r2, J2) in enumerate(g.columns):
                         updates.setdefault((r1, r2), []).append((g, i, j))
             for pair, parts in updates.items():
-                M = E.get(pair, (None, None))[0]
-                M = np.zeros((self.sizes[pair[0]], self.sizes[pair[1]])) if M is None else M.copy()
-                for g, i, j in parts:
-                    (_, J1), (_, J2) = g.columns[i], g.columns[j]
-                    o1, o2 = g.offsets[i], g.offsets[j]
-                    M[np.ix_(J1, J2)] -= g.BtX[o1 : o1 + len(J1), o2 : o2 + len(J2)]
                 key = (E.get(pair, (None, None))[1], tuple(g.xkey for g, _, _ in parts))
-                E[pair] = (M, key)
-        self._E = E
+                cached = self._eliminated.get(pair)
+                if cached is None or cached[0] != key:  # else nothing it depends on changed
+                    M = E.get(pair, (None, None))[0]
+                    shape = (self.sizes[pair[0]], self.sizes[pair[1]])
+                    M = np.zeros(shape) if M is None else M.copy()
+                    for g, i, j in parts:
+                        (_, J1), (_, J2) = g.columns[i], g.columns[j]
+                        o1, o2 = g.offsets[i], g.offsets[j]
+                        M[np.ix_(J1, J2)] -= g.BtX[o1 : o1 + len(J1), o2 : o2 + len(J2)]
+                    self._eliminated[pair] = cached = (key, M)
+                E[pair] = (cached[1], key)
 
     def _assemble(self, g: _Group, E) -> np.ndarray:
         offsets = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
@@ -332,8 +334,7 @@ class _Surface:
             parts.append(B[:, J])
         g.B = np.hstack(parts)
         g.offsets = np.cumsum([0] + [len(J) for _, J in g.columns])
-        g.X = g.factor.solve(g.B, "condense")
-        g.BtX = g.B.T @ g.X
+        g.BtX = g.factor.congruence(g.B, "condense")
 
     def solve(self, g: dict[str, np.ndarray], complete: bool) -> dict[str, np.ndarray]:
         """Eliminate the right-hand side forward and solve the last level.
