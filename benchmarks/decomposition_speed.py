@@ -96,15 +96,11 @@ def worker(args) -> dict:
     for block in {r.block for r in records if r.block.startswith("u:")}:
         times = [r.seconds for r in records if r.block == block and r.what in ("u_hat", "u")]
         substitutions[block] = statistics.median(times) if times else None
-    first_factor = [r for r in records if r.kind in ("sparse_factor", "schur", "sparse_solve")]
     return {
         "algorithm": args.worker,
         "dofs": int(sum(problem.solver.system.sizes.values())),
         "blocks": dict(problem.solver.system.sizes),
         "setup_seconds": setup,
-        "first_solve_work_seconds": sum(
-            r.seconds for r in first_factor if r.what in ("", "condense") or r.kind == "schur"
-        ),
         "steps": steps,
         "median_substitution_seconds": substitutions,
         "work": problem.work_summary(),

@@ -282,10 +282,8 @@ class ContactIteration:
             changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
             if not self.comm.allreduce(len(changed)):
                 return solver.finish(), iteration, changes_this_solve
-            self.gamma += 1
+            self._count_change(changed)
             changes_this_solve += 1
-            for name in changed:
-                self.alpha[name] += 1
             previous = self.active
             self.active = new
             key = self._global_digest()
@@ -309,10 +307,8 @@ class ContactIteration:
                 # The union is one more contact state (counted like any other change).
                 grown = [n for n in self.active if not np.array_equal(before[n], self.active[n])]
                 if self.comm.allreduce(len(grown)):
-                    self.gamma += 1
+                    self._count_change(grown)
                     changes_this_solve += 1
-                    for name in grown:
-                        self.alpha[name] += 1
                 self._solve_once(solver, rhs)
                 return solver.finish(), iteration + 1, changes_this_solve
             seen[key] = iteration
@@ -322,6 +318,12 @@ class ContactIteration:
             f"{where}; raise ContactSettings(max_iterations=...), or take a smaller time step or "
             "load increment"
         )
+
+    def _count_change(self, zones: list[str]) -> None:
+        """One contact state change of the model (gamma), on each of ``zones`` (alpha)."""
+        self.gamma += 1
+        for name in zones:
+            self.alpha[name] += 1
 
     def _solve_once(self, solver, rhs):
         rhs = {name: vector.copy() for name, vector in rhs.items()}

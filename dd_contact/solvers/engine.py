@@ -88,7 +88,6 @@ class _Subdomain:
     Attributes:
         layout: ``(surface block, columns)`` of each coupling: the surface dofs tied here.
         Z: ``C^T K^-1 C`` over the concatenated coupling columns (dense).
-        version: Increases with every factorisation (the condensation follows it).
     """
 
     def __init__(self, block, system: BlockSystem, contacts: dict, log: WorkLog, condensation: str):
@@ -118,7 +117,7 @@ class _Subdomain:
         size = n + self.schur
         self.matrix = PatternedMatrix(MPI.COMM_SELF, size, size, (rows, cols, values), contacts)
         self.factor: SparseCholesky | None = None
-        self.version, self.Z, self.u_hat, self._b = 0, None, None, None
+        self.Z, self.u_hat, self._b = None, None, None
         self.u: np.ndarray | None = None
 
     @property
@@ -133,7 +132,6 @@ class _Subdomain:
             self.factor = SparseCholesky(self.matrix.A, self.log, self.block, self.schur)
         else:
             self.factor.refactorise()
-        self.version += 1
         if self.schur:
             self.Z = -self.factor.schur_complement
         else:
@@ -196,7 +194,9 @@ class _Surface:
     def __init__(self, sizes: dict[str, int], levels: tuple[str, ...], log: WorkLog):
         self.sizes, self.log = sizes, log
         self.base: dict[tuple[str, str], np.ndarray] = {}
-        self.condensed: dict[str, tuple[np.ndarray, list]] = {}
+        self.condensed: dict[str, np.ndarray] = {}  # latest Z of each subdomain
+        self.where: dict[str, dict] = {}  # subdomain -> surface block -> (offset in Z, dofs)
+        self.pairs: set[tuple[str, str]] = set()  # surface block pairs that are not zero
         self.contact: dict[str, sp.csr_array] = {}
         self.contact_version: dict[str, int] = {}
         self.R: dict[tuple[str, str], np.ndarray] = {}
@@ -212,9 +212,17 @@ class _Surface:
         if row != col:
             self.base[(col, row)] = self.base[(row, col)].T
 
-    def plan(self) -> None:
-        """Groups of each level: the connected blocks of that kind, given the fill-in."""
-        coupled = {frozenset(p) for p in self._pairs() if p[0] != p[1]}
+    def plan(self, layouts: dict[str, list]) -> None:
+        """Where each subdomain's Z lands, and the groups of each level.
+
+        A level's groups are the connected blocks of its kind, given the fill-in.
+        """
+        self.pairs = set(self.base)
+        for block, layout in layouts.items():
+            offsets = np.cumsum([0] + [len(J) for _, J in layout])
+            self.where[block] = {s: (offsets[i], J) for i, (s, J) in enumerate(layout)}
+            self.pairs |= {(a, b) for a, _ in layout for b, _ in layout}
+        coupled = {frozenset(p) for p in self.pairs if p[0] != p[1]}
         remaining = set(self.sizes)
         for li, kind in enumerate(self.levels):
             level = sorted(b for b in remaining if _kind(b) == kind)
@@ -237,22 +245,15 @@ class _Surface:
                             coupled.add(frozenset((r1, r2)))
             self.groups.append(groups)
 
-    def _pairs(self) -> set[tuple[str, str]]:
-        pairs = set(self.base)
-        for _, layout in self.condensed.values():
-            pairs |= {(a, b) for a, _ in layout for b, _ in layout}
-        return pairs
-
     # updates
-    def set_condensed(self, block: str, Z: np.ndarray, layout: list) -> None:
+    def set_condensed(self, block: str, Z: np.ndarray) -> None:
         """A subdomain's new condensation: rebuild the surface pairs it touches."""
-        self.condensed[block] = (Z, layout)
-        touched = {(a, b) for a, _ in layout for b, _ in layout}
+        self.condensed[block] = Z
+        touched = {(a, b) for a in self.where[block] for b in self.where[block]}
         for pair in touched:
             R = np.array(self.base.get(pair, np.zeros((self.sizes[pair[0]], self.sizes[pair[1]]))))
-            for Zk, lay in self.condensed.values():
-                offsets = np.cumsum([0] + [len(J) for _, J in lay])
-                where = {s: (offsets[i], J) for i, (s, J) in enumerate(lay)}
+            for k, Zk in self.condensed.items():
+                where = self.where[k]
                 if pair[0] in where and pair[1] in where:
                     (o1, J1), (o2, J2) = where[pair[0]], where[pair[1]]
                     R[np.ix_(J1, J2)] -= Zk[o1 : o1 + len(J1), o2 : o2 + len(J2)]
@@ -272,7 +273,7 @@ class _Surface:
     def factorise(self) -> None:
         """Redo every group factorisation whose inputs changed since the last time."""
         # E: the current (partly eliminated) pair matrices with a key of what they depend on.
-        E = {p: (self._matrix(p), ("R", self.version.get(p, 0))) for p in self._pairs()}
+        E = {p: (self._matrix(p), ("R", self.version.get(p, 0))) for p in self.pairs}
         for level in self.groups:
             updates: dict[tuple[str, str], list] = {}
             for g in level:
@@ -441,11 +442,7 @@ class BlockEliminationSolver:
                     self.surface.add_base(r, c, A)
         layouts = _gather(comm, {b: s.layout for b, s in self.subdomains.items()})
         if rank == _ROOT:
-            for part in layouts:
-                for b, layout in part.items():
-                    self.surface.condensed[b] = (None, layout)
-            self.surface.plan()
-            self.surface.condensed.clear()
+            self.surface.plan({b: layout for part in layouts for b, layout in part.items()})
         self._contact: dict[str, sp.csr_array] = {}  # latest contact matrix of each w block
         self._pending_contact: dict[str, sp.csr_array] = {}  # changed since the last solve
         self._x: dict[str, np.ndarray] = {}
@@ -476,7 +473,7 @@ class BlockEliminationSolver:
         for block, sub in self.subdomains.items():
             if sub.changing:
                 sub.factorise()
-                payload["Z"][block] = (sub.Z, sub.layout)
+                payload["Z"][block] = sub.Z
             b = rhs.get(block, np.zeros(self.system.sizes[block]))
             g = sub.surface_rhs(b)
             start = 0
@@ -492,8 +489,8 @@ class BlockEliminationSolver:
             surface = self.surface
             g = {b: np.zeros(n) for b, n in surface.sizes.items()}
             for part in received:
-                for block, (Z, layout) in part["Z"].items():
-                    surface.set_condensed(block, Z, layout)
+                for block, Z in part["Z"].items():
+                    surface.set_condensed(block, Z)
                 for block, matrix in part["contact"].items():
                     surface.set_contact(block, matrix)
                 for s, J, vector in part["g"]:
