@@ -37,11 +37,20 @@ from dd_contact.solvers.linalg import (
     DenseCholesky,
     PatternedMatrix,
     SparseCholesky,
+    SparseStatistics,
     WorkLog,
     coo_of,
+    sparse_statistics,
 )
 
-__all__ = ["CONDENSATIONS", "ORDERS", "BlockEliminationSolver", "valid_orders"]
+__all__ = [
+    "CONDENSATIONS",
+    "ORDERS",
+    "BlockEliminationSolver",
+    "plan_groups",
+    "subdomain_statistics",
+    "valid_orders",
+]
 
 #: Surface levels eliminated after the subdomains, first to last, for every order. The name
 #: lists the unknowns in the order they are obtained, i.e. the levels read backwards.
@@ -166,6 +175,25 @@ class _Subdomain:
         return self.u
 
 
+def subdomain_statistics(
+    comm: MPI.Comm, system: BlockSystem, contacts: dict, condensation: str = "schur"
+) -> dict[str, tuple[SparseStatistics, list]]:
+    """Collective: each subdomain's analysed matrix and coupling layout.
+
+    The matrix is the one the engine factorises: with its Schur block if
+    ``condensation="schur"``. Returns ``block -> (statistics, layout)`` on every rank.
+    """
+    mine = {}
+    for block, owner in system.owners.items():
+        if _kind(block) == "u" and owner == comm.rank:
+            regions = {k: (d, p) for k, (b, d, p) in contacts.items() if b == block}
+            sub = _Subdomain(block, system, regions, WorkLog(), condensation)
+            sub.matrix.push()
+            mine[block] = (sparse_statistics(sub.matrix.A, sub.schur), sub.layout)
+            sub.matrix.A.destroy()
+    return {b: v for part in comm.allgather(mine) for b, v in part.items()}
+
+
 # -- the dense surface levels (rank 0) ----------------------------------------------------
 @dataclass
 class _Group:
@@ -186,6 +214,54 @@ class _Group:
     g_in: np.ndarray | None = None  # right-hand side when last eliminated
     y: np.ndarray | None = None  # A_GG^-1 g_in
     yversion: int = -1
+
+
+def plan_groups(
+    sizes: dict[str, int], base_pairs: set, layouts: dict[str, list], levels: tuple[str, ...]
+) -> tuple[dict[str, dict], set, list[list[_Group]]]:
+    """The elimination plan of the surface system for one order.
+
+    Args:
+        sizes: Size of every surface block.
+        base_pairs: Surface block pairs with a matrix of their own (not from condensation).
+        layouts: Per subdomain, ``(surface block, coupled dofs)`` of each of its couplings.
+        levels: The order's surface levels (:data:`ORDERS`).
+
+    Returns:
+        ``where`` (per subdomain, surface block -> (offset in Z, dofs)), the non-zero block
+        pairs after condensation, and the groups of each level: the connected blocks of the
+        level's kind, given the fill-in of the earlier eliminations.
+    """
+    pairs = set(base_pairs)
+    where = {}
+    for block, layout in layouts.items():
+        offsets = np.cumsum([0] + [len(J) for _, J in layout])
+        where[block] = {s: (offsets[i], J) for i, (s, J) in enumerate(layout)}
+        pairs |= {(a, b) for a, _ in layout for b, _ in layout}
+    coupled = {frozenset(p) for p in pairs if p[0] != p[1]}
+    remaining = set(sizes)
+    all_groups = []
+    for li, kind in enumerate(levels):
+        level = sorted(b for b in remaining if _kind(b) == kind)
+        last = li == len(levels) - 1
+        groups: list[_Group] = []
+        for b in level:
+            joined = [g for g in groups if any(frozenset((b, a)) in coupled for a in g.blocks)]
+            merged = [b] + [a for g in joined for a in g.blocks]
+            groups = [g for g in groups if g not in joined]
+            groups.append(_Group(sorted(merged), last, ""))
+        remaining -= set(level)
+        for g in groups:
+            g.name = "+".join(g.blocks)
+            g.neighbours = sorted(
+                r for r in remaining if any(frozenset((a, r)) in coupled for a in g.blocks)
+            )
+            for r1 in g.neighbours:  # fill-in of the elimination
+                for r2 in g.neighbours:
+                    if r1 != r2:
+                        coupled.add(frozenset((r1, r2)))
+        all_groups.append(groups)
+    return where, pairs, all_groups
 
 
 class _Surface:
@@ -213,37 +289,10 @@ class _Surface:
             self.base[(col, row)] = self.base[(row, col)].T
 
     def plan(self, layouts: dict[str, list]) -> None:
-        """Where each subdomain's Z lands, and the groups of each level.
-
-        A level's groups are the connected blocks of its kind, given the fill-in.
-        """
-        self.pairs = set(self.base)
-        for block, layout in layouts.items():
-            offsets = np.cumsum([0] + [len(J) for _, J in layout])
-            self.where[block] = {s: (offsets[i], J) for i, (s, J) in enumerate(layout)}
-            self.pairs |= {(a, b) for a, _ in layout for b, _ in layout}
-        coupled = {frozenset(p) for p in self.pairs if p[0] != p[1]}
-        remaining = set(self.sizes)
-        for li, kind in enumerate(self.levels):
-            level = sorted(b for b in remaining if _kind(b) == kind)
-            last = li == len(self.levels) - 1
-            groups: list[_Group] = []
-            for b in level:
-                joined = [g for g in groups if any(frozenset((b, a)) in coupled for a in g.blocks)]
-                merged = [b] + [a for g in joined for a in g.blocks]
-                groups = [g for g in groups if g not in joined]
-                groups.append(_Group(sorted(merged), last, ""))
-            remaining -= set(level)
-            for g in groups:
-                g.name = "+".join(g.blocks)
-                g.neighbours = sorted(
-                    r for r in remaining if any(frozenset((a, r)) in coupled for a in g.blocks)
-                )
-                for r1 in g.neighbours:  # fill-in of the elimination
-                    for r2 in g.neighbours:
-                        if r1 != r2:
-                            coupled.add(frozenset((r1, r2)))
-            self.groups.append(groups)
+        """Where each subdomain's Z lands, and the groups of each level."""
+        self.where, self.pairs, self.groups = plan_groups(
+            self.sizes, set(self.base), layouts, self.levels
+        )
 
     # updates
     def set_condensed(self, block: str, Z: np.ndarray) -> None:

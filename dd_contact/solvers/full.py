@@ -14,9 +14,16 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
-from dd_contact.solvers.linalg import PatternedMatrix, SparseCholesky, WorkLog, coo_of
+from dd_contact.solvers.linalg import (
+    PatternedMatrix,
+    SparseCholesky,
+    SparseStatistics,
+    WorkLog,
+    coo_of,
+    sparse_statistics,
+)
 
-__all__ = ["MonolithicSolver"]
+__all__ = ["MonolithicSolver", "monolithic_statistics"]
 
 
 def _cat(arrays: list[np.ndarray], dtype) -> np.ndarray:
@@ -117,3 +124,12 @@ class MonolithicSolver:
         if self._factor is not None:
             self._factor.destroy()
         self.matrix.A.destroy()
+
+
+def monolithic_statistics(comm, system: BlockSystem, contacts: dict) -> SparseStatistics:
+    """Collective: MUMPS's analysis of the matrix FULL factorises (contact patterns included)."""
+    solver = MonolithicSolver(comm, system, contacts, WorkLog())
+    solver.matrix.push()
+    stats = sparse_statistics(solver.matrix.A)
+    solver.destroy()
+    return stats

@@ -25,9 +25,11 @@ __all__ = [
     "PatternedMatrix",
     "SingularMatrixError",
     "SparseCholesky",
+    "SparseStatistics",
     "WorkLog",
     "WorkRecord",
     "petsc_matrix",
+    "sparse_statistics",
 ]
 
 
@@ -46,6 +48,8 @@ class WorkRecord:
     seconds: float
     flops: float | None = None
     what: str = ""  # what was solved for, e.g. "condense", "u_hat", "u"
+    entries: float | None = None  # sparse: entries of the factor (MUMPS INFOG(29))
+    nnz: int = 0  # sparse factorisation with its symbolic analysis: entries of the matrix
 
 
 @dataclass
@@ -159,7 +163,8 @@ def _libpetsc() -> ctypes.CDLL:
             if "libpetsc.so" in line:
                 return ctypes.CDLL(line.split()[-1])
     raise RuntimeError(
-        "cannot locate the PETSc library for MUMPS's Schur complement; use condensation='multi-rhs'"
+        "cannot locate the PETSc library (needed for MUMPS's Schur complement and symbolic "
+        "analysis); use condensation='multi-rhs' and an explicit algorithm"
     )
 
 
@@ -180,6 +185,8 @@ class SparseCholesky:
     def __init__(self, A: PETSc.Mat, log: WorkLog, block: str, schur: int = 0):
         self.A, self.log, self.block, self.schur = A, log, block, schur
         self.schur_complement: np.ndarray | None = None
+        self.entries = 0.0
+        self._analysed = False
         A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
         A.setOption(PETSc.Mat.Option.SPD, True)
         self.ksp = PETSc.KSP().create(A.comm)
@@ -217,6 +224,7 @@ class SparseCholesky:
                 f"block {self.block!r} is singular ({factor.getMumpsInfog(28)} null pivots): "
                 "part of the model can move freely; check its supports, ties and contacts"
             )
+        self.entries = float(_mumps_count(factor.getMumpsInfog(29)))
         self.log.add(
             self.block,
             "sparse_factor",
@@ -225,7 +233,10 @@ class SparseCholesky:
             time.perf_counter() - start,
             factor.getMumpsRinfog(3),
             f"with a Schur complement of {self.schur}" if self.schur else "",
+            self.entries,
+            0 if self._analysed else int(self.A.getInfo()["nz_used"]),
         )
+        self._analysed = True
         if self.schur:
             factor.setMumpsIcntl(26, 0)  # solves: the internal problem K only (reset by PETSc)
             start = time.perf_counter()
@@ -237,9 +248,8 @@ class SparseCholesky:
         x = b.duplicate()
         start = time.perf_counter()
         self.ksp.solve(b, x)
-        self.log.add(
-            self.block, "sparse_solve", b.getSize(), 1, time.perf_counter() - start, None, what
-        )
+        seconds = time.perf_counter() - start
+        self._log_solve(b.getSize(), 1, seconds, what)
         return x
 
     def solve_array(self, b: np.ndarray, what: str = "") -> np.ndarray:
@@ -262,10 +272,15 @@ class SparseCholesky:
         Xm.setUp()
         start = time.perf_counter()
         self.ksp.getPC().getFactorMatrix().matSolve(Bm, Xm)
-        self.log.add(self.block, "sparse_solve", n, m, time.perf_counter() - start, None, what)
+        self._log_solve(n, m, time.perf_counter() - start, what)
         X = Xm.getDenseArray().copy()
         Bm.destroy(), Xm.destroy()
         return X
+
+    def _log_solve(self, n: int, nrhs: int, seconds: float, what: str) -> None:
+        # forward and backward sweeps: one multiply-add per factor entry each
+        flops = 4.0 * self.entries * nrhs
+        self.log.add(self.block, "sparse_solve", n, nrhs, seconds, flops, what, self.entries)
 
     def destroy(self) -> None:
         """Free the factorisation."""
@@ -274,13 +289,73 @@ class SparseCholesky:
             self._schur_is.destroy()
 
 
+@dataclass(frozen=True)
+class SparseStatistics:
+    """What MUMPS's symbolic analysis predicts for a Cholesky factorisation.
+
+    Attributes:
+        size: Rows factorised (without a Schur block).
+        nnz: Stored entries of the matrix.
+        flops: Operations of the numeric factorisation (RINFOG(1)).
+        entries: Entries of the factor (INFOG(20)): what a substitution reads.
+        schur: Size of the Schur block computed with the factorisation.
+    """
+
+    size: int
+    nnz: int
+    flops: float
+    entries: float
+    schur: int = 0
+
+
+def _mumps_count(value: int) -> int:
+    """MUMPS reports counts above 2^31 as minus millions."""
+    return value if value >= 0 else -value * 1_000_000
+
+
+def sparse_statistics(A: PETSc.Mat, schur: int = 0) -> SparseStatistics:
+    """MUMPS's symbolic analysis of ``A`` (no numeric factorisation; collective).
+
+    For an SPD matrix MUMPS does not pivot, so the analysis gives the flops and factor size
+    of the factorisation exactly. ``schur`` trailing rows form a Schur block, as in
+    :class:`SparseCholesky`.
+    """
+    lib = _libpetsc()
+    integer = ctypes.c_int64 if np.dtype(PETSc.IntType).itemsize == 8 else ctypes.c_int32
+    F = ctypes.c_void_p()
+    A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
+    A.setOption(PETSc.Mat.Option.SPD, True)
+    _check(lib.MatGetFactor(_ptr(A), b"mumps", 2, ctypes.byref(F)))  # 2: MAT_FACTOR_CHOLESKY
+    try:
+        schur_is = None
+        if schur:
+            n = A.getSize()[0]
+            schur_is = PETSc.IS().createStride(schur, n - schur, 1, comm=A.comm)
+            _check(lib.MatFactorSetSchurIS(F, _ptr(schur_is)))
+        _check(lib.MatCholeskyFactorSymbolic(F, _ptr(A), None, None))
+        infog, rinfog = integer(), ctypes.c_double()
+        _check(lib.MatMumpsGetInfog(F, integer(20), ctypes.byref(infog)))
+        _check(lib.MatMumpsGetRinfog(F, integer(1), ctypes.byref(rinfog)))
+    finally:
+        _check(lib.MatDestroy(ctypes.byref(F)))
+        if schur:
+            schur_is.destroy()
+    return SparseStatistics(
+        A.getSize()[0] - schur,
+        int(A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"]),
+        float(rinfog.value),
+        float(_mumps_count(infog.value)),
+        schur,
+    )
+
+
 def _ptr(obj) -> ctypes.c_void_p:
     return ctypes.c_void_p(obj.handle)
 
 
 def _check(error: int) -> None:
     if error:
-        raise RuntimeError(f"PETSc error {error} in MUMPS's Schur complement")
+        raise RuntimeError(f"PETSc error {error} in a direct call (MUMPS Schur or analysis)")
 
 
 def _schur_complement(factor: PETSc.Mat, m: int) -> np.ndarray:

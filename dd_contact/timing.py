@@ -1,0 +1,529 @@
+"""Predicted wall time of the solvers as they really run, and ``algorithm="auto"``.
+
+:mod:`dd_contact.cost` counts flops with the paper's banded kernels (method.md section 6).
+This module predicts *seconds* for what the solvers here actually do:
+
+* **The work.** MUMPS's symbolic analysis of every sparse matrix an algorithm factorises
+  (flops and factor entries; exact for SPD matrices, which MUMPS does not pivot), and the
+  dense LAPACK operations on the surface groups of the order, planned exactly as the
+  engine plans them (:func:`dd_contact.solvers.engine.plan_groups`). A :class:`Plan` lists
+  the operations of the set-up, of one time step without a contact change, and of one more
+  contact iteration after a change on each contact region.
+* **The machine.** :class:`MachineRates`: measured seconds for each kind of operation at a
+  few sizes (:func:`calibrate`, on cube meshes and random dense matrices, not on the
+  benchmark scenes), cached per machine (:func:`machine_rates`). The rate of an operation is
+  interpolated in log-log between the measured sizes, flat beyond them.
+
+Predicted run time = set-up + steps x step + changes x (mean change over the regions).
+:func:`choose` picks the algorithm with the least predicted time.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import statistics
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+from mpi4py import MPI
+
+import numpy as np
+import scipy.linalg as sla
+
+from dd_contact.solvers.engine import ORDERS, plan_groups
+from dd_contact.solvers.linalg import SparseStatistics, WorkRecord
+
+__all__ = [
+    "RATE_KINDS",
+    "Choice",
+    "MachineRates",
+    "Plan",
+    "Prediction",
+    "SceneStructure",
+    "calibrate",
+    "choose",
+    "machine_rates",
+    "plan",
+    "record_seconds",
+]
+
+#: What each measured rate is counted in.
+RATE_KINDS = {
+    "sparse_factor": "flops of a MUMPS numeric Cholesky factorisation",
+    "sparse_analysis": "matrix entries through MUMPS's symbolic analysis",
+    "sparse_solve": "factor entries read by one forward and backward substitution",
+    "sparse_solve_block": "factor entries x right-hand sides of a multi-RHS substitution",
+    "dense_factor": "flops of a LAPACK Cholesky factorisation (n^3/3)",
+    "dense_solve": "flops of one LAPACK substitution pair (2 n^2)",
+    "dense_solve_block": "flops of triangular solves with many columns (n^2 per column)",
+}
+
+_FORMAT = 1  # version of the cached file's layout
+
+
+# -- the machine ----------------------------------------------------------------------------
+@dataclass
+class MachineRates:
+    """Measured seconds per operation kind at a few sizes.
+
+    Attributes:
+        points: Per kind of :data:`RATE_KINDS`, ``[work, seconds]`` pairs, work ascending.
+        machine: Where and how they were measured (host, CPU, BLAS threads, date).
+    """
+
+    points: dict[str, list[list[float]]]
+    machine: dict[str, Any] = field(default_factory=dict)
+
+    def seconds(self, kind: str, work: float) -> float:
+        """Predicted seconds of ``work`` units of ``kind`` (rate interpolated in log-log)."""
+        if work <= 0:
+            return 0.0
+        pts = np.asarray(self.points[kind], dtype=float)
+        w, t = pts[:, 0], pts[:, 1]
+        rate = np.exp(np.interp(np.log(work), np.log(w), np.log(w / t)))
+        return float(work / rate)
+
+    def rate(self, kind: str, work: float) -> float:
+        """Work units per second at ``work`` units."""
+        return work / self.seconds(kind, work)
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-ready dict (see :meth:`from_dict`)."""
+        return {"format": _FORMAT, **asdict(self)}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> MachineRates:
+        """Rates from :meth:`to_dict`'s output; ValueError if it is not such a record."""
+        missing = set(RATE_KINDS) - set(data.get("points", {}))
+        if data.get("format") != _FORMAT or missing:
+            raise ValueError(f"not a machine-rates record of format {_FORMAT} (missing {missing})")
+        return cls(
+            {k: [list(map(float, p)) for p in v] for k, v in data["points"].items()},
+            dict(data.get("machine", {})),
+        )
+
+
+def machine_fingerprint() -> dict[str, Any]:
+    """What the rates depend on: the host, its CPU, and the BLAS/OpenMP thread settings."""
+    cpu = platform.processor() or ""
+    try:
+        with open("/proc/cpuinfo") as info:
+            cpu = next(
+                (ln.split(":", 1)[1].strip() for ln in info if ln.startswith("model name")), cpu
+            )
+    except OSError:
+        pass
+    threads = {k: os.environ.get(k, "") for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
+    return {"host": platform.node(), "cpu": cpu, "cores": os.cpu_count(), **threads}
+
+
+def _cache_file() -> Path:
+    root = os.environ.get("DD_CONTACT_CACHE") or Path.home() / ".cache" / "dd_contact"
+    return Path(root) / "machine_rates.json"
+
+
+def machine_rates(
+    path: str | os.PathLike[str] | None = None, recalibrate: bool = False, quick: bool = False
+) -> MachineRates:
+    """This machine's rates: from the cache, or measured now (:func:`calibrate`) and cached.
+
+    The cache (``$DD_CONTACT_CACHE`` or ``~/.cache/dd_contact``, file ``machine_rates.json``)
+    keeps one record per machine fingerprint (host, CPU, thread settings). Collective under
+    MPI: rank 0 reads or measures, every rank gets the result.
+    """
+    comm = MPI.COMM_WORLD
+    rates = None
+    if comm.rank == 0:
+        file = Path(path) if path is not None else _cache_file()
+        key = json.dumps(machine_fingerprint(), sort_keys=True) + (" quick" if quick else "")
+        cached = json.loads(file.read_text()) if file.exists() else {}
+        if key in cached and not recalibrate:
+            try:
+                rates = MachineRates.from_dict(cached[key])
+            except ValueError:
+                rates = None
+        if rates is None:
+            rates = calibrate(quick=quick)
+            cached[key] = rates.to_dict()
+            file.parent.mkdir(parents=True, exist_ok=True)
+            file.write_text(json.dumps(cached, indent=1))
+    return comm.bcast(rates, root=0)
+
+
+def _timed(action, repeats: int = 1) -> float:
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        action()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times)
+
+
+def _elasticity_matrix(n: tuple[int, int, int]):
+    """Stiffness plus a little mass of a hexahedral cube mesh (an SPD elasticity matrix)."""
+    import dolfinx
+    import dolfinx.fem.petsc
+    import ufl
+
+    mesh = dolfinx.mesh.create_box(
+        MPI.COMM_SELF,
+        [[0.0, 0.0, 0.0], list(map(float, n))],
+        list(n),
+        dolfinx.mesh.CellType.hexahedron,
+    )
+    V = dolfinx.fem.functionspace(mesh, ("Lagrange", 1, (3,)))
+    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
+    eps = lambda w: ufl.sym(ufl.grad(w))  # noqa: E731
+    a = (
+        2.0 * ufl.inner(eps(u), eps(v)) + ufl.div(u) * ufl.div(v) + 1e-2 * ufl.inner(u, v)
+    ) * ufl.dx
+    A = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(a))
+    A.assemble()
+    return A
+
+
+def calibrate(quick: bool = False) -> MachineRates:
+    """Measure this machine's rates (about 30 s; ``quick``: about 3 s, small sizes only).
+
+    Sparse: MUMPS on elasticity matrices of cube meshes (analysis, factorisation,
+    substitutions with one and with 128 right-hand sides). Dense: LAPACK potrf, potrs and
+    triangular solves on random SPD matrices. Run with the thread settings of the real runs.
+    """
+    from dd_contact.solvers.linalg import SparseCholesky, WorkLog
+
+    points: dict[str, list[list[float]]] = {k: [] for k in RATE_KINDS}
+    cubes = (
+        [(6, 6, 6), (10, 10, 10)]
+        if quick
+        else [(6, 6, 6), (10, 10, 10), (16, 16, 16), (22, 22, 22), (28, 28, 28)]
+    )
+    for n in cubes:
+        A = _elasticity_matrix(n)
+        log = WorkLog()
+        factor = SparseCholesky(A, log, "calibration")
+        first = log.records[-1]
+        A.scale(1.0 + 1e-9)  # new values: the next set-up re-factorises numerically
+        factor.refactorise()
+        numeric = log.records[-1]
+        points["sparse_factor"].append([numeric.flops, numeric.seconds])
+        points["sparse_analysis"].append([first.nnz, max(first.seconds - numeric.seconds, 1e-6)])
+        b = A.createVecRight()
+        b.set(1.0)
+        seconds = _timed(lambda: factor.solve(b), 5)
+        points["sparse_solve"].append([factor.entries, seconds])
+        B = np.ones((A.getSize()[0], 128))
+        seconds = _timed(lambda: factor.solve_many(B))
+        points["sparse_solve_block"].append([factor.entries * 128, seconds])
+        factor.destroy(), b.destroy(), A.destroy()
+    rng = np.random.default_rng(0)
+    for n in [50, 200, 800] if quick else [50, 200, 600, 1500, 3000]:
+        X = rng.standard_normal((n, n))
+        S = X @ X.T + n * np.eye(n)
+        L = sla.cho_factor(S.copy(), lower=True, check_finite=False)
+        seconds = _timed(lambda: sla.cho_factor(S.copy(), lower=True, check_finite=False), 3)
+        seconds -= _timed(lambda: S.copy(), 3)
+        points["dense_factor"].append([n**3 / 3.0, max(seconds, 1e-7)])
+        v = rng.standard_normal(n)
+        seconds = _timed(lambda: sla.cho_solve(L, v, check_finite=False), 7)
+        points["dense_solve"].append([2.0 * n * n, seconds])
+        m = min(n, 256)
+        Bd = rng.standard_normal((n, m))
+        seconds = _timed(lambda: sla.solve_triangular(L[0], Bd, lower=True, check_finite=False), 3)
+        points["dense_solve_block"].append([float(n * n * m), seconds])
+    for kind in points:
+        points[kind].sort()
+    machine = {**machine_fingerprint(), "date": time.strftime("%Y-%m-%d %H:%M"), "quick": quick}
+    return MachineRates(points, machine)
+
+
+def record_seconds(record: WorkRecord, rates: MachineRates) -> float:
+    """Predicted seconds of one factorisation or solve, from its size and work counts."""
+    kind, n = record.kind, record.size
+    if kind == "sparse_factor":
+        return rates.seconds("sparse_factor", record.flops or 0.0) + rates.seconds(
+            "sparse_analysis", record.nnz
+        )
+    if kind == "sparse_solve":
+        if record.nrhs == 1:
+            return rates.seconds("sparse_solve", record.entries or 0.0)
+        return rates.seconds("sparse_solve_block", (record.entries or 0.0) * record.nrhs)
+    if kind == "schur":  # a copy of the m x m complement: memory traffic like a substitution
+        return rates.seconds("dense_solve", 2.0 * n * n)
+    if kind == "dense_factor":
+        return rates.seconds("dense_factor", n**3 / 3.0)
+    if kind == "dense_solve":
+        if record.nrhs == 1:
+            return rates.seconds("dense_solve", 2.0 * n * n)
+        return rates.seconds("dense_solve_block", record.flops or float(n * n * record.nrhs))
+    raise ValueError(f"unknown work kind {kind!r}")
+
+
+# -- the work -------------------------------------------------------------------------------
+def _kind(block: str) -> str:
+    return block.split(":", 1)[0]
+
+
+@dataclass
+class SceneStructure:
+    """What the plans need to know about a scene's (constrained) block system.
+
+    Attributes:
+        sizes: Size of every block.
+        regions: Contact region -> the block it acts on.
+        subdomains: Per subdomain, MUMPS's analysis of the matrix the orders factorise.
+        layouts: Per subdomain, ``(surface block, tied dofs)`` of each of its couplings.
+        base_pairs: Surface block pairs with a matrix of their own.
+        full: MUMPS's analysis of FULL's matrix (``None``: FULL not considered).
+        condensation: How the orders condense a subdomain (``"schur"`` or ``"multi-rhs"``).
+    """
+
+    sizes: dict[str, int]
+    regions: dict[str, str]
+    subdomains: dict[str, SparseStatistics]
+    layouts: dict[str, list]
+    base_pairs: set
+    full: SparseStatistics | None
+    condensation: str = "schur"
+
+
+def scene_structure(
+    comm: MPI.Comm,
+    system,
+    contacts: dict,
+    condensation: str = "schur",
+    full: bool = True,
+    orders: bool = True,
+) -> SceneStructure:
+    """Collective: analyse the matrices each algorithm would factorise (no factorisation).
+
+    Args:
+        comm: Communicator of the problem.
+        system: This rank's pieces of the constrained block system.
+        contacts: This rank's contact regions ``key -> (block, dofs, pattern)``.
+        condensation: As for :class:`dd_contact.solvers.engine.BlockEliminationSolver`.
+        full: Analyse FULL's matrix.
+        orders: Analyse the subdomain matrices of the decomposition orders.
+    """
+    from dd_contact.solvers.engine import subdomain_statistics
+    from dd_contact.solvers.full import monolithic_statistics
+
+    subdomains: dict[str, SparseStatistics] = {}
+    layouts: dict[str, list] = {}
+    if orders:
+        for block, (stats, layout) in subdomain_statistics(
+            comm, system, contacts, condensation
+        ).items():
+            subdomains[block], layouts[block] = stats, layout
+    pairs = {(r, c) for r, c in system.matrices if _kind(r) != "u" != _kind(c)}
+    pairs = {p for part in comm.allgather(pairs) for p in part}
+    regions = {key: block for key, (block, _, _) in contacts.items()}
+    regions = {k: b for part in comm.allgather(regions) for k, b in part.items()}
+    return SceneStructure(
+        dict(system.sizes),
+        regions,
+        subdomains,
+        layouts,
+        pairs | {(c, r) for r, c in pairs},
+        monolithic_statistics(comm, system, contacts) if full else None,
+        condensation,
+    )
+
+
+@dataclass
+class Plan:
+    """The factorisations and solves of one algorithm (records with zero seconds).
+
+    Attributes:
+        algorithm: FULL or an order.
+        setup: Before the first solution: factorisations and condensations.
+        step: One time step (one solution) without a contact state change.
+        changes: Per contact region, one more contact iteration after a change there.
+    """
+
+    algorithm: str
+    setup: list[WorkRecord]
+    step: list[WorkRecord]
+    changes: dict[str, list[WorkRecord]]
+
+    def seconds(self, part: list[WorkRecord], rates: MachineRates) -> float:
+        """Predicted seconds of a list of operations (e.g. :attr:`setup`)."""
+        return sum(record_seconds(r, rates) for r in part)
+
+    def change_seconds(self, rates: MachineRates) -> float:
+        """Mean over the contact regions of a change's cost (0 without contact regions)."""
+        costs = [self.seconds(ops, rates) for ops in self.changes.values()]
+        return statistics.fmean(costs) if costs else 0.0
+
+
+def _sparse_factor(block: str, st: SparseStatistics, analysed: bool) -> WorkRecord:
+    what = f"with a Schur complement of {st.schur}" if st.schur else ""
+    nnz = st.nnz if analysed else 0
+    return WorkRecord(block, "sparse_factor", st.size, 0, 0.0, st.flops, what, st.entries, nnz)
+
+
+def _sparse_solve(block: str, st: SparseStatistics, what: str, nrhs: int = 1) -> WorkRecord:
+    n = st.size + st.schur
+    return WorkRecord(
+        block, "sparse_solve", n, nrhs, 0.0, 4.0 * st.entries * nrhs, what, st.entries
+    )
+
+
+def _dense_solve(name: str, n: int, what: str, nrhs: int = 1, flops: float | None = None):
+    flops = 2.0 * n * n * nrhs if flops is None else flops
+    return WorkRecord(name, "dense_solve", n, nrhs, 0.0, flops, what)
+
+
+def _full_plan(s: SceneStructure) -> Plan:
+    st = s.full
+    solve = _sparse_solve("FULL", st, "")
+    changes = {key: [_sparse_factor("FULL", st, False), solve] for key in s.regions}
+    return Plan("FULL", [_sparse_factor("FULL", st, True)], [solve], changes)
+
+
+def _order_plan(s: SceneStructure, order: str) -> Plan:
+    levels = ORDERS[order]
+    surface = {b: n for b, n in s.sizes.items() if _kind(b) != "u"}
+    where, _, groups = plan_groups(surface, s.base_pairs, s.layouts, levels)
+    flat = [g for level in groups for g in level]
+    size = {g.name: sum(surface[b] for b in g.blocks) for g in flat}
+
+    def columns(g) -> int:
+        """Coupling columns of a group to its later neighbours (what its congruence solves)."""
+        total = 0
+        for r in g.neighbours:
+            if any((a, r) in s.base_pairs for a in g.blocks):
+                total += surface[r]
+                continue
+            tied = [w[r][1] for w in where.values() if r in w and any(a in w for a in g.blocks)]
+            total += len(np.unique(np.concatenate(tied))) if tied else 0
+        return total
+
+    def factorise_subdomain(block: str, analysed: bool) -> list[WorkRecord]:
+        st = s.subdomains[block]
+        ops = [_sparse_factor(block, st, analysed)]
+        m = sum(len(J) for _, J in s.layouts[block])
+        if st.schur:
+            ops.append(WorkRecord(block, "schur", st.schur, 0, 0.0))
+        else:
+            for j0 in range(0, m, 256):  # the engine's multi-RHS chunks
+                ops.append(_sparse_solve(block, st, "condense", min(256, m - j0)))
+        return ops
+
+    def factorise_group(g) -> list[WorkRecord]:
+        n = size[g.name]
+        ops = [WorkRecord(g.name, "dense_factor", n, 0, 0.0, n**3 / 3.0)]
+        if not g.last and g.neighbours and (m := columns(g)):
+            ops.append(_dense_solve(g.name, n, "condense", m, float(n * n * m)))
+        return ops
+
+    def solve_group(g) -> WorkRecord:
+        return _dense_solve(g.name, size[g.name], "x" if g.last else "y")
+
+    back = [_dense_solve(g.name, size[g.name], "x") for g in flat if not g.last]
+    setup = [op for b in s.subdomains for op in factorise_subdomain(b, True)]
+    setup += [op for g in flat for op in factorise_group(g)]
+    step = [_sparse_solve(b, st, "u_hat") for b, st in s.subdomains.items()]
+    step += [solve_group(g) for g in flat] + back
+    step += [_sparse_solve(b, st, "u") for b, st in s.subdomains.items()]
+    needs_all_surface = any(_kind(b) != levels[-1] for b in s.regions.values())
+    needed_u = sorted({b for b in s.regions.values() if _kind(b) == "u"})
+    changes = {}
+    for key, block in s.regions.items():
+        ops: list[WorkRecord] = []
+        if _kind(block) == "u":  # contact on the subdomain's own boundary: K changes
+            ops += factorise_subdomain(block, False)
+            ops.append(_sparse_solve(block, s.subdomains[block], "u_hat"))
+            changed = {g.name for g in flat if set(g.blocks) & set(where[block])}
+        else:
+            changed = {g.name for g in flat if block in g.blocks}
+        for g in flat:  # what an eliminated group changes: the groups it is coupled to
+            if g.name not in changed and any(
+                set(h.neighbours) & set(g.blocks) for h in flat if h.name in changed
+            ):
+                changed.add(g.name)
+        ops += [op for g in flat if g.name in changed for op in factorise_group(g)]
+        ops += [solve_group(g) for g in flat if g.last or g.name in changed]
+        if needs_all_surface:
+            ops += back
+        ops += [_sparse_solve(b, s.subdomains[b], "u") for b in needed_u]
+        changes[key] = ops
+    return Plan(order, setup, step, changes)
+
+
+def plan(structure: SceneStructure, algorithm: str) -> Plan:
+    """What ``algorithm`` factorises and solves for this scene."""
+    if algorithm == "FULL":
+        if structure.full is None:
+            raise ValueError("FULL's matrix was not analysed (scene_structure(full=True))")
+        return _full_plan(structure)
+    if algorithm not in ORDERS:
+        raise ValueError(f"unknown algorithm {algorithm!r}; valid: FULL, {', '.join(ORDERS)}")
+    return _order_plan(structure, algorithm)
+
+
+# -- predictions and the choice ------------------------------------------------------------
+@dataclass(frozen=True)
+class Prediction:
+    """Predicted seconds of one algorithm's linear algebra (serial; one process)."""
+
+    algorithm: str
+    setup: float
+    step: float
+    change: float
+    steps: float
+    changes: float
+
+    @property
+    def total(self) -> float:
+        """Set-up, plus every step, plus every contact state change."""
+        return self.setup + self.steps * self.step + self.changes * self.change
+
+
+def predict(plan: Plan, rates: MachineRates, steps: float, changes: float) -> Prediction:
+    """Predicted time of a run of ``steps`` time steps with ``changes`` contact state changes."""
+    return Prediction(
+        plan.algorithm,
+        plan.seconds(plan.setup, rates),
+        plan.seconds(plan.step, rates),
+        plan.change_seconds(rates),
+        steps,
+        changes,
+    )
+
+
+@dataclass
+class Choice:
+    """The outcome of ``algorithm="auto"``: the prediction of every candidate."""
+
+    algorithm: str
+    predictions: dict[str, Prediction]
+
+    def table(self) -> str:
+        """The candidates' predicted times, cheapest first."""
+        rows = [
+            f"{'algorithm':<8} {'set-up s':>10} {'step s':>10} {'change s':>10} {'total s':>11}"
+        ]
+        for p in sorted(self.predictions.values(), key=lambda p: p.total):
+            mark = "  <- chosen" if p.algorithm == self.algorithm else ""
+            rows.append(
+                f"{p.algorithm:<8} {p.setup:>10.4g} {p.step:>10.4g} {p.change:>10.4g} "
+                f"{p.total:>11.5g}{mark}"
+            )
+        return "\n".join(rows)
+
+
+def choose(
+    structure: SceneStructure,
+    rates: MachineRates,
+    candidates: tuple[str, ...],
+    steps: float,
+    changes: float,
+) -> Choice:
+    """The candidate with the least predicted time for ``steps`` steps and ``changes`` changes."""
+    predictions = {a: predict(plan(structure, a), rates, steps, changes) for a in candidates}
+    best = min(candidates, key=lambda a: (predictions[a].total, candidates.index(a)))
+    return Choice(best, predictions)
