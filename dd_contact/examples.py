@@ -1,4 +1,5 @@
-"""The paper's examples as scenes, at any size: the rectangular parallelepiped (method.md 7.1).
+"""Scenes for benchmarks, demos and tests: the paper's parallelepiped (method.md 7.1) at any
+size, and a row of blocks with many contact interfaces.
 
 Benchmarks and demos build their models here, so that every algorithm runs the same problem.
 """
@@ -22,7 +23,7 @@ from dd_contact.scene import (
     Subdomain,
 )
 
-__all__ = ["PARALLELEPIPED_LAYOUTS", "parallelepiped"]
+__all__ = ["PARALLELEPIPED_LAYOUTS", "parallelepiped", "row_of_blocks"]
 
 #: How the bar is modelled for each algorithm: split in two or one mesh, contact on a
 #: contact interface (w) or on the subdomain's own boundary.
@@ -113,3 +114,65 @@ def parallelepiped(
     else:
         zone = ContactBoundary(parts[0], end, wall, contact_kappa=contact_kappa, name="end")
     return Scene(comm, parts, interface, contacts=[zone])
+
+
+def row_of_blocks(
+    n_blocks: int = 5,
+    elements: tuple[int, int, int] = (12, 3, 3),
+    block: tuple[float, float, float] = (4.0, 1.0, 1.0),
+    gap: float = 1e-3,
+    speed: float = 1.0,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> Scene:
+    """Blocks in a row along x, glued end to end, each flying up against a rigid ceiling.
+
+    Many contact interfaces, each on its own subdomain: the top face of every block is a
+    contact interface (``top0``, ``top1``, ...) against the plane ``z = height + gap``. The
+    blocks are tied through one interface mesh made of the end faces between neighbours
+    (``n_blocks - 1`` separate rectangles). The top faces are long and the end faces small,
+    so the contact interfaces together are much larger than the interface.
+
+    Args:
+        n_blocks: Number of blocks (subdomains).
+        elements: Hexahedra of each block along x, y, z.
+        block: Edges of each block.
+        gap: Distance between the blocks' tops and the ceiling at the start.
+        speed: Initial upward speed.
+        comm: Communicator.
+    """
+    if n_blocks < 2:
+        raise ValueError(f"a row needs at least 2 blocks, got {n_blocks}")
+    (nx, ny, nz), (a, b, c) = elements, block
+    material = Material(1000.0, 0.3, 1.0)
+    parts = [
+        Subdomain(
+            meshes.box(MPI.COMM_SELF, [k * a, 0, 0], [(k + 1) * a, b, c], [nx, ny, nz]),
+            material,
+            f"B{k}",
+        )
+        for k in range(n_blocks)
+    ]
+    for part in parts:
+        part.velocity.interpolate(lambda x: np.vstack([0 * x[0], 0 * x[0], speed + 0 * x[0]]))
+    points, cells = [], []
+    for k in range(1, n_blocks):
+        p, q = meshes._rectangle_grid(
+            np.array([k * a, 0.0, 0.0]),
+            np.array([0.0, b, 0]),
+            np.array([0, 0, c]),
+            ny,
+            nz,
+            "quadrilateral",
+        )
+        cells.append(q + sum(len(x) for x in points))
+        points.append(p)
+    ends = meshes.surface_mesh(MPI.COMM_SELF, np.vstack(points), np.vstack(cells), "quadrilateral")
+    interface = Interface(ends, parts, name="ends")
+    ceiling = Plane([0.0, 0.0, c + gap], [0.0, 0.0, -1.0])
+    contacts = [
+        ContactInterface.from_boundary(
+            part, lambda x: np.isclose(x[2], c), ceiling, resolution=(nx, ny), name=f"top{k}"
+        )
+        for k, part in enumerate(parts)
+    ]
+    return Scene(comm, parts, interface, contacts=contacts)

@@ -17,7 +17,7 @@ from mpi4py import MPI
 import dolfinx.fem as fem
 import numpy as np
 
-from dd_contact import forms
+from dd_contact import forms, timing
 from dd_contact.assembly import BlockSystem, Model, assemble
 from dd_contact.contact import ContactIteration, ContactSettings
 from dd_contact.io import Checkpoint, ResultWriter
@@ -29,7 +29,8 @@ from dd_contact.timestepping import Newmark
 
 __all__ = ["ALGORITHMS", "StaticProblem", "TransientProblem"]
 
-#: Elimination orders (method.md section 5): FULL and the decomposition orders.
+#: Elimination orders (method.md section 5): FULL and the decomposition orders. Problems also
+#: take ``"auto"``: the one with the least predicted time (:mod:`dd_contact.timing`).
 ALGORITHMS = ("FULL", *ORDERS)
 
 
@@ -61,11 +62,13 @@ class _Analysis:
         mass_coefficient: float,
         contact: ContactSettings | None,
         condensation: str,
+        expected: tuple[float, float],
+        rates: timing.MachineRates | None,
     ):
         has_interface = scene.interface is not None
         has_w = any(not isinstance(c, ContactBoundary) for c in scene.contacts)
         valid = valid_orders(has_interface, has_w)
-        if algorithm not in valid:
+        if algorithm != "auto" and algorithm not in valid:
             what = "unknown algorithm" if algorithm not in ALGORITHMS else "algorithm"
             parts = ["an interface" if has_interface else "no interface"]
             parts.append("contact interfaces" if has_w else "no contact interfaces")
@@ -73,7 +76,13 @@ class _Analysis:
                 f"{what} {algorithm!r} does not fit this scene ({' and '.join(parts)}); valid "
                 f"for it: {', '.join(valid)} (v needs an interface, w contact interfaces)"
             )
-        self.scene, self.comm, self.algorithm = scene, scene.comm, algorithm
+        steps, changes = expected
+        if algorithm == "auto" and not (steps >= 1 and 0 <= changes < np.inf):
+            raise InputError(
+                f"algorithm='auto': expected steps must be >= 1 and expected changes >= 0 and "
+                f"finite; got {steps} steps and {changes} changes"
+            )
+        self.scene, self.comm = scene, scene.comm
         self.work = WorkLog()
         self.model: Model = collective(self.comm, lambda: assemble(scene))
         system = self.model.effective(mass_coefficient)
@@ -81,7 +90,17 @@ class _Analysis:
         self.zones = self.model.zones
         self.settings = contact or ContactSettings()
         collective(self.comm, self._check_contact_geometry)
-        contacts = {z.contact.name: (z.block, z.dofs, z.operator.pattern()) for z in self.zones}
+        contacts = self._contact_patterns()
+        #: The prediction behind ``algorithm="auto"`` (``None`` for a named algorithm).
+        self.choice: timing.Choice | None = None
+        if algorithm == "auto":
+            structure = timing.scene_structure(
+                self.comm, system, contacts, condensation, orders=len(valid) > 1
+            )
+            rates = rates if rates is not None else timing.machine_rates()
+            self.choice = timing.choose(structure, rates, valid, steps, changes)
+            algorithm = self.choice.algorithm
+        self.algorithm, self.condensation = algorithm, condensation
         if algorithm == "FULL":
             self.solver = MonolithicSolver(self.comm, system, contacts, self.work)
         else:
@@ -98,6 +117,10 @@ class _Analysis:
         self._constant_loads: dict[str, np.ndarray] = {}
 
     # -- pieces ----------------------------------------------------------------------------
+    def _contact_patterns(self) -> dict:
+        """Contact region -> (block, dofs, sparsity pattern): what the solvers reserve."""
+        return {z.contact.name: (z.block, z.dofs, z.operator.pattern()) for z in self.zones}
+
     def _check_contact_geometry(self, t: float = 0.0) -> None:
         """Refuse an obstacle that overlaps the body or whose normal points into it."""
         for z in self.zones:
@@ -205,6 +228,23 @@ class _Analysis:
         """Absolute penalty eps of every tie and contact, from all ranks (collective)."""
         return gathered(self.comm, self.model.system.penalties)
 
+    def predict(
+        self, steps: float, changes: float, rates: timing.MachineRates | None = None
+    ) -> timing.Prediction:
+        """Predicted linear-algebra time of this problem's algorithm (collective).
+
+        From MUMPS's analysis of the matrices it factorises and this machine's rates
+        (:mod:`dd_contact.timing`): set-up, one step, one contact change, and the total for
+        ``steps`` steps with ``changes`` contact state changes.
+        """
+        contacts = self._contact_patterns()
+        full = self.algorithm == "FULL"
+        structure = timing.scene_structure(
+            self.comm, self.solver.system, contacts, self.condensation, full=full, orders=not full
+        )
+        rates = rates if rates is not None else timing.machine_rates()
+        return timing.predict(timing.plan(structure, self.algorithm), rates, steps, changes)
+
     def work_summary(self) -> dict[str, dict]:
         """Work per block so far, from all ranks (collective).
 
@@ -255,10 +295,15 @@ class StaticProblem(_Analysis):
 
     Args:
         scene: What is modelled.
-        algorithm: Elimination order; ``"FULL"`` solves the block system as one matrix.
+        algorithm: Elimination order; ``"FULL"`` solves the block system as one matrix;
+            ``"auto"`` picks the one with the least predicted time (see :attr:`choice`).
         contact: Contact iteration settings.
         condensation: How the decomposition orders condense a subdomain: ``"schur"``
             (MUMPS's Schur complement, the default) or ``"multi-rhs"``.
+        expected_changes: For ``"auto"``: contact state changes expected per solve
+            (default 3: a contact iteration typically settles in a few changes).
+        rates: For ``"auto"``: machine rates (default: this machine's, measured once
+            and cached; see :func:`dd_contact.timing.machine_rates`).
 
     Example:
         >>> problem = StaticProblem(scene)
@@ -271,9 +316,11 @@ class StaticProblem(_Analysis):
         algorithm: str = "FULL",
         contact: ContactSettings | None = None,
         condensation: str = "schur",
+        expected_changes: float = 3.0,
+        rates: timing.MachineRates | None = None,
     ):
         scene.check_static_supports()
-        super().__init__(scene, algorithm, 0.0, contact, condensation)
+        super().__init__(scene, algorithm, 0.0, contact, condensation, (1, expected_changes), rates)
         self.iterations = 0
 
     def solve(self, t: float = 0.0) -> list[fem.Function]:
@@ -303,6 +350,11 @@ class TransientProblem(_Analysis):
             ``"multi-rhs"``).
         track_energy: Record the energy in every step's history record (one matrix-vector
             product per block per step; switch it off when timing).
+        expected_steps: For ``algorithm="auto"``: the length of the run (default 1000).
+        expected_changes: For ``"auto"``: contact state changes expected over the run
+            (default: one per step, as when a contact area grows or shrinks all along).
+        rates: For ``"auto"``: machine rates (default: this machine's, measured once
+            and cached; see :func:`dd_contact.timing.machine_rates`).
     """
 
     def __init__(
@@ -315,6 +367,9 @@ class TransientProblem(_Analysis):
         t0: float = 0.0,
         condensation: str = "schur",
         track_energy: bool = True,
+        expected_steps: int = 1000,
+        expected_changes: float | None = None,
+        rates: timing.MachineRates | None = None,
     ):
         self.newmark = Newmark(dt)
         self.inertia = inertia
@@ -328,7 +383,16 @@ class TransientProblem(_Analysis):
         else:
             scene.check_static_supports()
         mass_coefficient = self.newmark.mass_coefficient if inertia else 0.0
-        super().__init__(scene, algorithm, mass_coefficient, contact, condensation)
+        changes = expected_steps if expected_changes is None else expected_changes
+        super().__init__(
+            scene,
+            algorithm,
+            mass_coefficient,
+            contact,
+            condensation,
+            (expected_steps, changes),
+            rates,
+        )
         self.track_energy = track_energy
         self.dt, self.t0 = dt, t0
         self.t, self.step = t0, 0
@@ -532,6 +596,8 @@ class TransientProblem(_Analysis):
         if summary:
             table = self.work_table()
             if self.comm.rank == 0:
+                if self.choice is not None:
+                    print(f"algorithm='auto' chose {self.algorithm}:\n{self.choice.table()}")
                 print(
                     f"{self.algorithm}: {self.step} steps, {self.iteration.gamma} contact "
                     f"state changes\n{table}"
