@@ -168,7 +168,8 @@ def main() -> None:
                 f"{r['median_ratio_total']:.3f} ({'ok' if r['within_tolerance'] else 'OUT'}); "
                 f"per change {r['median_measured_per_change'] or 0:.4g} / "
                 f"{r['median_predicted_per_change']:.4g} s, per step "
-                f"{r['median_measured_per_step_base']:.4g} / {r['median_predicted_per_step']:.4g} s",
+                f"{r['median_measured_per_step_base']:.4g} / "
+                f"{r['median_predicted_per_step']:.4g} s",
                 flush=True,
             )
     args.out.write_text(json.dumps(results, indent=1))

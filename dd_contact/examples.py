@@ -1,7 +1,8 @@
-"""Scenes for benchmarks, demos and tests: the paper's parallelepiped (method.md 7.1) at any
-size, and a row of blocks with many contact interfaces.
+"""Scenes for benchmarks, demos and tests.
 
-Benchmarks and demos build their models here, so that every algorithm runs the same problem.
+The paper's parallelepiped (method.md 7.1) at any size, and a row of blocks with many
+contact interfaces. Benchmarks and demos build their models here, so that every algorithm
+runs the same problem.
 """
 
 from __future__ import annotations

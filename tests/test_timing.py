@@ -1,0 +1,194 @@
+"""The timing model (dd_contact.timing) and algorithm="auto"."""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+import dd_contact as dd
+from dd_contact import timing, verify
+from dd_contact.examples import parallelepiped, row_of_blocks
+from dd_contact.solvers.linalg import SparseCholesky, WorkLog, WorkRecord, sparse_statistics
+
+
+@pytest.fixture(scope="module")
+def rates(tmp_path_factory) -> timing.MachineRates:
+    """This machine's rates from the quick calibration (cached in a temporary directory)."""
+    path = tmp_path_factory.mktemp("cache") / "machine_rates.json"
+    return timing.machine_rates(path, quick=True)
+
+
+def _flat(rate: float) -> list[list[float]]:
+    return [[1.0, 1.0 / rate], [1e12, 1e12 / rate]]
+
+
+def test_pricing_divides_the_work_by_the_rate_of_its_kind():
+    rates = timing.MachineRates(
+        {k: _flat(10.0 ** (i + 6)) for i, k in enumerate(timing.RATE_KINDS)}
+    )
+    r = rates.seconds
+    factor = WorkRecord("u", "sparse_factor", 100, 0, 0.0, 3e9, "", 5e6, 40_000)
+    assert timing.record_seconds(factor, rates) == pytest.approx(3e9 / 1e6 + 40_000 / 1e7)
+    assert timing.record_seconds(
+        WorkRecord("u", "sparse_solve", 100, 1, 0.0, None, "", 5e6), rates
+    ) == pytest.approx(r("sparse_solve", 5e6))
+    assert timing.record_seconds(
+        WorkRecord("u", "sparse_solve", 100, 64, 0.0, None, "", 5e6), rates
+    ) == pytest.approx(64 * 5e6 / 1e9)
+    assert timing.record_seconds(
+        WorkRecord("w", "dense_factor", 300, 0, 0.0), rates
+    ) == pytest.approx(300**3 / 3 / 1e10)
+    assert timing.record_seconds(
+        WorkRecord("w", "dense_solve", 300, 1, 0.0), rates
+    ) == pytest.approx(2 * 300**2 / 1e11)
+    assert timing.record_seconds(
+        WorkRecord("w", "dense_solve", 300, 7, 0.0, 300 * 300 * 7.0), rates
+    ) == pytest.approx(300 * 300 * 7 / 1e12)
+
+
+def test_rates_interpolate_between_the_measured_sizes_and_stay_flat_beyond():
+    rates = timing.MachineRates({"dense_factor": [[1e6, 1e-3], [1e8, 1e-2]]})
+    assert rates.seconds("dense_factor", 1e6) == pytest.approx(1e-3)  # measured points back
+    assert rates.seconds("dense_factor", 1e8) == pytest.approx(1e-2)
+    assert rates.rate("dense_factor", 1e7) == pytest.approx(np.sqrt(1e9 * 1e10))  # log-log
+    assert rates.rate("dense_factor", 1e12) == pytest.approx(1e10)
+    assert rates.rate("dense_factor", 10.0) == pytest.approx(1e9)
+    assert rates.seconds("dense_factor", 0.0) == 0.0
+
+
+def test_calibration_is_measured_once_and_cached(tmp_path, monkeypatch, rates):
+    path = tmp_path / "rates.json"
+    calls = []
+    monkeypatch.setattr(timing, "calibrate", lambda quick: calls.append(quick) or rates)
+    first = timing.machine_rates(path, quick=True)
+    second = timing.machine_rates(path, quick=True)
+    assert calls == [True]  # the second call read the cache
+    assert second.points == first.points == rates.points
+    assert json.loads(path.read_text())  # one record, keyed by the machine's fingerprint
+    timing.machine_rates(path, quick=True, recalibrate=True)
+    assert calls == [True, True]
+
+
+def test_quick_calibration_measures_every_kind(rates):
+    assert set(rates.points) == set(timing.RATE_KINDS)
+    for kind, points in rates.points.items():
+        assert len(points) >= 2, kind
+        assert all(work > 0 and seconds > 0 for work, seconds in points), kind
+    assert rates.machine["quick"] is True
+    # A MUMPS factorisation of a million flops is at least 1 Mflop/s and at most 1 Tflop/s.
+    assert 1e6 < rates.rate("sparse_factor", 1e9) < 1e12
+
+
+def test_analysis_predicts_the_factorisation_exactly():
+    scene = parallelepiped("w-u", (12, 4, 3), comm=MPI.COMM_SELF)
+    problem = dd.TransientProblem(scene, 1e-6, algorithm="w-u")
+    sub = next(iter(problem.solver.subdomains.values()))
+    sub.matrix.push()
+    stats = sparse_statistics(sub.matrix.A, sub.schur)
+    log = WorkLog()
+    factor = SparseCholesky(sub.matrix.A, log, "u", sub.schur)
+    record = log.records[0]
+    assert (stats.flops, stats.entries, stats.size) == (record.flops, record.entries, record.size)
+    assert stats.schur == sub.schur > 0 and record.nnz == stats.nnz > 0
+    factor.destroy()
+
+
+_SCENES = [
+    ("interface", "FULL"),
+    ("interface", "v-w-u"),
+    ("interface", "w-v-u"),
+    ("boundary", "FULL"),
+    ("boundary", "v-u"),
+    ("single", "w-u"),
+]
+
+
+@pytest.mark.parametrize("condensation", ["schur", "multi-rhs"])
+@pytest.mark.parametrize(("kind", "algorithm"), _SCENES)
+def test_the_plan_is_what_the_solver_does(kind, algorithm, condensation):
+    """Set-up + steps + one change plan per change: every factorisation and solve, exactly."""
+    n_steps = 25
+    problem = dd.TransientProblem(
+        verify.order_scene(kind, True, 1e4), 0.01, algorithm=algorithm, condensation=condensation
+    )
+    full = algorithm == "FULL"
+    structure = timing.scene_structure(
+        problem.comm,
+        problem.solver.system,
+        problem._contact_patterns(),
+        condensation,
+        full=full,
+        orders=not full,
+    )
+    plan = timing.plan(structure, algorithm)
+    problem.run(n_steps, progress=False, summary=False)
+    assert problem.changes["gamma"] >= 2 and problem.iteration.cycles_resolved == 0
+    planned = plan.setup + n_steps * plan.step
+    for region, alpha in problem.iteration.alpha.items():
+        planned += alpha * plan.changes[region]
+    done = Counter((r.block, r.kind, r.what, r.size, r.nrhs) for r in problem.work.records)
+    assert Counter((r.block, r.kind, r.what, r.size, r.nrhs) for r in planned) == done
+
+
+def test_prediction_adds_up_its_parts(rates):
+    problem = dd.TransientProblem(verify.order_scene("interface", True, 1e4), 0.01, "v-w-u")
+    p = problem.predict(100, 30, rates)
+    assert p.algorithm == "v-w-u" and p.setup > 0 and p.step > 0 and p.change > 0
+    assert p.total == pytest.approx(p.setup + 100 * p.step + 30 * p.change)
+
+
+# -- algorithm="auto" on scenes whose answer is known -------------------------------------
+def test_one_contact_interface_on_a_large_subdomain_chooses_w_v_u_or_w_u(rates):
+    """Each contact change re-factorises only the small w block (FULL: everything)."""
+    split = dd.TransientProblem(parallelepiped("v-w-u", (48, 10, 6)), 1e-6, "auto", rates=rates)
+    assert split.algorithm == "w-v-u", split.choice.table()
+    whole = dd.TransientProblem(parallelepiped("w-u", (48, 10, 6)), 1e-6, "auto", rates=rates)
+    assert whole.algorithm == "w-u", whole.choice.table()
+    assert set(whole.choice.predictions) == {"FULL", "w-u"}
+
+
+def test_many_active_contact_interfaces_choose_v_w_u(rates):
+    """w-v-u would re-factorise all contact interfaces together on every change."""
+    problem = dd.TransientProblem(row_of_blocks(5), 2e-4, algorithm="auto", rates=rates)
+    assert problem.algorithm == "v-w-u", problem.choice.table()
+    p = problem.choice.predictions
+    assert set(p) == {"FULL", "v-w-u", "w-v-u"}
+    assert p["w-v-u"].change > 3 * p["v-w-u"].change
+
+
+def test_without_contact_interfaces_auto_chooses_among_the_orders_without_w(rates):
+    scene = parallelepiped("v-u", (48, 10, 6))
+    changing = dd.TransientProblem(scene, 1e-6, algorithm="auto", rates=rates)
+    assert set(changing.choice.predictions) == {"FULL", "v-u"}
+    # v-u re-factorises the contact subdomain only, FULL the whole bar ...
+    assert changing.algorithm == "v-u", changing.choice.table()
+    # ... but without changes FULL's one substitution per step beats v-u's two per subdomain.
+    still = dd.TransientProblem(scene, 1e-6, "auto", expected_changes=0, rates=rates)
+    assert still.algorithm == "FULL", still.choice.table()
+
+
+def test_auto_solves_like_the_named_algorithm(rates):
+    auto = dd.StaticProblem(verify.order_scene("interface", False), "auto", rates=rates)
+    named = dd.StaticProblem(verify.order_scene("interface", False), auto.algorithm)
+    u_auto = np.concatenate([f.x.array for f in auto.solve()])
+    u_named = np.concatenate([f.x.array for f in named.solve()])
+    assert auto.choice.algorithm == auto.algorithm in auto.choice.table()
+    np.testing.assert_allclose(u_auto, u_named, rtol=0, atol=1e-12 * np.abs(u_named).max())
+
+
+@pytest.mark.parametrize(("steps", "changes"), [(0, 1), (10, -1), (10, float("nan"))])
+def test_auto_refuses_impossible_expectations(steps, changes, rates):
+    with pytest.raises(dd.InputError, match="expected steps must be >= 1"):
+        dd.TransientProblem(
+            verify.order_scene("single", True),
+            0.01,
+            "auto",
+            expected_steps=steps,
+            expected_changes=changes,
+            rates=rates,
+        )
