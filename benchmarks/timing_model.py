@@ -17,6 +17,12 @@ Compared, per run, then as the median over runs:
 The criterion is |predicted / measured - 1| <= 0.3 on the total, for every algorithm.
 Writes benchmarks/results/timing_model.json and timing_model.png.
 
+It also puts the measurements on the paper's step study (``dd-contact flops --sweep``) for
+the measured bar: the time of N_TS steps with gamma = 2 N_TS changes, composed of the
+measured medians (first iteration with the set-up, step without change, contact change),
+relative to FULL's, at N_TS = 1 ... 10,000. Written to benchmarks/results/sweep_<case>/
+(charts and JSON) and measured_points_<case>.json (the ``--measured`` file of the CLI).
+
 Run: python benchmarks/timing_model.py [--measured FILE ...] [--recalibrate]
 To measure anew: python benchmarks/decomposition_speed.py --elements 120 18 6 --steps 8
 --full-steps 4 --out benchmarks/results/timing_runs_120x18x6.json (and likewise 250 36 10).
@@ -103,6 +109,30 @@ def compare(runs: list[dict], plan, rates) -> dict:
     return out
 
 
+def measured_points(runs: dict[str, list[dict]]) -> dict:
+    """``{"bar_steps": {algorithm: [[N_TS, percent of FULL], ...]}}`` from measured medians."""
+    medians = {}
+    for algorithm, rs in runs.items():
+        ds = [derived(r) for r in rs]
+        changes = [d["seconds_per_change"] for d in ds if d["seconds_per_change"] is not None]
+        medians[algorithm] = (
+            statistics.median(r["steps"][0]["iterations"][0] for r in rs),
+            statistics.median(d["seconds_per_step_base"] for d in ds),
+            statistics.median(changes),
+        )
+
+    def seconds(algorithm: str, n_steps: int) -> float:
+        first, step, change = medians[algorithm]
+        return first + (n_steps - 1) * step + 2 * n_steps * change
+
+    steps = (1, 10, 100, 1000, 10000)
+    return {
+        "bar_steps": {
+            a: [[n, 100.0 * seconds(a, n) / seconds("FULL", n)] for n in steps] for a in medians
+        }
+    }
+
+
 def chart(results: dict, path: Path) -> None:
     """Predicted against measured (totals and parts), log-log, with the +-30% band."""
     import matplotlib
@@ -172,8 +202,23 @@ def main() -> None:
                 f"{r['median_predicted_per_step']:.4g} s",
                 flush=True,
             )
+        if "FULL" in data["runs"]:
+            sweep_on_measured_bar(data, case, args.out.parent)
     args.out.write_text(json.dumps(results, indent=1))
     chart(results, args.out.with_suffix(".png"))
+
+
+def sweep_on_measured_bar(data: dict, case: str, directory: Path) -> None:
+    """The paper's studies for the measured bar, with the measured points on the step study."""
+    from dd_contact import cost
+
+    points = measured_points(data["runs"])
+    (directory / f"measured_points_{case}.json").write_text(json.dumps(points, indent=1))
+    nx, ny, nz = data["elements"]
+    studies = cost.parallelepiped_studies(
+        elements=(nx, ny, nz), split=(1, 1), interface=(ny, nz), contact=(ny, nz)
+    )
+    cost.write_studies(studies, directory / f"sweep_{case}", points)
 
 
 if __name__ == "__main__":

@@ -154,9 +154,13 @@ def machine_rates(
     return comm.bcast(rates, root=0)
 
 
-def _timed(action, repeats: int = 1) -> float:
+def _timed(action, repeats: int = 1, cold: bool = False) -> float:
+    """Median seconds of ``action``; ``cold``: evict the caches before each call first."""
     times = []
+    flush = np.ones(16_000_000) if cold else None  # 128 MB: more than any CPU cache
     for _ in range(repeats):
+        if flush is not None:
+            flush += 1.0
         start = time.perf_counter()
         action()
         times.append(time.perf_counter() - start)
@@ -213,10 +217,11 @@ def calibrate(quick: bool = False) -> MachineRates:
         points["sparse_analysis"].append([first.nnz, max(first.seconds - numeric.seconds, 1e-6)])
         b = A.createVecRight()
         b.set(1.0)
-        seconds = _timed(lambda: factor.solve(b), 5)
+        # In a time step other work runs between two substitutions with the same factor.
+        seconds = _timed(lambda: factor.solve(b), 5, cold=True)
         points["sparse_solve"].append([factor.entries, seconds])
         B = np.ones((A.getSize()[0], 128))
-        seconds = _timed(lambda: factor.solve_many(B))
+        seconds = _timed(lambda: factor.solve_many(B), cold=True)
         points["sparse_solve_block"].append([factor.entries * 128, seconds])
         factor.destroy(), b.destroy(), A.destroy()
     rng = np.random.default_rng(0)
