@@ -5,6 +5,8 @@
   (``flops parallelepiped``), the multi-pin joint (``flops pin-joint``) or a scene file
   (``flops --scene FILE``); ``--json`` writes the Table-2 numbers, ``--sweep DIR`` draws the
   paper's parameter studies. See ``docs/cost.md``.
+* ``dd-contact calibrate``: measure this machine's rates for the timing model behind
+  ``algorithm="auto"`` (``dd_contact.timing``) and cache them; ``--show`` prints them.
 """
 
 from __future__ import annotations
@@ -315,6 +317,17 @@ def _add_flops(sub: Any) -> None:
     flops.set_defaults(run=_flops, model=None)
 
 
+def _calibrate(args: argparse.Namespace) -> int:
+    from dd_contact import timing
+
+    rates = timing.machine_rates(recalibrate=not args.show, quick=args.quick)
+    print(f"machine: {rates.machine}")
+    for kind, points in rates.points.items():
+        shown = ", ".join(f"{w / s:.3g}/s at {w:.3g}" for w, s in points)
+        print(f"{kind:<19} {shown}   ({timing.RATE_KINDS[kind]})")
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``dd-contact``."""
     parser = argparse.ArgumentParser(
@@ -326,6 +339,14 @@ def main(argv: list[str] | None = None) -> int:
     verify.add_argument("--json", help="write the records to this JSON file")
     verify.set_defaults(run=_verify)
     _add_flops(sub)
+    calibrate = sub.add_parser(
+        "calibrate", help="measure and cache this machine's rates for algorithm='auto'"
+    )
+    calibrate.add_argument("--quick", action="store_true", help="small sizes only (seconds)")
+    calibrate.add_argument(
+        "--show", action="store_true", help="print the cached rates (measure if none)"
+    )
+    calibrate.set_defaults(run=_calibrate)
     args = parser.parse_args(argv)
     return args.run(args)
 

@@ -155,7 +155,8 @@ def machine_rates(
 
 
 def _timed(action, repeats: int = 1, cold: bool = False) -> float:
-    """Median seconds of ``action``; ``cold``: evict the caches before each call first."""
+    """Median seconds of ``action`` after one warm-up call; ``cold``: evict the caches first."""
+    action()
     times = []
     flush = np.ones(16_000_000) if cold else None  # 128 MB: more than any CPU cache
     for _ in range(repeats):

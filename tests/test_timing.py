@@ -74,6 +74,19 @@ def test_calibration_is_measured_once_and_cached(tmp_path, monkeypatch, rates):
     assert calls == [True, True]
 
 
+def test_calibrate_command_measures_caches_and_shows(tmp_path, monkeypatch, capsys):
+    from dd_contact.cli import main
+
+    monkeypatch.setenv("DD_CONTACT_CACHE", str(tmp_path))
+    assert main(["calibrate", "--quick"]) == 0
+    shown = capsys.readouterr().out
+    assert all(kind in shown for kind in timing.RATE_KINDS)
+    cached = (tmp_path / "machine_rates.json").read_text()
+    assert main(["calibrate", "--quick", "--show"]) == 0  # reads the cache: file unchanged
+    assert (tmp_path / "machine_rates.json").read_text() == cached
+    assert capsys.readouterr().out == shown
+
+
 def test_quick_calibration_measures_every_kind(rates):
     assert set(rates.points) == set(timing.RATE_KINDS)
     for kind, points in rates.points.items():
