@@ -205,3 +205,21 @@ def test_auto_refuses_impossible_expectations(steps, changes, rates):
             expected_changes=changes,
             rates=rates,
         )
+
+
+@pytest.mark.mpi
+def test_auto_under_mpi_predicts_the_orders_as_in_serial():
+    """Subdomains analysed on their owner ranks; every rank gets the same choice."""
+    rates = timing.MachineRates({k: _flat(1e9) for k in timing.RATE_KINDS})
+    comm = MPI.COMM_WORLD
+    shared = dd.TransientProblem(
+        parallelepiped("v-w-u", (24, 6, 4), comm=comm), 1e-6, "auto", rates=rates
+    )
+    alone = dd.TransientProblem(
+        parallelepiped("v-w-u", (24, 6, 4), comm=MPI.COMM_SELF), 1e-6, "auto", rates=rates
+    )
+    assert comm.allgather(shared.algorithm) == [alone.algorithm] * comm.size
+    for order in ("v-w-u", "w-v-u"):
+        assert shared.choice.predictions[order].total == pytest.approx(
+            alone.choice.predictions[order].total, rel=1e-12
+        )
