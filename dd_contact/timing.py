@@ -34,8 +34,9 @@ from mpi4py import MPI
 import numpy as np
 import scipy.linalg as sla
 
-from dd_contact.solvers.engine import ORDERS, plan_groups
-from dd_contact.solvers.linalg import SparseStatistics, WorkRecord
+from dd_contact.solvers.engine import ORDERS, plan_groups, subdomain_statistics
+from dd_contact.solvers.full import monolithic_statistics
+from dd_contact.solvers.linalg import SparseCholesky, SparseStatistics, WorkLog, WorkRecord
 
 __all__ = [
     "RATE_KINDS",
@@ -198,8 +199,6 @@ def calibrate(quick: bool = False) -> MachineRates:
     substitutions with one and with 128 right-hand sides). Dense: LAPACK potrf, potrs and
     triangular solves on random SPD matrices. Run with the thread settings of the real runs.
     """
-    from dd_contact.solvers.linalg import SparseCholesky, WorkLog
-
     points: dict[str, list[list[float]]] = {k: [] for k in RATE_KINDS}
     cubes = (
         [(6, 6, 6), (10, 10, 10)]
@@ -284,7 +283,9 @@ class SceneStructure:
         layouts: Per subdomain, ``(surface block, tied dofs)`` of each of its couplings.
         base_pairs: Surface block pairs with a matrix of their own.
         full: MUMPS's analysis of FULL's matrix (``None``: FULL not considered).
-        condensation: How the orders condense a subdomain (``"schur"`` or ``"multi-rhs"``).
+
+    How the orders condense follows from the subdomain statistics: a Schur block means
+    MUMPS's Schur complement, none means multi-RHS substitutions.
     """
 
     sizes: dict[str, int]
@@ -293,7 +294,6 @@ class SceneStructure:
     layouts: dict[str, list]
     base_pairs: set
     full: SparseStatistics | None
-    condensation: str = "schur"
 
 
 def scene_structure(
@@ -314,9 +314,6 @@ def scene_structure(
         full: Analyse FULL's matrix.
         orders: Analyse the subdomain matrices of the decomposition orders.
     """
-    from dd_contact.solvers.engine import subdomain_statistics
-    from dd_contact.solvers.full import monolithic_statistics
-
     subdomains: dict[str, SparseStatistics] = {}
     layouts: dict[str, list] = {}
     if orders:
@@ -335,7 +332,6 @@ def scene_structure(
         layouts,
         pairs | {(c, r) for r, c in pairs},
         monolithic_statistics(comm, system, contacts) if full else None,
-        condensation,
     )
 
 
