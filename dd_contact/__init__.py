@@ -2,14 +2,19 @@
 
 from mpi4py import MPI as _MPI  # noqa: F401  (loads libmpi before petsc4py)
 
-from dd_contact.contact import ContactIterationError, ContactSettings
+from dd_contact.contact import ContactSettings
+from dd_contact.errors import (
+    ContactCycleWarning,
+    ContactIterationError,
+    InputError,
+    SingularMatrixError,
+)
 from dd_contact.obstacles import Cylinder, Plane, Sphere, UserObstacle
 from dd_contact.problem import ALGORITHMS, StaticProblem, TransientProblem
 from dd_contact.scene import (
     DEFAULT_KAPPA,
     ContactBoundary,
     ContactInterface,
-    InputError,
     Interface,
     Material,
     Penalty,
@@ -23,6 +28,7 @@ __all__ = [
     "ALGORITHMS",
     "DEFAULT_KAPPA",
     "ContactBoundary",
+    "ContactCycleWarning",
     "ContactInterface",
     "ContactIterationError",
     "ContactSettings",
@@ -33,6 +39,7 @@ __all__ = [
     "Penalty",
     "Plane",
     "Scene",
+    "SingularMatrixError",
     "Sphere",
     "StaticProblem",
     "Subdomain",

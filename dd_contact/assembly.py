@@ -20,7 +20,8 @@ import scipy.sparse as sp
 
 from dd_contact import coupling, forms
 from dd_contact.contact import ContactOperator, contact_points
-from dd_contact.scene import ContactBoundary, InputError, Scene
+from dd_contact.errors import InputError
+from dd_contact.scene import ContactBoundary, Scene
 
 __all__ = ["BlockSystem", "ContactZone", "Model", "assemble"]
 

@@ -16,6 +16,11 @@ import json
 import sys
 from typing import Any
 
+from mpi4py import MPI
+
+from dd_contact import cost, timing
+from dd_contact.verify import run_cases
+
 __all__ = ["main"]
 
 
@@ -39,10 +44,6 @@ def _format_records(records: list[dict]) -> str:
 
 
 def _verify(args: argparse.Namespace) -> int:
-    from mpi4py import MPI
-
-    from dd_contact.verify import run_cases
-
     records = run_cases(args.case)
     if MPI.COMM_WORLD.rank == 0:
         print(_format_records(records))
@@ -109,8 +110,6 @@ def _add_output_options(parser: argparse.ArgumentParser, suppress: bool) -> None
 
 def _flops_model(args: argparse.Namespace) -> tuple[str, Any, list[Any]]:
     """Header text, scene sizes and (lazily) the studies of the chosen model."""
-    from dd_contact import cost
-
     if args.model == "parallelepiped":
         kw = {
             "elements": tuple(args.elements),
@@ -171,8 +170,6 @@ def _flops_model(args: argparse.Namespace) -> tuple[str, Any, list[Any]]:
 
 
 def _flops(args: argparse.Namespace) -> int:
-    from dd_contact import cost
-
     if args.model is None and args.scene is None:
         print(
             "dd-contact flops: error: give a model (parallelepiped, pin-joint) or --scene FILE",
@@ -318,9 +315,7 @@ def _add_flops(sub: Any) -> None:
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    from dd_contact import timing
-
-    rates = timing.machine_rates(recalibrate=not args.show, quick=args.quick)
+    rates = timing.machine_rates(recalibrate=not args.show, quick=args.quick, comm=MPI.COMM_WORLD)
     print(f"machine: {rates.machine}")
     for kind, points in rates.points.items():
         shown = ", ".join(f"{w / s:.3g}/s at {w:.3g}" for w, s in points)

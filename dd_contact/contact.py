@@ -39,13 +39,12 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from dd_contact.errors import ContactCycleWarning, ContactIterationError
 from dd_contact.obstacles import Obstacle
 
 __all__ = [
     "SCHEMES",
-    "ContactCycleWarning",
     "ContactIteration",
-    "ContactIterationError",
     "ContactOperator",
     "ContactPoints",
     "ContactSettings",
@@ -197,14 +196,6 @@ class ContactOperator:
 def digest(active: np.ndarray) -> str:
     """A short fingerprint of an active set (to detect cycling)."""
     return hashlib.blake2b(np.packbits(active).tobytes(), digest_size=12).hexdigest()
-
-
-class ContactIterationError(RuntimeError):
-    """The contact iteration did not settle: it cycles or hit its iteration limit."""
-
-
-class ContactCycleWarning(UserWarning):
-    """The contact iteration cycled and the cycle was resolved (``on_cycle="union"``)."""
 
 
 @dataclass

@@ -31,7 +31,7 @@ import scipy.sparse as sp
 
 from dd_contact.meshes import cyclic_vertices
 
-__all__ = ["TieOperators", "blocked", "facet_height", "pull_back", "tie_operators"]
+__all__ = ["TieOperators", "blocked", "facet_height", "newell_normal", "pull_back", "tie_operators"]
 
 # Gauss rule on the reference triangle, exact for degree 6 (bilinear x bilinear on a
 # non-affine facet is not a polynomial in physical coordinates; degree 6 keeps that error tiny).
@@ -116,7 +116,7 @@ class TieOperators:
         return float(self.covered_area.sum())
 
 
-def _newell_normal(poly: np.ndarray) -> np.ndarray:
+def newell_normal(poly: np.ndarray) -> np.ndarray:
     """Unit normals of polygons ``(n, k, 3)`` by Newell's method (robust for warped quads)."""
     nxt = np.roll(poly, -1, axis=1)
     n = np.cross(poly, nxt).sum(axis=1)
@@ -200,7 +200,7 @@ def tie_operators(
     s_nodes_geo = surf.geometry.dofmaps[0]
     s_poly = surf.geometry.x[cyclic_vertices(s_nodes_geo)]
     s_centre = s_poly.mean(axis=1)
-    s_normal = _newell_normal(s_poly)
+    s_normal = newell_normal(s_poly)
     s_diam = np.linalg.norm(s_poly.max(axis=1) - s_poly.min(axis=1), axis=1)
     tol = 0.05 * s_diam if tolerance is None else np.full(len(s_poly), float(tolerance))
 
@@ -208,7 +208,7 @@ def tie_operators(
     f_nodes = dolfinx.mesh.entities_to_geometry(vol, tdim - 1, facets)
     f_poly = vol.geometry.x[cyclic_vertices(f_nodes)]
     f_centre = f_poly.mean(axis=1)
-    f_normal = _newell_normal(f_poly)
+    f_normal = newell_normal(f_poly)
 
     pad = tol[:, None]
     si, fj = _boxes_overlap(
@@ -322,7 +322,7 @@ def facet_height(volume: dolfinx.mesh.Mesh, facets: npt.NDArray[np.int32]) -> fl
         cyclic_vertices(dolfinx.mesh.entities_to_geometry(volume, tdim - 1, facets))
     ]
     cells = f2c.array[f2c.offsets[facets]]
-    return _mean_height(volume, cells, poly.mean(axis=1), _newell_normal(poly))
+    return _mean_height(volume, cells, poly.mean(axis=1), newell_normal(poly))
 
 
 def _mean_height(vol, cells, centres, normals) -> float:

@@ -157,7 +157,7 @@ def row_of_blocks(
         part.velocity.interpolate(lambda x: np.vstack([0 * x[0], 0 * x[0], speed + 0 * x[0]]))
     points, cells = [], []
     for k in range(1, n_blocks):
-        p, q = meshes._rectangle_grid(
+        p, q = meshes.rectangle_grid(
             np.array([k * a, 0.0, 0.0]),
             np.array([0.0, b, 0]),
             np.array([0, 0, c]),

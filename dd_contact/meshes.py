@@ -26,6 +26,7 @@ __all__ = [
     "box",
     "facet_surface",
     "hemisphere",
+    "rectangle_grid",
     "surface_from_boundary",
     "surface_mesh",
 ]
@@ -108,7 +109,7 @@ def cyclic_vertices(nodes: np.ndarray) -> np.ndarray:
     return nodes[:, [0, 1, 3, 2]] if nodes.shape[1] == 4 else nodes[:, :3]
 
 
-def _rectangle_grid(
+def rectangle_grid(
     origin: np.ndarray, e1: np.ndarray, e2: np.ndarray, n1: int, n2: int, cell_type: str
 ) -> tuple[np.ndarray, np.ndarray]:
     """Points and cells of an ``n1 x n2`` grid on the parallelogram origin + [0,1]e1 + [0,1]e2."""
@@ -203,7 +204,7 @@ def surface_from_boundary(
             f"that bounds it (area {rectangle:.6g}); pass resolution=None to copy its facets"
         )
     origin = centre + p1.min() * e1 + p2.min() * e2
-    points, cells = _rectangle_grid(
+    points, cells = rectangle_grid(
         origin,
         (p1.max() - p1.min()) * e1,
         (p2.max() - p2.min()) * e2,

@@ -16,7 +16,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 import numpy.typing as npt
 
-from dd_contact.scene import InputError
+from dd_contact.errors import InputError
 
 __all__ = ["Cylinder", "Obstacle", "Plane", "Sphere", "UserObstacle"]
 

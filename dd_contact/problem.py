@@ -15,14 +15,20 @@ from pathlib import Path
 from mpi4py import MPI
 
 import dolfinx.fem as fem
+import dolfinx.geometry
 import numpy as np
+from tqdm import tqdm
 
 from dd_contact import forms, timing
 from dd_contact.assembly import BlockSystem, Model, assemble
 from dd_contact.contact import ContactIteration, ContactSettings
+from dd_contact.coupling import newell_normal
+from dd_contact.errors import InputError, SingularMatrixError
 from dd_contact.io import Checkpoint, ResultWriter
-from dd_contact.scene import ContactBoundary, InputError, Scene
-from dd_contact.solvers import MonolithicSolver, SingularMatrixError, SparseCholesky, WorkLog
+from dd_contact.meshes import cyclic_vertices
+from dd_contact.parallel import collective, gathered
+from dd_contact.scene import ContactBoundary, Scene
+from dd_contact.solvers import MonolithicSolver, SparseCholesky, WorkLog
 from dd_contact.solvers.engine import ORDERS, BlockEliminationSolver, valid_orders
 from dd_contact.solvers.linalg import coo_of, petsc_matrix
 from dd_contact.timestepping import Newmark
@@ -32,24 +38,6 @@ __all__ = ["ALGORITHMS", "StaticProblem", "TransientProblem"]
 #: Elimination orders (method.md section 5): FULL and the decomposition orders. Problems also
 #: take ``"auto"``: the one with the least predicted time (:mod:`dd_contact.timing`).
 ALGORITHMS = ("FULL", *ORDERS)
-
-
-def gathered(comm: MPI.Comm, local: dict) -> dict:
-    """Collective: the union of every rank's dict (each rank holds its own entries)."""
-    return {k: v for part in comm.allgather(local) for k, v in part.items()}
-
-
-def collective(comm: MPI.Comm, action: Callable):
-    """Run ``action`` on every rank; if any rank raises InputError, raise it on all ranks."""
-    result, message = None, None
-    try:
-        result = action()
-    except InputError as error:
-        message = str(error)
-    messages = [m for m in comm.allgather(message) if m is not None]
-    if messages:
-        raise InputError(messages[0])
-    return result
 
 
 class _Analysis:
@@ -97,7 +85,7 @@ class _Analysis:
             structure = timing.scene_structure(
                 self.comm, system, contacts, condensation, orders=len(valid) > 1
             )
-            rates = rates if rates is not None else timing.machine_rates()
+            rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
             self.choice = timing.choose(structure, rates, valid, steps, changes)
             algorithm = self.choice.algorithm
         self.algorithm, self.condensation = algorithm, condensation
@@ -242,7 +230,7 @@ class _Analysis:
         structure = timing.scene_structure(
             self.comm, self.solver.system, contacts, self.condensation, full=full, orders=not full
         )
-        rates = rates if rates is not None else timing.machine_rates()
+        rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
         return timing.predict(timing.plan(structure, self.algorithm), rates, steps, changes)
 
     def work_summary(self) -> dict[str, dict]:
@@ -271,14 +259,9 @@ class _Analysis:
 
 def _outward_normals(contact) -> np.ndarray:
     """Unit normal of every contact-surface cell, oriented out of its subdomain."""
-    import dolfinx.geometry
-
-    from dd_contact.coupling import _newell_normal
-    from dd_contact.meshes import cyclic_vertices
-
     mesh = contact.mesh
     poly = mesh.geometry.x[cyclic_vertices(mesh.geometry.dofmaps[0])]
-    normal = _newell_normal(poly)
+    normal = newell_normal(poly)
     centre = poly.mean(axis=1)
     size = np.linalg.norm(poly.max(axis=1) - poly.min(axis=1), axis=1)
     volume = contact.subdomain.mesh
@@ -573,8 +556,6 @@ class TransientProblem(_Analysis):
         show = progress if progress is not None else sys.stderr.isatty()
         bar = None
         if show and self.comm.rank == 0 and self.step < n_steps:
-            from tqdm import tqdm
-
             bar = tqdm(total=n_steps, initial=self.step, unit="step", file=sys.stderr)
         try:
             while self.step < n_steps:

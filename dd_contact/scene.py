@@ -18,8 +18,13 @@ import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 import ufl
+from scipy.spatial import cKDTree
 
 from dd_contact import meshes
+from dd_contact.contact import SCHEMES
+from dd_contact.errors import InputError
+from dd_contact.obstacles import Obstacle
+from dd_contact.parallel import owner_of
 
 __all__ = [
     "DEFAULT_KAPPA",
@@ -38,10 +43,6 @@ DEFAULT_KAPPA = 1.0e6
 
 Locator = Callable[[np.ndarray], np.ndarray]
 Where = Locator | npt.NDArray[np.int32] | tuple[dolfinx.mesh.MeshTags, int]
-
-
-class InputError(ValueError):
-    """A scene that cannot be solved as given; the message says what to change."""
 
 
 @dataclass(frozen=True)
@@ -387,9 +388,6 @@ class _ContactBase:
         points: str,
         name: str,
     ) -> None:
-        from dd_contact.contact import SCHEMES
-        from dd_contact.obstacles import Obstacle
-
         _check_mesh(
             mesh,
             2,
@@ -532,8 +530,6 @@ class ContactBoundary(_ContactBase):
         mesh = meshes.facet_surface(subdomain.mesh, self.facets, MPI.COMM_SELF)
         self._setup_contact(mesh, subdomain, obstacle, contact_kappa, contact_epsilon, points, name)
         # Surface node -> subdomain node, matched by position (the copy has the same nodes).
-        from scipy.spatial import cKDTree
-
         volume_x = subdomain.V.tabulate_dof_coordinates()
         surface_x = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local]
         distance, self.node_map = cKDTree(volume_x).query(surface_x)
@@ -608,7 +604,7 @@ class Scene:
 
     def owner(self, k: int) -> int:
         """Rank that owns subdomain ``k``."""
-        return k % self.comm.size
+        return owner_of(k, self.comm)
 
     def check_static_supports(self) -> None:
         """Raise if some part of the body can move rigidly (a singular static problem).

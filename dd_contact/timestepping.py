@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dd_contact.scene import InputError
+from dd_contact.errors import InputError
 
 __all__ = ["Newmark"]
 

@@ -34,6 +34,7 @@ from mpi4py import MPI
 import numpy as np
 import scipy.linalg as sla
 
+from dd_contact.parallel import ROOT, bcast_from_root, gathered
 from dd_contact.solvers.engine import ORDERS, plan_groups, subdomain_statistics
 from dd_contact.solvers.full import monolithic_statistics
 from dd_contact.solvers.linalg import SparseCholesky, SparseStatistics, WorkLog, WorkRecord
@@ -128,17 +129,21 @@ def _cache_file() -> Path:
 
 
 def machine_rates(
-    path: str | os.PathLike[str] | None = None, recalibrate: bool = False, quick: bool = False
+    path: str | os.PathLike[str] | None = None,
+    recalibrate: bool = False,
+    quick: bool = False,
+    comm: MPI.Comm | None = None,
 ) -> MachineRates:
     """This machine's rates: from the cache, or measured now (:func:`calibrate`) and cached.
 
     The cache (``$DD_CONTACT_CACHE`` or ``~/.cache/dd_contact``, file ``machine_rates.json``)
-    keeps one record per machine fingerprint (host, CPU, thread settings). Collective under
-    MPI: rank 0 reads or measures, every rank gets the result.
+    keeps one record per machine fingerprint (host, CPU, thread settings). Collective over
+    ``comm`` (default ``MPI.COMM_SELF``: this rank alone): its root reads or measures, every
+    rank of ``comm`` gets the result.
     """
-    comm = MPI.COMM_WORLD
+    comm = MPI.COMM_SELF if comm is None else comm
     rates = None
-    if comm.rank == 0:
+    if comm.rank == ROOT:
         file = Path(path) if path is not None else _cache_file()
         key = json.dumps(machine_fingerprint(), sort_keys=True) + (" quick" if quick else "")
         cached = json.loads(file.read_text()) if file.exists() else {}
@@ -152,7 +157,7 @@ def machine_rates(
             cached[key] = rates.to_dict()
             file.parent.mkdir(parents=True, exist_ok=True)
             file.write_text(json.dumps(cached, indent=1))
-    return comm.bcast(rates, root=0)
+    return bcast_from_root(comm, rates)
 
 
 def _timed(action, repeats: int = 1, cold: bool = False) -> float:
@@ -324,7 +329,7 @@ def scene_structure(
     pairs = {(r, c) for r, c in system.matrices if _kind(r) != "u" != _kind(c)}
     pairs = {p for part in comm.allgather(pairs) for p in part}
     regions = {key: block for key, (block, _, _) in contacts.items()}
-    regions = {k: b for part in comm.allgather(regions) for k, b in part.items()}
+    regions = gathered(comm, regions)
     return SceneStructure(
         dict(system.sizes),
         regions,

@@ -9,12 +9,8 @@ import pytest
 
 import dd_contact as dd
 from dd_contact import meshes, verify
-from dd_contact.contact import (
-    ContactCycleWarning,
-    ContactIteration,
-    ContactIterationError,
-    ContactSettings,
-)
+from dd_contact.contact import ContactIteration, ContactSettings
+from dd_contact.errors import ContactCycleWarning, ContactIterationError
 
 
 def _on(axis, value):

@@ -1,6 +1,7 @@
 """Solvers of the block system (14): FULL and (later) the block-elimination engine."""
 
+from dd_contact.errors import SingularMatrixError
 from dd_contact.solvers.full import MonolithicSolver
-from dd_contact.solvers.linalg import SingularMatrixError, SparseCholesky, WorkLog, WorkRecord
+from dd_contact.solvers.linalg import SparseCholesky, WorkLog, WorkRecord
 
 __all__ = ["MonolithicSolver", "SingularMatrixError", "SparseCholesky", "WorkLog", "WorkRecord"]

@@ -33,6 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
+from dd_contact.parallel import ROOT, bcast_from_root, gather_to_root, gathered
 from dd_contact.solvers.linalg import (
     DenseCholesky,
     PatternedMatrix,
@@ -64,7 +65,6 @@ ORDERS: dict[str, tuple[str, ...]] = {
 #: Ways to form the condensed subdomain operators (see :class:`BlockEliminationSolver`).
 CONDENSATIONS = ("schur", "multi-rhs")
 
-_ROOT = 0
 _CHUNK = 256  # right-hand sides per MUMPS multi-RHS solve when condensing
 
 
@@ -80,14 +80,6 @@ def valid_orders(has_interface: bool, has_contact_interfaces: bool) -> tuple[str
 
 def _kind(block: str) -> str:
     return block.split(":", 1)[0]
-
-
-def _gather(comm: MPI.Comm, obj) -> list | None:
-    return [obj] if comm.size == 1 else comm.gather(obj, root=_ROOT)
-
-
-def _bcast(comm: MPI.Comm, obj):
-    return obj if comm.size == 1 else comm.bcast(obj, root=_ROOT)
 
 
 # -- the subdomain level ------------------------------------------------------------------
@@ -191,7 +183,7 @@ def subdomain_statistics(
             sub.matrix.push()
             mine[block] = (sparse_statistics(sub.matrix.A, sub.schur), sub.layout)
             sub.matrix.A.destroy()
-    return {b: v for part in comm.allgather(mine) for b, v in part.items()}
+    return gathered(comm, mine)
 
 
 # -- the dense surface levels (rank 0) ----------------------------------------------------
@@ -482,15 +474,15 @@ class BlockEliminationSolver:
         self._needs_all_surface = any(_kind(b) != ORDERS[order][-1] for b in needed)
         self._needed_u = needed & set(self.subdomains)
         pieces = [(r, c, A) for (r, c), A in system.matrices.items() if _kind(r) != "u" != _kind(c)]
-        pieces = _gather(comm, pieces)
+        pieces = gather_to_root(comm, pieces)
         self.surface: _Surface | None = None
-        if rank == _ROOT:
+        if rank == ROOT:
             self.surface = _Surface(surface_sizes, ORDERS[order], log)
             for part in pieces:
                 for r, c, A in part:
                     self.surface.add_base(r, c, A)
-        layouts = _gather(comm, {b: s.layout for b, s in self.subdomains.items()})
-        if rank == _ROOT:
+        layouts = gather_to_root(comm, {b: s.layout for b, s in self.subdomains.items()})
+        if rank == ROOT:
             self.surface.plan({b: layout for part in layouts for b, layout in part.items()})
         self._contact: dict[str, sp.csr_array] = {}  # latest contact matrix of each w block
         self._pending_contact: dict[str, sp.csr_array] = {}  # changed since the last solve
@@ -532,9 +524,9 @@ class BlockEliminationSolver:
         for block, vector in rhs.items():
             if _kind(block) != "u":
                 payload["g"].append((block, None, vector))
-        received = _gather(self.comm, payload)
+        received = gather_to_root(self.comm, payload)
         x = None
-        if self.comm.rank == _ROOT:
+        if self.comm.rank == ROOT:
             surface = self.surface
             g = {b: np.zeros(n) for b, n in surface.sizes.items()}
             for part in received:
@@ -549,7 +541,7 @@ class BlockEliminationSolver:
                         g[s][J] += vector
             surface.factorise()
             x = surface.solve(g, complete=self._needs_all_surface)
-        self._x = _bcast(self.comm, x)
+        self._x = bcast_from_root(self.comm, x)
         self._complete = self._needs_all_surface
         out = dict(self._x)
         for block in self._needed_u:
@@ -559,13 +551,11 @@ class BlockEliminationSolver:
     def finish(self) -> dict[str, np.ndarray]:
         """Every block of the last solution, on every rank (collective)."""
         if not self._complete:
-            x = self.surface.back_substitute(self._x) if self.comm.rank == _ROOT else None
-            self._x = _bcast(self.comm, x)
+            x = self.surface.back_substitute(self._x) if self.comm.rank == ROOT else None
+            self._x = bcast_from_root(self.comm, x)
             self._complete = True
         u = {b: s.back_substitute(self._x) for b, s in self.subdomains.items()}
-        if self.comm.size > 1:
-            u = {b: v for part in self.comm.allgather(u) for b, v in part.items()}
-        return {**self._x, **u}
+        return {**self._x, **gathered(self.comm, u)}
 
     def destroy(self) -> None:
         """Free the PETSc objects."""

@@ -20,6 +20,8 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
+from dd_contact.errors import SingularMatrixError
+
 __all__ = [
     "DenseCholesky",
     "PatternedMatrix",
@@ -31,10 +33,6 @@ __all__ = [
     "petsc_matrix",
     "sparse_statistics",
 ]
-
-
-class SingularMatrixError(RuntimeError):
-    """A factorisation met a singular matrix: part of the model is not held."""
 
 
 @dataclass

@@ -1,0 +1,30 @@
+"""The package's exceptions and warnings (a leaf: imports nothing of the package).
+
+Every error says what is wrong and what to change. :class:`InputError` is raised on every
+rank when any rank finds bad input (:func:`dd_contact.parallel.collective`).
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ContactCycleWarning",
+    "ContactIterationError",
+    "InputError",
+    "SingularMatrixError",
+]
+
+
+class InputError(ValueError):
+    """A scene that cannot be solved as given; the message says what to change."""
+
+
+class SingularMatrixError(RuntimeError):
+    """A factorisation met a singular matrix: part of the model is not held."""
+
+
+class ContactIterationError(RuntimeError):
+    """The contact iteration did not settle: it cycles or hit its iteration limit."""
+
+
+class ContactCycleWarning(UserWarning):
+    """The contact iteration cycled and the cycle was resolved (``on_cycle="union"``)."""
