@@ -10,7 +10,7 @@ from dd_contact.errors import (
     SingularMatrixError,
 )
 from dd_contact.obstacles import Cylinder, Plane, Sphere, UserObstacle
-from dd_contact.problem import ALGORITHMS, StaticProblem, TransientProblem
+from dd_contact.problem import StaticProblem, TransientProblem
 from dd_contact.scene import (
     DEFAULT_KAPPA,
     ContactBoundary,
@@ -21,6 +21,7 @@ from dd_contact.scene import (
     Scene,
     Subdomain,
 )
+from dd_contact.solvers.schedule import ALGORITHMS
 
 __version__ = "0.1.0"
 

@@ -29,15 +29,12 @@ from dd_contact.meshes import cyclic_vertices
 from dd_contact.parallel import collective, gathered
 from dd_contact.scene import ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, SparseCholesky, WorkLog
-from dd_contact.solvers.engine import ORDERS, BlockEliminationSolver, valid_orders
+from dd_contact.solvers.engine import BlockEliminationSolver
 from dd_contact.solvers.linalg import coo_of, petsc_matrix
+from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
 from dd_contact.timestepping import Newmark
 
-__all__ = ["ALGORITHMS", "StaticProblem", "TransientProblem"]
-
-#: Elimination orders (method.md section 5): FULL and the decomposition orders. Problems also
-#: take ``"auto"``: the one with the least predicted time (:mod:`dd_contact.timing`).
-ALGORITHMS = ("FULL", *ORDERS)
+__all__ = ["StaticProblem", "TransientProblem"]
 
 
 class _Analysis:
@@ -55,7 +52,7 @@ class _Analysis:
     ):
         has_interface = scene.interface is not None
         has_w = any(not isinstance(c, ContactBoundary) for c in scene.contacts)
-        valid = valid_orders(has_interface, has_w)
+        valid = fitting_algorithms(has_interface, has_w)
         if algorithm != "auto" and algorithm not in valid:
             what = "unknown algorithm" if algorithm not in ALGORITHMS else "algorithm"
             parts = ["an interface" if has_interface else "no interface"]

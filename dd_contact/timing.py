@@ -35,9 +35,10 @@ import numpy as np
 import scipy.linalg as sla
 
 from dd_contact.parallel import ROOT, bcast_from_root, gathered
-from dd_contact.solvers.engine import ORDERS, plan_groups, subdomain_statistics
+from dd_contact.solvers.engine import plan_groups, subdomain_statistics
 from dd_contact.solvers.full import monolithic_statistics
 from dd_contact.solvers.linalg import SparseCholesky, SparseStatistics, WorkLog, WorkRecord
+from dd_contact.solvers.schedule import ORDERS
 
 __all__ = [
     "RATE_KINDS",

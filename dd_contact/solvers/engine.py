@@ -43,39 +43,15 @@ from dd_contact.solvers.linalg import (
     coo_of,
     sparse_statistics,
 )
+from dd_contact.solvers.schedule import CONDENSATIONS, ORDERS
 
 __all__ = [
-    "CONDENSATIONS",
-    "ORDERS",
     "BlockEliminationSolver",
     "plan_groups",
     "subdomain_statistics",
-    "valid_orders",
 ]
 
-#: Surface levels eliminated after the subdomains, first to last, for every order. The name
-#: lists the unknowns in the order they are obtained, i.e. the levels read backwards.
-ORDERS: dict[str, tuple[str, ...]] = {
-    "v-w-u": ("w", "v"),
-    "w-v-u": ("v", "w"),
-    "w-u": ("w",),
-    "v-u": ("v",),
-}
-
-#: Ways to form the condensed subdomain operators (see :class:`BlockEliminationSolver`).
-CONDENSATIONS = ("schur", "multi-rhs")
-
 _CHUNK = 256  # right-hand sides per MUMPS multi-RHS solve when condensing
-
-
-def valid_orders(has_interface: bool, has_contact_interfaces: bool) -> tuple[str, ...]:
-    """The orders that make sense for a scene: v needs an interface, w contact interfaces."""
-    fitting = [
-        name
-        for name, levels in ORDERS.items()
-        if ("v" in levels) == has_interface and ("w" in levels) == has_contact_interfaces
-    ]
-    return ("FULL", *fitting)
 
 
 def _kind(block: str) -> str:
