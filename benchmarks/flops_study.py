@@ -18,27 +18,27 @@ import json
 import sys
 from pathlib import Path
 
-from dd_contact import cost
+from dd_contact import flops
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
 
 def main(measured=None):
-    bar = cost.parallelepiped_sizes()
-    layout = cost.PinJointLayout()
-    studies = cost.parallelepiped_studies() + cost.pin_joint_studies(layout=layout)
-    written = cost.write_studies(studies, RESULTS, measured)
+    bar = flops.parallelepiped_sizes()
+    layout = flops.PinJointLayout()
+    studies = flops.parallelepiped_studies() + flops.pin_joint_studies(layout=layout)
+    written = flops.write_studies(studies, RESULTS, measured)
     result = {
         "model": "paper's FLOPs model, f1-f4 kernels (method.md section 6, docs/cost.md)",
         "parallelepiped": {
-            "scene": cost.scene_to_dict(bar, "400 x 100 x 10 bar, split 5:5"),
-            "reports": cost.to_json_dict(cost.compare(bar)),
+            "scene": flops.scene_to_dict(bar, "400 x 100 x 10 bar, split 5:5"),
+            "reports": flops.to_json_dict(flops.compare(bar)),
         },
         "pin_joint": {
             "layout": dataclasses.asdict(layout),
-            "mesh": cost.pin_joint_mesh_counts(layout),
-            "reports_10_holes": cost.to_json_dict(cost.compare(cost.pin_joint_sizes(10))),
-            "reports_2_holes": cost.to_json_dict(cost.compare(cost.pin_joint_sizes(2))),
+            "mesh": flops.pin_joint_mesh_counts(layout),
+            "reports_10_holes": flops.to_json_dict(flops.compare(flops.pin_joint_sizes(10))),
+            "reports_2_holes": flops.to_json_dict(flops.compare(flops.pin_joint_sizes(2))),
         },
         "studies": {s.name: s.to_json_dict() for s in studies},
     }

@@ -210,15 +210,15 @@ def main() -> None:
 
 def sweep_on_measured_bar(data: dict, case: str, directory: Path) -> None:
     """The paper's studies for the measured bar, with the measured points on the step study."""
-    from dd_contact import cost
+    from dd_contact import flops
 
     points = measured_points(data["runs"])
     (directory / f"measured_points_{case}.json").write_text(json.dumps(points, indent=1))
     nx, ny, nz = data["elements"]
-    studies = cost.parallelepiped_studies(
+    studies = flops.parallelepiped_studies(
         elements=(nx, ny, nz), split=(1, 1), interface=(ny, nz), contact=(ny, nz)
     )
-    cost.write_studies(studies, directory / f"sweep_{case}", points)
+    flops.write_studies(studies, directory / f"sweep_{case}", points)
 
 
 if __name__ == "__main__":

@@ -1,7 +1,7 @@
 """The ``dd-contact`` command.
 
 * ``dd-contact verify``: run the verification cases and print a table.
-* ``dd-contact flops``: the paper's operation-count model (``dd_contact.cost``) for the bar
+* ``dd-contact flops``: the paper's operation-count model (``dd_contact.flops``) for the bar
   (``flops parallelepiped``), the multi-pin joint (``flops pin-joint``) or a scene file
   (``flops --scene FILE``); ``--json`` writes the Table-2 numbers, ``--sweep DIR`` draws the
   paper's parameter studies. See ``docs/cost.md``.
@@ -18,7 +18,7 @@ from typing import Any
 
 from mpi4py import MPI
 
-from dd_contact import cost, timing
+from dd_contact import flops, timing
 from dd_contact.verify import run_cases
 
 __all__ = ["main"]
@@ -119,7 +119,7 @@ def _flops_model(args: argparse.Namespace) -> tuple[str, Any, list[Any]]:
             "steps": args.steps,
             "changes": args.changes,
         }
-        sizes = cost.parallelepiped_sizes(**kw)
+        sizes = flops.parallelepiped_sizes(**kw)
         nx, ny, nz = kw["elements"]
         sd = ", ".join(
             f"{s.name} {s.dofs:,} dofs B = {s.half_bandwidth:,}" for s in sizes.subdomains
@@ -132,9 +132,9 @@ def _flops_model(args: argparse.Namespace) -> tuple[str, Any, list[Any]]:
             f"{sizes.contacts[0].dofs:,} dofs; N_TS = {sizes.n_steps:,}, "
             f"alpha = gamma = {sizes.gamma:,}"
         )
-        return header, sizes, [lambda: cost.parallelepiped_studies(**kw)]
+        return header, sizes, [lambda: flops.parallelepiped_studies(**kw)]
     if args.model == "pin-joint":
-        layout = cost.PinJointLayout(
+        layout = flops.PinJointLayout(
             n_holes=args.holes,
             n_circumferential=args.circumferential,
             n_radial=args.radial,
@@ -142,8 +142,8 @@ def _flops_model(args: argparse.Namespace) -> tuple[str, Any, list[Any]]:
             n_length=args.length_elements,
         )
         active = 2 * layout.n_holes if args.active_holes is None else args.active_holes
-        sizes = cost.pin_joint_sizes(active, args.steps, args.changes, layout)
-        m = cost.pin_joint_mesh_counts(layout)
+        sizes = flops.pin_joint_sizes(active, args.steps, args.changes, layout)
+        m = flops.pin_joint_mesh_counts(layout)
         w, length = layout.n_holes * layout.pitch, layout.pitch + layout.free_length
         header = (
             f"Multi-pin lap joint: 2 steel plates {w:g} x {length:g} x {layout.thickness:g} mm, "
@@ -157,8 +157,8 @@ def _flops_model(args: argparse.Namespace) -> tuple[str, Any, list[Any]]:
             f"{active} of {2 * layout.n_holes} holes in contact ({m['contact_dofs']:,} dofs "
             f"each)\nN_TS = {sizes.n_steps:,}, alpha = gamma = {sizes.gamma:,}"
         )
-        return header, sizes, [lambda: cost.pin_joint_studies(args.steps, args.changes, layout)]
-    sizes = cost.load_scene(args.scene)
+        return header, sizes, [lambda: flops.pin_joint_studies(args.steps, args.changes, layout)]
+    sizes = flops.load_scene(args.scene)
     iface = "no interface" if sizes.interface_dofs is None else f"{sizes.interface_dofs:,}"
     header = (
         f"Scene {args.scene}: {len(sizes.subdomains)} subdomains, interface {iface}, "
@@ -166,7 +166,7 @@ def _flops_model(args: argparse.Namespace) -> tuple[str, Any, list[Any]]:
         f"B = {sizes.whole.half_bandwidth:,}; N_TS = {sizes.n_steps:,}, "
         f"gamma = {sizes.gamma:,}"
     )
-    return header, sizes, [lambda: cost.scene_studies(sizes)]
+    return header, sizes, [lambda: flops.scene_studies(sizes)]
 
 
 def _flops(args: argparse.Namespace) -> int:
@@ -184,16 +184,16 @@ def _flops(args: argparse.Namespace) -> int:
     except (ValueError, OSError) as err:
         print(f"dd-contact flops: error: {err}", file=sys.stderr)
         return 2
-    reports = cost.compare(sizes)
+    reports = flops.compare(sizes)
     print(header)
     print()
-    print(cost.format_table(reports))
+    print(flops.format_table(reports))
     if args.json:
         with open(args.json, "w") as f:
-            json.dump(cost.to_json_dict(reports), f, indent=1)
+            json.dump(flops.to_json_dict(reports), f, indent=1)
     if args.sweep:
         try:
-            written = cost.write_studies(studies[0](), args.sweep, args.measured)
+            written = flops.write_studies(studies[0](), args.sweep, args.measured)
         except (ValueError, OSError) as err:
             print(f"dd-contact flops: error: {err}", file=sys.stderr)
             return 2

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from dd_contact import cli, cost, verify
+from dd_contact import cli, flops, verify
 
 FIELDS = {"case", "quantity", "value", "reference", "rel_error", "tolerance", "passed"}
 
@@ -47,7 +47,7 @@ DOCS = Path(__file__).resolve().parents[1] / "docs"
 
 
 def api_json(sizes) -> dict:
-    return json.loads(json.dumps(cost.to_json_dict(cost.compare(sizes))))
+    return json.loads(json.dumps(flops.to_json_dict(flops.compare(sizes))))
 
 
 def test_flops_parallelepiped_defaults_json(tmp_path, capsys):
@@ -58,7 +58,7 @@ def test_flops_parallelepiped_defaults_json(tmp_path, capsys):
     for alg in data.values():
         assert set(alg) == {"gflops_total", "percent_of_full", "meshes"}
         assert all(set(m) == MESH_KEYS for m in alg["meshes"])
-    assert data == api_json(cost.parallelepiped_sizes())
+    assert data == api_json(flops.parallelepiped_sizes())
     # the paper's bar: counts by hand
     full = data["FULL"]["meshes"][0]
     assert (full["dofs"], full["half_bandwidth"], full["decompositions"]) == (1336533, 3372, 20001)
@@ -88,7 +88,7 @@ def test_flops_parallelepiped_options(tmp_path):
     argv = ["flops", "parallelepiped", "--elements", "40", "10", "2", "--split", "1:3"]
     argv += ["--interface", "5", "1", "--contact", "10", "2", "--steps", "7", "--changes", "9"]
     assert cli.main([*argv, "--json", str(path)]) == 0
-    sizes = cost.parallelepiped_sizes((40, 10, 2), (1, 3), (5, 1), (10, 2), 7, 9)
+    sizes = flops.parallelepiped_sizes((40, 10, 2), (1, 3), (5, 1), (10, 2), 7, 9)
     assert json.loads(path.read_text()) == api_json(sizes)
     assert sizes.subdomains[0].dofs == 11 * 11 * 3 * 3 and sizes.interface_dofs == 6 * 2 * 3
     with pytest.raises(SystemExit) as exc:
@@ -102,7 +102,7 @@ def test_flops_pin_joint(tmp_path, capsys):
     path = tmp_path / "pin.json"
     assert cli.main(["flops", "pin-joint", "--active-holes", "2", "--json", str(path)]) == 0
     data = json.loads(path.read_text())
-    assert data == api_json(cost.pin_joint_sizes(2))
+    assert data == api_json(flops.pin_joint_sizes(2))
     assert len(data["v-w-u"]["meshes"]) == 12 + 2 + 1
     assert data["w-v-u"]["percent_of_full"] < data["v-w-u"]["percent_of_full"]
     out = capsys.readouterr().out
@@ -117,7 +117,7 @@ def test_flops_scene_example_matches_parallelepiped(tmp_path):
     assert (
         cli.main(["flops", "--scene", str(DOCS / "scene_example.json"), "--json", str(path)]) == 0
     )
-    assert json.loads(path.read_text()) == api_json(cost.parallelepiped_sizes())
+    assert json.loads(path.read_text()) == api_json(flops.parallelepiped_sizes())
 
 
 SCENE = {
@@ -159,7 +159,7 @@ def test_flops_scene_ok_and_usage_errors(tmp_path, capsys):
     path.write_text(json.dumps(SCENE))
     out_json = tmp_path / "out.json"
     assert cli.main(["flops", "--scene", str(path), "--json", str(out_json)]) == 0
-    # no "whole": summed dofs and largest bandwidth; v-w-u as in test_cost.test_tiny_vwu_table1
+    # no "whole": summed dofs and largest bandwidth; v-w-u as in test_flops.test_tiny_vwu_table1
     data = json.loads(out_json.read_text())
     assert data["FULL"]["meshes"][0]["dofs"] == 60
     assert data["v-w-u"]["gflops_total"] == pytest.approx(30402e-9, rel=1e-12)
@@ -187,7 +187,7 @@ def test_flops_sweep_writes_charts(tmp_path):
         assert json.loads((out / f"flops_{name}.json").read_text())["name"] == name
     steps = json.loads((out / "flops_bar_steps.json").read_text())
     assert steps["measured"] == {"w-u": [[100, 3.0]]}
-    bar = cost.compare(cost.parallelepiped_sizes())
+    bar = flops.compare(flops.parallelepiped_sizes())
     assert steps["percent_of_full"]["v-w-u"][-1] == pytest.approx(bar["v-w-u"].percent_of_full)
 
     assert cli.main(["flops", "pin-joint", "--sweep", str(out)]) == 0

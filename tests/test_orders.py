@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import dd_contact as dd
-from dd_contact import cost, verify
+from dd_contact import flops, verify
 
 
 @pytest.fixture(scope="module")
@@ -30,19 +30,19 @@ def test_every_order_reproduces_full(agreement, kappa, tolerance):
         assert r["changes"] >= 1, r  # the contact state really changed
 
 
-def _sizes(problem, n_steps: int) -> cost.SceneSizes:
+def _sizes(problem, n_steps: int) -> flops.SceneSizes:
     """The paper's model of a run of :func:`verify.order_scene` (sizes, N_TS, alpha, gamma)."""
     sizes = problem.solver.system.sizes
-    subs = [cost.SubdomainCounts(b, n, 1) for b, n in sizes.items() if b.startswith("u:")]
+    subs = [flops.SubdomainCounts(b, n, 1) for b, n in sizes.items() if b.startswith("u:")]
     changes = problem.changes
-    contacts = [cost.ContactCounts("w:end", 48, 0, changes["end"])]  # 4 x 4 nodes
-    return cost.SceneSizes(
+    contacts = [flops.ContactCounts("w:end", 48, 0, changes["end"])]  # 4 x 4 nodes
+    return flops.SceneSizes(
         subdomains=subs,
         contacts=contacts,
         interface_dofs=sizes.get("v:interface"),
         n_steps=n_steps,
         gamma=changes["gamma"],
-        whole=cost.MeshCounts("u:A" if len(subs) == 1 else "FULL", sum(sizes.values()), 1),
+        whole=flops.MeshCounts("u:A" if len(subs) == 1 else "FULL", sum(sizes.values()), 1),
         interface_name="v:interface",
     )
 
@@ -73,7 +73,7 @@ def test_work_counts_equal_the_papers(kind, order, condensation):
     problem = dd.TransientProblem(scene, 0.01, algorithm=order, condensation=condensation)
     problem.run(n_steps, progress=False, summary=False)
     assert problem.changes["gamma"] >= 2
-    model = {m.name: m for m in cost.operation_counts(_sizes(problem, n_steps), order).meshes}
+    model = {m.name: m for m in flops.operation_counts(_sizes(problem, n_steps), order).meshes}
     if kind == "boundary":
         # v-u: the contact lives on A's own boundary; the model has no contact mesh.
         model = {name: m for name, m in model.items() if not name.startswith("w:")}

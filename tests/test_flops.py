@@ -1,4 +1,4 @@
-"""Tests of the operation-count model (dd_contact.cost, method.md section 6)."""
+"""Tests of the operation-count model (dd_contact.flops, method.md section 6)."""
 
 from __future__ import annotations
 
@@ -10,8 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dd_contact import cost as dc
-from dd_contact.cost import (
+from dd_contact.flops import (
     ALGORITHMS,
     STEPS_SWEEP,
     ContactCounts,
@@ -43,6 +42,8 @@ from dd_contact.cost import (
     to_json_dict,
     write_studies,
 )
+from dd_contact.flops import paper as flops_paper
+from dd_contact.flops import studies as flops_studies
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
@@ -448,7 +449,7 @@ def box_pattern(nx: int, ny: int, nz: int):
     """Dof pattern (3 dofs per node, x slowest) of a structured hexahedral box."""
     from scipy.sparse import coo_array
 
-    xyz, hexes = dc._box_mesh((nx, ny, nz), (0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
+    xyz, hexes = flops_paper._box_mesh((nx, ny, nz), (0.0, 0.0, 0.0), (1.0, 1.0, 1.0))
     dofs = (3 * hexes[:, :, None] + np.arange(3)).reshape(len(hexes), -1)
     rows_ = np.repeat(dofs, dofs.shape[1], axis=1).ravel()
     cols = np.tile(dofs, (1, dofs.shape[1])).ravel()
@@ -479,7 +480,7 @@ def test_best_numbering_on_a_box_is_the_structured_one():
     # the candidate numberings used for the pin-joint plate find the natural numbering on a box
     for dims in [(6, 3, 2), (3, 6, 2), (5, 5, 1)]:
         _, xyz, hexes = box_pattern(*dims)
-        assert dc._best_half_bandwidth(xyz, hexes) == half_bandwidth_box(*dims)
+        assert flops_paper._best_half_bandwidth(xyz, hexes) == half_bandwidth_box(*dims)
 
 
 # --------------------------------------------------------------------------- pin joint
@@ -498,7 +499,7 @@ def test_pin_joint_counts_small_by_hand():
     assert m["plate_hexahedra"] == 3 * 24 + 24 == 96
     assert (m["nodes"], m["hexahedra"], m["dofs"]) == (472, 192, 1416)
     # the merged numpy mesh agrees
-    xyz, hexes = dc._plate_mesh(SMALL)
+    xyz, hexes = flops_paper._plate_mesh(SMALL)
     assert (len(xyz), len(hexes)) == (236, 96)
     assert len(np.unique(hexes)) == 236
     # contact: the hole surface, 8 x 1 quads, 8 x 2 nodes
@@ -516,7 +517,7 @@ def test_pin_joint_counts_small_by_hand():
 @pytest.mark.parametrize("c,r,t", [(2, 3, 1), (3, 2, 2), (1, 4, 3)])
 def test_hole_block_zigzag_bandwidths(c, r, t):
     lay = PinJointLayout(n_holes=1, n_circumferential=c, n_radial=r, n_layers=t, n_length=2)
-    _, hexes = dc._hole_block_mesh(lay, 0)
+    _, hexes = flops_paper._hole_block_mesh(lay, 0)
     n_ring = 4 * c
     zig = [0]
     lo, hi = 1, n_ring - 1
@@ -531,8 +532,8 @@ def test_hole_block_zigzag_bandwidths(c, r, t):
     a, b, lay_ = np.meshgrid(np.arange(n_ring), np.arange(r + 1), np.arange(t + 1), indexing="ij")
     ring_slowest = ((pos[a] * (r + 1) + b) * (t + 1) + lay_).ravel()
     radial_slowest = ((b * n_ring + pos[a]) * (t + 1) + lay_).ravel()
-    b_ring = dc._span_half_bandwidth(ring_slowest, hexes, 3)
-    b_radial = dc._span_half_bandwidth(radial_slowest, hexes, 3)
+    b_ring = flops_paper._span_half_bandwidth(ring_slowest, hexes, 3)
+    b_radial = flops_paper._span_half_bandwidth(radial_slowest, hexes, 3)
     assert b_ring == 3 * ((2 * r + 3) * (t + 1) + 2)
     assert b_radial == 3 * ((4 * c + 2) * (t + 1) + 2)
     assert pin_joint_mesh_counts(lay)["hole_block_half_bandwidth"] == min(b_ring, b_radial)
@@ -716,7 +717,7 @@ def test_pin_joint_and_scene_studies():
     assert (s_steps.name, s_changes.name) == ("three_steps", "three_changes")
     # gamma / N_TS = 1.5 is kept; each alpha scaled like gamma and rounded up
     i = STEPS_SWEEP.index(10)
-    ref = dc._rescaled(three_scene(), 10, 15)
+    ref = flops_studies._rescaled(three_scene(), 10, 15)
     assert [c.alpha for c in ref.contacts] == [10, 5]
     assert s_steps.gflops_total["v-w-u"][i] == pytest.approx(
         operation_counts(ref, "v-w-u").gflops_total, rel=1e-12

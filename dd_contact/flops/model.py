@@ -1,0 +1,553 @@
+"""Operation-count (FLOP) model of the paper's solution algorithms.
+
+Implements section 6 of ``method.md`` (Kim, Ryu, Shin 2007, Table 1 and Table 2): the number of
+LU decompositions and single right-hand-side substitutions each algorithm performs on each mesh,
+priced with four kernels (one multiply-add counts as one operation):
+
+* ``f1(D) = D**3 / 3``                      dense factorisation,
+* ``f2(D) = 1.5 * D**2``                    dense forward + back substitution,
+* ``f3(D, B) = D * B**2 - (2/3) * B**3``    banded factorisation, half-bandwidth ``B``,
+* ``f4(D, B) = 3 * D * B``                  banded substitution.
+
+Notation: ``D_U``/``B_U`` dofs and half-bandwidth of a subdomain, ``D_V`` interface dofs,
+``D_V^(k)`` the interface dofs tied to subdomain ``k`` (the non-zero columns of ``P_DI2^(k)``),
+``D_W`` contact-interface dofs, ``N_TS`` time steps, ``alpha^(k)`` contact state changes on contact
+interface ``k``, ``gamma`` contact state changes in the whole model. Matrix assembly and
+matrix-matrix products (e.g. ``P^T (K^-1 P)``) are not counted, as in the paper.
+
+Algorithms (the name lists the order in which the unknowns are obtained):
+
+* ``"FULL"``: one banded matrix of the whole model, contact on its boundary.
+* ``"v-w-u"``: condense u, then w, solve v; back-substitute w, then u (paper's Table 1).
+* ``"w-v-u"``: condense u, then v, solve w; back-substitute v, then u.
+* ``"w-u"``: no interface; the subdomains are merged into the whole model, contact interfaces
+  only.
+* ``"v-u"``: no contact interfaces; contact acts on the boundary of the subdomain that owns it.
+
+The names and the rule of which algorithms fit a scene are those of
+:mod:`dd_contact.solvers.schedule` (:data:`ALGORITHMS`, ``fitting_algorithms``), read as the
+paper does: each algorithm runs on its own variant of the model. The derivation of each order is
+in the docstring of its private ``_counts_*`` function and, with tables, in ``docs/cost.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
+
+__all__ = [
+    "ALGORITHMS",
+    "ArrayLike",
+    "ContactCounts",
+    "CostReport",
+    "MeshCost",
+    "MeshCounts",
+    "SceneSizes",
+    "SubdomainCounts",
+    "applicable_algorithms",
+    "check_non_negative",
+    "check_positive",
+    "compare",
+    "f1",
+    "f2",
+    "f3",
+    "f4",
+    "is_int",
+    "operation_counts",
+]
+
+_GIGA = 1.0e9
+
+ArrayLike = float | int | npt.NDArray[np.floating[Any]] | npt.NDArray[np.integer[Any]]
+
+
+# --------------------------------------------------------------------------- kernels
+
+
+def f1(d: ArrayLike) -> ArrayLike:
+    """Dense LU factorisation of a ``d x d`` matrix: ``d**3 / 3`` operations.
+
+    Args:
+        d: Matrix dimension (scalar or array).
+
+    Returns:
+        Operation count.
+    """
+    return d**3 / 3.0
+
+
+def f2(d: ArrayLike) -> ArrayLike:
+    """Dense forward + back substitution for one right-hand side: ``1.5 * d**2`` operations.
+
+    Args:
+        d: Matrix dimension (scalar or array).
+
+    Returns:
+        Operation count.
+    """
+    return 1.5 * d**2
+
+
+def f3(d: ArrayLike, b: ArrayLike) -> ArrayLike:
+    """Banded LU factorisation: ``d * b**2 - (2/3) * b**3`` operations.
+
+    With ``b == d`` this equals :func:`f1`, so a banded matrix of full bandwidth costs the same
+    as a dense one.
+
+    Args:
+        d: Matrix dimension (scalar or array).
+        b: Half-bandwidth, diagonal included (scalar or array).
+
+    Returns:
+        Operation count.
+    """
+    return d * b**2 - (2.0 / 3.0) * b**3
+
+
+def f4(d: ArrayLike, b: ArrayLike) -> ArrayLike:
+    """Banded forward + back substitution for one right-hand side: ``3 * d * b`` operations.
+
+    Args:
+        d: Matrix dimension (scalar or array).
+        b: Half-bandwidth, diagonal included (scalar or array).
+
+    Returns:
+        Operation count.
+    """
+    return 3.0 * d * b
+
+
+# --------------------------------------------------------------------------- inputs
+
+
+def is_int(value: Any) -> bool:
+    """Whether ``value`` is a Python or numpy integer (``bool`` is not)."""
+    return isinstance(value, int | np.integer) and not isinstance(value, bool)
+
+
+def check_positive(name: str, value: int) -> None:
+    """Raise ``ValueError`` naming ``name`` unless ``value`` is an integer ``>= 1``."""
+    if not is_int(value) or value < 1:
+        raise ValueError(f"{name} must be a positive integer, got {value!r}")
+
+
+def check_non_negative(name: str, value: int) -> None:
+    """Raise ``ValueError`` naming ``name`` unless ``value`` is an integer ``>= 0``."""
+    if not is_int(value) or value < 0:
+        raise ValueError(f"{name} must be a non-negative integer, got {value!r}")
+
+
+@dataclass(frozen=True)
+class MeshCounts:
+    """Size of a banded (volume) matrix, e.g. the undecomposed whole model.
+
+    Attributes:
+        name: Label used in reports.
+        dofs: Number of unknowns ``D``.
+        half_bandwidth: Half-bandwidth ``B`` counting the diagonal, ``1 <= B <= D``.
+    """
+
+    name: str
+    dofs: int
+    half_bandwidth: int
+
+    def __post_init__(self) -> None:
+        check_positive(f"{self.name}.dofs", self.dofs)
+        check_positive(f"{self.name}.half_bandwidth", self.half_bandwidth)
+        if self.half_bandwidth > self.dofs:
+            raise ValueError(
+                f"{self.name}: half_bandwidth {self.half_bandwidth} > dofs {self.dofs}"
+            )
+
+
+@dataclass(frozen=True)
+class SubdomainCounts:
+    """Size of one subdomain matrix ``K_D^(k)``.
+
+    Attributes:
+        name: Label used in reports.
+        dofs: ``D_U``.
+        half_bandwidth: ``B_U`` counting the diagonal, ``1 <= B_U <= D_U``.
+        interface_dofs: ``D_V^(k)``, the interface dofs tied to this subdomain, i.e. the
+            non-zero columns of ``P_DI2^(k)``: the interface nodes on (or, for non-matching
+            meshes, whose cells overlap) the subdomain's tied surface, times the dofs per node.
+            ``None`` means the whole interface (as in the paper's bar, where each subdomain
+            touches all of ``Gamma_I``); ``0`` means not tied.
+    """
+
+    name: str
+    dofs: int
+    half_bandwidth: int
+    interface_dofs: int | None = None
+
+    def __post_init__(self) -> None:
+        MeshCounts(self.name, self.dofs, self.half_bandwidth)  # same validation
+        if self.interface_dofs is not None:
+            check_non_negative(f"{self.name}.interface_dofs", self.interface_dofs)
+
+
+@dataclass(frozen=True)
+class ContactCounts:
+    """Size of one contact interface ``Gamma_C^(k)``.
+
+    Attributes:
+        name: Label used in reports.
+        dofs: ``D_W``.
+        subdomain: Index (into ``SceneSizes.subdomains``) of the owning subdomain.
+        alpha: ``alpha^(k)``, the number of contact state changes on this contact interface.
+    """
+
+    name: str
+    dofs: int
+    subdomain: int
+    alpha: int
+
+    def __post_init__(self) -> None:
+        check_positive(f"{self.name}.dofs", self.dofs)
+        check_non_negative(f"{self.name}.subdomain", self.subdomain)
+        check_non_negative(f"{self.name}.alpha", self.alpha)
+
+
+@dataclass(frozen=True)
+class SceneSizes:
+    """Everything the operation-count model needs to know about a decomposed model.
+
+    Attributes:
+        subdomains: The subdomains ``Omega^(k)``.
+        contacts: The contact interfaces; at least one, at most one per subdomain.
+        interface_dofs: ``D_V`` of the interface ``Gamma_I``, or ``None`` without interface.
+        n_steps: ``N_TS``, number of time steps.
+        gamma: Contact state changes in the whole model. Simultaneous changes on several contact
+            interfaces count once, so ``max(alpha) <= gamma <= sum(alpha)``.
+        whole: The undecomposed model as one banded matrix, used by ``"FULL"`` and ``"w-u"``.
+        interface_name: Label of the interface in reports.
+    """
+
+    subdomains: tuple[SubdomainCounts, ...]
+    contacts: tuple[ContactCounts, ...]
+    interface_dofs: int | None
+    n_steps: int
+    gamma: int
+    whole: MeshCounts
+    interface_name: str = "Gamma_I"
+
+    def __post_init__(self) -> None:
+        # tuples keep the frozen dataclass hashable even if lists were passed
+        object.__setattr__(self, "subdomains", tuple(self.subdomains))
+        object.__setattr__(self, "contacts", tuple(self.contacts))
+        if not self.subdomains:
+            raise ValueError("at least one subdomain is required")
+        if not self.contacts:
+            raise ValueError("at least one contact interface is required")
+        if self.interface_dofs is not None:
+            check_positive("interface_dofs", self.interface_dofs)
+        for sd in self.subdomains:
+            if sd.interface_dofs:
+                if self.interface_dofs is None:
+                    raise ValueError(f"{sd.name} is tied to an interface, but there is none")
+                if sd.interface_dofs > self.interface_dofs:
+                    raise ValueError(
+                        f"{sd.name}: interface_dofs {sd.interface_dofs} > interface dofs "
+                        f"{self.interface_dofs}"
+                    )
+        check_non_negative("n_steps", self.n_steps)
+        check_non_negative("gamma", self.gamma)
+        owners = [c.subdomain for c in self.contacts]
+        if max(owners) >= len(self.subdomains):
+            raise ValueError(f"contact owner index out of range: {owners}")
+        if len(set(owners)) != len(owners):
+            # Table 1 assumes one contact interface per subdomain (w^(k) blocks decoupled)
+            raise ValueError(f"each subdomain may own at most one contact interface: {owners}")
+        alphas = [c.alpha for c in self.contacts]
+        if not max(alphas) <= self.gamma <= sum(alphas):
+            raise ValueError(
+                f"need max(alpha) <= gamma <= sum(alpha); got alpha={alphas}, gamma={self.gamma}"
+            )
+
+    def contact_of(self, subdomain: int) -> ContactCounts | None:
+        """Return the contact interface owned by subdomain ``subdomain``, if any."""
+        for c in self.contacts:
+            if c.subdomain == subdomain:
+                return c
+        return None
+
+    def tied_dofs(self, subdomain: int) -> int:
+        """``D_V^(k)``: interface dofs tied to subdomain ``subdomain`` (0 without interface)."""
+        if self.interface_dofs is None:
+            return 0
+        n = self.subdomains[subdomain].interface_dofs
+        return self.interface_dofs if n is None else n
+
+
+# --------------------------------------------------------------------------- outputs
+
+
+@dataclass(frozen=True)
+class MeshCost:
+    """Counts and cost on one mesh (one row of the paper's Table 2).
+
+    Attributes:
+        name: Mesh label.
+        dofs: Matrix dimension.
+        half_bandwidth: Half-bandwidth for banded matrices, ``None`` for dense ones.
+        decompositions: Number of LU factorisations of this mesh's matrix.
+        substitutions: Number of single right-hand-side substitutions with it.
+        gflops_decomposition: Cost of all factorisations, in 1e9 operations.
+        gflops_substitution: Cost of all substitutions, in 1e9 operations.
+    """
+
+    name: str
+    dofs: int
+    half_bandwidth: int | None
+    decompositions: int
+    substitutions: int
+    gflops_decomposition: float
+    gflops_substitution: float
+
+    @property
+    def gflops(self) -> float:
+        """Total cost on this mesh in 1e9 operations."""
+        return self.gflops_decomposition + self.gflops_substitution
+
+
+@dataclass(frozen=True)
+class CostReport:
+    """Operation counts of one algorithm.
+
+    Attributes:
+        algorithm: One of :data:`ALGORITHMS`.
+        meshes: Per-mesh counts and costs.
+        percent_of_full: ``100 * gflops_total / FULL.gflops_total``; set by :func:`compare`.
+    """
+
+    algorithm: str
+    meshes: tuple[MeshCost, ...]
+    percent_of_full: float | None = None
+
+    @property
+    def gflops_decomposition(self) -> float:
+        """Factorisation cost summed over meshes, in 1e9 operations."""
+        return float(sum(m.gflops_decomposition for m in self.meshes))
+
+    @property
+    def gflops_substitution(self) -> float:
+        """Substitution cost summed over meshes, in 1e9 operations."""
+        return float(sum(m.gflops_substitution for m in self.meshes))
+
+    @property
+    def gflops_total(self) -> float:
+        """Total cost in 1e9 operations."""
+        return self.gflops_decomposition + self.gflops_substitution
+
+
+def _banded(name: str, d: int, b: int, n_dec: int, n_sub: int) -> MeshCost:
+    dec, sub = n_dec * f3(d, b) / _GIGA, n_sub * f4(d, b) / _GIGA
+    return MeshCost(name, int(d), int(b), int(n_dec), int(n_sub), float(dec), float(sub))
+
+
+def _dense(name: str, d: int, n_dec: int, n_sub: int) -> MeshCost:
+    dec, sub = n_dec * f1(d) / _GIGA, n_sub * f2(d) / _GIGA
+    return MeshCost(name, int(d), None, int(n_dec), int(n_sub), float(dec), float(sub))
+
+
+# --------------------------------------------------------------------------- algorithms
+
+
+def _require_interface(s: SceneSizes, algorithm: str) -> int:
+    if s.interface_dofs is None:
+        raise ValueError(f"{algorithm!r} needs an interface (interface_dofs is None)")
+    return s.interface_dofs
+
+
+def _coupled_contacts(s: SceneSizes) -> tuple[str, int]:
+    """Name and size of the single dense block holding all w^(k) (w-v-u and w-u)."""
+    names = [c.name for c in s.contacts]
+    name = "+".join(names) if len(names) <= 3 else f"{len(names)} coupled contact interfaces"
+    return name, sum(c.dofs for c in s.contacts)
+
+
+def _counts_full(s: SceneSizes) -> list[MeshCost]:
+    """FULL: classical solve of the undecomposed model.
+
+    One banded matrix ``[D, B] = [whole.dofs, whole.half_bandwidth]``, factorised at the first
+    step and after every contact change anywhere (``1 + gamma``), and substituted once per time
+    step and once per contact iteration caused by a change (``N_TS + gamma``).
+    """
+    w = s.whole
+    return [_banded(w.name, w.dofs, w.half_bandwidth, 1 + s.gamma, s.n_steps + s.gamma)]
+
+
+def _counts_vwu(s: SceneSizes) -> list[MeshCost]:
+    """v-w-u: condense u, then w, solve v; back-substitute w, then u (Table 1, summed per mesh).
+
+    * ``Omega^(k)``: ``f3(D_U, B_U)`` once; ``f4(D_U, B_U)`` for ``K_D^-1 P_CI2`` (``D_W``
+      columns, only if it owns a contact interface), ``K_D^-1 P_DI2`` (``D_V^(k)`` non-zero
+      columns; ``D_V`` in the paper's bar), ``u_hat`` (``N_TS``) and ``u`` (``N_TS``):
+      ``D_W + D_V^(k) + 2 N_TS`` substitutions.
+    * ``Gamma_C^(k)``: ``f1(D_W)`` ``1 + alpha`` times; ``f2(D_W)`` for ``K_CI^-1 P_CD``
+      (``(1 + alpha) D_V^(k)``: ``P_CD^(k)`` has the non-zero columns of ``P_DI2^(k)``),
+      ``K_CI^-1 p_C2`` (``N_TS + alpha``) and ``w`` (``N_TS + gamma``).
+    * ``Gamma_I``: ``f1(D_V)`` ``1 + gamma`` times; ``f2(D_V)`` for ``v``, ``N_TS + gamma`` times.
+    """
+    d_v = _require_interface(s, "v-w-u")
+    n, g = s.n_steps, s.gamma
+    out = []
+    for k, sd in enumerate(s.subdomains):
+        c = s.contact_of(k)
+        cols = (c.dofs if c else 0) + s.tied_dofs(k)
+        out.append(_banded(sd.name, sd.dofs, sd.half_bandwidth, 1, cols + 2 * n))
+    for c in s.contacts:
+        n_sub = (1 + c.alpha) * s.tied_dofs(c.subdomain) + (n + c.alpha) + (n + g)
+        out.append(_dense(c.name, c.dofs, 1 + c.alpha, n_sub))
+    out.append(_dense(s.interface_name, d_v, 1 + g, n + g))
+    return out
+
+
+def _counts_wvu(s: SceneSizes) -> list[MeshCost]:
+    """w-v-u: condense u, then v, solve w; back-substitute v, then u.
+
+    Derivation (same bookkeeping as Table 1):
+
+    * ``Omega^(k)``: identical to v-w-u (``K_D`` is contact independent): ``f3`` once,
+      ``f4`` ``D_W + D_V^(k) + 2 N_TS`` times.
+    * ``Gamma_I``: ``K_DI_hat = K_DI - sum P^T K_D^-1 P`` does not depend on contact, so
+      ``f1(D_V)`` once. ``f2(D_V)`` for ``K_DI_hat^-1 P_CD^T`` (once, one column per contact dof,
+      ``sum D_W``), for ``K_DI_hat^-1 sum P_DI2^T u_hat`` (the w right-hand side, once per step,
+      ``N_TS``) and for the back-substitution of ``v`` (once per converged step, ``N_TS``; the
+      contact check needs only ``w``): ``sum D_W + 2 N_TS``.
+    * Contact: condensing ``v`` couples every ``w^(k)`` with every other, so all contact
+      interfaces form one dense block of ``sum D_W`` dofs. It changes whenever any contact
+      interface changes: ``f1`` ``1 + gamma`` times, ``f2`` (solve for ``w``) ``N_TS + gamma``
+      times. With one contact interface this is ``Gamma_C^(1)`` and ``gamma == alpha``.
+    """
+    d_v = _require_interface(s, "w-v-u")
+    n, g = s.n_steps, s.gamma
+    name_c, d_c = _coupled_contacts(s)
+    out = []
+    for k, sd in enumerate(s.subdomains):
+        c = s.contact_of(k)
+        cols = (c.dofs if c else 0) + s.tied_dofs(k)
+        out.append(_banded(sd.name, sd.dofs, sd.half_bandwidth, 1, cols + 2 * n))
+    out.append(_dense(s.interface_name, d_v, 1, d_c + 2 * n))
+    out.append(_dense(name_c, d_c, 1 + g, n + g))
+    return out
+
+
+def _counts_wu(s: SceneSizes) -> list[MeshCost]:
+    """w-u: no interface; contact interfaces on the merged (undecomposed) model.
+
+    Without ``v`` the subdomains are one body, so the volume matrix is ``whole`` (its dofs and
+    half-bandwidth), factorised once: ``f3`` once; ``f4`` for ``K^-1 P_CI2`` (``sum D_W``
+    columns), ``u_hat`` (``N_TS``) and ``u`` (``N_TS``). Condensing the merged ``u`` couples all
+    contact interfaces into one dense block of ``sum D_W`` dofs, re-factorised ``1 + gamma``
+    times and solved for ``w`` ``N_TS + gamma`` times. The cost of a contact change,
+    ``f1(sum D_W) + f2(sum D_W)``, does not depend on any volume bandwidth.
+    """
+    n, g = s.n_steps, s.gamma
+    name_c, d_c = _coupled_contacts(s)
+    w = s.whole
+    return [
+        _banded(w.name, w.dofs, w.half_bandwidth, 1, d_c + 2 * n),
+        _dense(name_c, d_c, 1 + g, n + g),
+    ]
+
+
+def _counts_vu(s: SceneSizes) -> list[MeshCost]:
+    """v-u: interface only; contact acts on the boundary of its owning subdomain.
+
+    * Contact subdomain ``k`` (owns ``Gamma_C^(k)`` in the scene; the contact mesh itself is not
+      used): its banded matrix ``[D_U, B_U]`` holds the contact penalty, so ``f3`` ``1 + alpha``
+      times; ``f4`` for ``K_D^-1 P_DI2`` with the new factor after every factorisation
+      (``(1 + alpha) D_V^(k)``; ``K_DI_hat`` (A17) needs it), ``u_hat`` at each step and after
+      each own change (``N_TS + alpha``), and ``u`` at each step and each change anywhere
+      (``N_TS + gamma``; the contact check needs ``u`` on the boundary, and ``u`` depends on
+      ``v``).
+    * Other subdomains: their condensation is contact independent and reused: ``f3`` once,
+      ``f4`` ``D_V^(k) + 2 N_TS`` times.
+    * ``Gamma_I``: ``K_DI_hat`` contains every ``K_D^-1``, so ``f1(D_V)`` ``1 + gamma`` times;
+      ``f2(D_V)`` for ``v`` ``N_TS + gamma`` times.
+
+    This is the only order whose cost per contact change grows with the contact subdomain's
+    half-bandwidth (through ``f3(D_U, B_U) + f4(D_U, B_U) (D_V^(k) + 2)``).
+    """
+    d_v = _require_interface(s, "v-u")
+    n, g = s.n_steps, s.gamma
+    out = []
+    for k, sd in enumerate(s.subdomains):
+        c = s.contact_of(k)
+        dv_k = s.tied_dofs(k)
+        if c is None:
+            out.append(_banded(sd.name, sd.dofs, sd.half_bandwidth, 1, dv_k + 2 * n))
+        else:
+            n_sub = (1 + c.alpha) * dv_k + (n + c.alpha) + (n + g)
+            out.append(_banded(sd.name, sd.dofs, sd.half_bandwidth, 1 + c.alpha, n_sub))
+    out.append(_dense(s.interface_name, d_v, 1 + g, n + g))
+    return out
+
+
+_COUNTERS = {
+    "FULL": _counts_full,
+    "v-w-u": _counts_vwu,
+    "w-v-u": _counts_wvu,
+    "w-u": _counts_wu,
+    "v-u": _counts_vu,
+}
+
+
+def applicable_algorithms(sizes: SceneSizes) -> tuple[str, ...]:
+    """Algorithms that make sense for ``sizes``: those using ``v`` need an interface.
+
+    The schedule's fit rule in the paper's reading (``fitting_algorithms(..., variants=True)``):
+    every scene here has contact interfaces, and w-u and v-u run on their own variants of the
+    model, so without an interface FULL and w-u fit, with one all of :data:`ALGORITHMS`.
+
+    Args:
+        sizes: Scene description.
+
+    Returns:
+        Subset of :data:`ALGORITHMS`, in that order.
+    """
+    return fitting_algorithms(sizes.interface_dofs is not None, True, variants=True)
+
+
+def operation_counts(sizes: SceneSizes, algorithm: str) -> CostReport:
+    """Decompositions, substitutions and GFLOPs of ``algorithm`` on each mesh of ``sizes``.
+
+    Args:
+        sizes: Scene description.
+        algorithm: One of :data:`ALGORITHMS`.
+
+    Returns:
+        The report; ``percent_of_full`` is ``100.0`` for ``"FULL"`` and ``None`` otherwise
+        (use :func:`compare` to fill it).
+
+    Raises:
+        ValueError: Unknown algorithm, or one that needs an interface the scene lacks.
+    """
+    if algorithm not in _COUNTERS:
+        raise ValueError(f"unknown algorithm {algorithm!r}; choose from {ALGORITHMS}")
+    meshes = tuple(_COUNTERS[algorithm](sizes))
+    return CostReport(algorithm, meshes, 100.0 if algorithm == "FULL" else None)
+
+
+def compare(sizes: SceneSizes) -> dict[str, CostReport]:
+    """Reports of every applicable algorithm with ``percent_of_full`` filled in.
+
+    Args:
+        sizes: Scene description.
+
+    Returns:
+        ``{algorithm: report}`` in :data:`ALGORITHMS` order.
+    """
+    reports = {a: operation_counts(sizes, a) for a in applicable_algorithms(sizes)}
+    full = reports["FULL"].gflops_total
+    return {
+        a: dataclasses.replace(r, percent_of_full=100.0 * r.gflops_total / full)
+        for a, r in reports.items()
+    }
