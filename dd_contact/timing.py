@@ -1,12 +1,12 @@
 """Predicted wall time of the solvers as they really run, and ``algorithm="auto"``.
 
-:mod:`dd_contact.cost` counts flops with the paper's banded kernels (method.md section 6).
+:mod:`dd_contact.flops` counts flops with the paper's banded kernels (method.md section 6).
 This module predicts *seconds* for what the solvers here actually do:
 
 * **The work.** MUMPS's symbolic analysis of every sparse matrix an algorithm factorises
   (flops and factor entries; exact for SPD matrices, which MUMPS does not pivot), and the
   dense LAPACK operations on the surface groups of the order, planned exactly as the
-  engine plans them (:func:`dd_contact.solvers.engine.plan_groups`). A :class:`Plan` lists
+  engine runs them (both follow :mod:`dd_contact.solvers.schedule`). A :class:`Plan` lists
   the operations of the set-up, of one time step without a contact change, and of one more
   contact iteration after a change on each contact region.
 * **The machine.** :class:`MachineRates`: measured seconds for each kind of operation at a
@@ -34,11 +34,17 @@ from mpi4py import MPI
 import numpy as np
 import scipy.linalg as sla
 
-from dd_contact.parallel import ROOT, bcast_from_root, gathered
-from dd_contact.solvers.engine import plan_groups, subdomain_statistics
+from dd_contact.parallel import ROOT, bcast_from_root
+from dd_contact.solvers.engine import subdomain_statistics, surface_structure
 from dd_contact.solvers.full import monolithic_statistics
-from dd_contact.solvers.linalg import SparseCholesky, SparseStatistics, WorkLog, WorkRecord
-from dd_contact.solvers.schedule import ORDERS
+from dd_contact.solvers.linalg import SparseCholesky, SparseStatistics
+from dd_contact.solvers.schedule import (
+    ALGORITHMS,
+    FullSchedule,
+    Operation,
+    Schedule,
+)
+from dd_contact.solvers.worklog import WorkLog, WorkRecord
 
 __all__ = [
     "RATE_KINDS",
@@ -274,10 +280,6 @@ def record_seconds(record: WorkRecord, rates: MachineRates) -> float:
 
 
 # -- the work -------------------------------------------------------------------------------
-def _kind(block: str) -> str:
-    return block.split(":", 1)[0]
-
-
 @dataclass
 class SceneStructure:
     """What the plans need to know about a scene's (constrained) block system.
@@ -289,9 +291,7 @@ class SceneStructure:
         layouts: Per subdomain, ``(surface block, tied dofs)`` of each of its couplings.
         base_pairs: Surface block pairs with a matrix of their own.
         full: MUMPS's analysis of FULL's matrix (``None``: FULL not considered).
-
-    How the orders condense follows from the subdomain statistics: a Schur block means
-    MUMPS's Schur complement, none means multi-RHS substitutions.
+        condensation: How the orders condense a subdomain (``"schur"``, ``"multi-rhs"``).
     """
 
     sizes: dict[str, int]
@@ -300,6 +300,15 @@ class SceneStructure:
     layouts: dict[str, list]
     base_pairs: set
     full: SparseStatistics | None
+    condensation: str = "schur"
+
+    def schedule(self, algorithm: str) -> Schedule | FullSchedule:
+        """The schedule ``algorithm`` follows on this scene."""
+        if algorithm == "FULL":
+            return FullSchedule(sum(self.sizes.values()), self.regions)
+        return Schedule(
+            algorithm, self.sizes, self.layouts, self.base_pairs, self.regions, self.condensation
+        )
 
 
 def scene_structure(
@@ -327,17 +336,15 @@ def scene_structure(
             comm, system, contacts, condensation
         ).items():
             subdomains[block], layouts[block] = stats, layout
-    pairs = {(r, c) for r, c in system.matrices if _kind(r) != "u" != _kind(c)}
-    pairs = {p for part in comm.allgather(pairs) for p in part}
-    regions = {key: block for key, (block, _, _) in contacts.items()}
-    regions = gathered(comm, regions)
+    pairs, regions = surface_structure(comm, system, contacts)
     return SceneStructure(
         dict(system.sizes),
         regions,
         subdomains,
         layouts,
-        pairs | {(c, r) for r, c in pairs},
+        pairs,
         monolithic_statistics(comm, system, contacts) if full else None,
+        condensation,
     )
 
 
@@ -367,110 +374,38 @@ class Plan:
         return statistics.fmean(costs) if costs else 0.0
 
 
-def _sparse_factor(block: str, st: SparseStatistics, analysed: bool) -> WorkRecord:
-    what = f"with a Schur complement of {st.schur}" if st.schur else ""
-    nnz = st.nnz if analysed else 0
-    return WorkRecord(block, "sparse_factor", st.size, 0, 0.0, st.flops, what, st.entries, nnz)
-
-
-def _sparse_solve(block: str, st: SparseStatistics, what: str, nrhs: int = 1) -> WorkRecord:
-    n = st.size + st.schur
-    return WorkRecord(
-        block, "sparse_solve", n, nrhs, 0.0, 4.0 * st.entries * nrhs, what, st.entries
-    )
-
-
-def _dense_solve(name: str, n: int, what: str, nrhs: int = 1, flops: float | None = None):
-    flops = 2.0 * n * n * nrhs if flops is None else flops
-    return WorkRecord(name, "dense_solve", n, nrhs, 0.0, flops, what)
-
-
-def _full_plan(s: SceneStructure) -> Plan:
-    st = s.full
-    solve = _sparse_solve("FULL", st, "")
-    changes = {key: [_sparse_factor("FULL", st, False), solve] for key in s.regions}
-    return Plan("FULL", [_sparse_factor("FULL", st, True)], [solve], changes)
-
-
-def _order_plan(s: SceneStructure, order: str) -> Plan:
-    levels = ORDERS[order]
-    surface = {b: n for b, n in s.sizes.items() if _kind(b) != "u"}
-    where, _, groups = plan_groups(surface, s.base_pairs, s.layouts, levels)
-    flat = [g for level in groups for g in level]
-    size = {g.name: sum(surface[b] for b in g.blocks) for g in flat}
-
-    def columns(g) -> int:
-        """Coupling columns of a group to its later neighbours (what its congruence solves)."""
-        total = 0
-        for r in g.neighbours:
-            if any((a, r) in s.base_pairs for a in g.blocks):
-                total += surface[r]
-                continue
-            tied = [w[r][1] for w in where.values() if r in w and any(a in w for a in g.blocks)]
-            total += len(np.unique(np.concatenate(tied))) if tied else 0
-        return total
-
-    def factorise_subdomain(block: str, analysed: bool) -> list[WorkRecord]:
-        st = s.subdomains[block]
-        ops = [_sparse_factor(block, st, analysed)]
-        m = sum(len(J) for _, J in s.layouts[block])
-        if st.schur:
-            ops.append(WorkRecord(block, "schur", st.schur, 0, 0.0))
-        else:
-            for j0 in range(0, m, 256):  # the engine's multi-RHS chunks
-                ops.append(_sparse_solve(block, st, "condense", min(256, m - j0)))
-        return ops
-
-    def factorise_group(g) -> list[WorkRecord]:
-        n = size[g.name]
-        ops = [WorkRecord(g.name, "dense_factor", n, 0, 0.0, n**3 / 3.0)]
-        if not g.last and g.neighbours and (m := columns(g)):
-            ops.append(_dense_solve(g.name, n, "condense", m, float(n * n * m)))
-        return ops
-
-    def solve_group(g) -> WorkRecord:
-        return _dense_solve(g.name, size[g.name], "x" if g.last else "y")
-
-    back = [_dense_solve(g.name, size[g.name], "x") for g in flat if not g.last]
-    setup = [op for b in s.subdomains for op in factorise_subdomain(b, True)]
-    setup += [op for g in flat for op in factorise_group(g)]
-    step = [_sparse_solve(b, st, "u_hat") for b, st in s.subdomains.items()]
-    step += [solve_group(g) for g in flat] + back
-    step += [_sparse_solve(b, st, "u") for b, st in s.subdomains.items()]
-    needs_all_surface = any(_kind(b) != levels[-1] for b in s.regions.values())
-    needed_u = sorted({b for b in s.regions.values() if _kind(b) == "u"})
-    changes = {}
-    for key, block in s.regions.items():
-        ops: list[WorkRecord] = []
-        if _kind(block) == "u":  # contact on the subdomain's own boundary: K changes
-            ops += factorise_subdomain(block, False)
-            ops.append(_sparse_solve(block, s.subdomains[block], "u_hat"))
-            changed = {g.name for g in flat if set(g.blocks) & set(where[block])}
-        else:
-            changed = {g.name for g in flat if block in g.blocks}
-        for g in flat:  # what an eliminated group changes: the groups it is coupled to
-            if g.name not in changed and any(
-                set(h.neighbours) & set(g.blocks) for h in flat if h.name in changed
-            ):
-                changed.add(g.name)
-        ops += [op for g in flat if g.name in changed for op in factorise_group(g)]
-        ops += [solve_group(g) for g in flat if g.last or g.name in changed]
-        if needs_all_surface:
-            ops += back
-        ops += [_sparse_solve(b, s.subdomains[b], "u") for b in needed_u]
-        changes[key] = ops
-    return Plan(order, setup, step, changes)
+def _record(op: Operation, stats: SparseStatistics | None) -> WorkRecord:
+    """The work record of a scheduled operation, with the work counts that price it."""
+    n, nrhs = op.size, op.nrhs
+    if op.kind == "sparse_factor":
+        nnz = stats.nnz if op.analysis else 0
+        what = f"with a Schur complement of {stats.schur}" if stats.schur else ""
+        return WorkRecord(op.target, op.kind, n, 0, 0.0, stats.flops, what, stats.entries, nnz)
+    if op.kind == "sparse_solve":
+        flops = 4.0 * stats.entries * nrhs
+        return WorkRecord(op.target, op.kind, n, nrhs, 0.0, flops, op.what, stats.entries)
+    if op.kind == "dense_factor":
+        return WorkRecord(op.target, op.kind, n, 0, 0.0, n**3 / 3.0)
+    if op.kind == "dense_solve":  # a condensation solves n^2 per column (triangular only)
+        flops = float(n * n * nrhs) if op.what == "condense" else 2.0 * n * n * nrhs
+        return WorkRecord(op.target, op.kind, n, nrhs, 0.0, flops, op.what)
+    return WorkRecord(op.target, op.kind, n, 0, 0.0)  # "schur": a copy of the complement
 
 
 def plan(structure: SceneStructure, algorithm: str) -> Plan:
-    """What ``algorithm`` factorises and solves for this scene."""
-    if algorithm == "FULL":
-        if structure.full is None:
-            raise ValueError("FULL's matrix was not analysed (scene_structure(full=True))")
-        return _full_plan(structure)
-    if algorithm not in ORDERS:
-        raise ValueError(f"unknown algorithm {algorithm!r}; valid: FULL, {', '.join(ORDERS)}")
-    return _order_plan(structure, algorithm)
+    """What ``algorithm`` factorises and solves for this scene (its schedule, with counts)."""
+    if algorithm == "FULL" and structure.full is None:
+        raise ValueError("FULL's matrix was not analysed (scene_structure(full=True))")
+    if algorithm not in ALGORITHMS:
+        raise ValueError(f"unknown algorithm {algorithm!r}; valid: {', '.join(ALGORITHMS)}")
+    schedule = structure.schedule(algorithm)
+
+    def records(ops: list[Operation]) -> list[WorkRecord]:
+        stats = {**structure.subdomains, "FULL": structure.full}
+        return [_record(op, stats.get(op.target)) for op in ops]
+
+    changes = {key: records(schedule.change(key)) for key in structure.regions}
+    return Plan(algorithm, records(schedule.setup()), records(schedule.step()), changes)
 
 
 # -- predictions and the choice ------------------------------------------------------------

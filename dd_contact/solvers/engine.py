@@ -1,23 +1,21 @@
-"""The block-elimination engine: every decomposition order is data for one solver.
+"""The block-elimination engine: executes the schedule of an order.
 
 System (14) has three kinds of unknowns: subdomain displacements ``u:`` (large, sparse),
 the interface displacement ``v:`` and contact-interface displacements ``w:`` (small). The
-engine always condenses the ``u`` blocks first, each with its own sparse factorisation
-(MUMPS Cholesky) made once for the whole run, which leaves a dense SPD system on the
-surface blocks (A14-A18)::
+engine condenses the ``u`` blocks first, each with its own sparse factorisation (MUMPS
+Cholesky) made once for the whole run, which leaves a dense SPD system on the surface
+blocks (A14-A18)::
 
     S = K_surface - sum_k C_k^T K_hat_k^-1 C_k,     g = b_surface - sum_k C_k^T u_hat_k
 
-where ``C_k`` are the non-zero coupling columns of subdomain k (``-P_DI2``, ``-P_CI2``). An
-*order* says in which sequence the surface blocks are then eliminated: ``"v-w-u"`` eliminates
-the ``w`` blocks (per subdomain) and solves the condensed interface system for ``v``,
-``"w-v-u"`` eliminates ``v`` and solves one coupled ``w`` system, ``"w-u"`` and ``"v-u"``
-have one surface level only. Each group of blocks eliminated together gets a dense LAPACK
-Cholesky factorisation that is redone only when something it depends on changed (a contact
-matrix, an earlier group's factor, a subdomain's condensation), which gives exactly the
-counts of the paper's Table 1 (``dd_contact.cost``). Contact on a subdomain's own boundary
-(``ContactBoundary``, order ``"v-u"``) makes that subdomain's matrix change: it is then
-re-factorised and re-condensed on each of its contact changes.
+where ``C_k`` are the non-zero coupling columns of subdomain k (``-P_DI2``, ``-P_CI2``). The
+order's :class:`~dd_contact.solvers.schedule.Schedule` says which surface blocks are then
+eliminated together (its groups, each a dense LAPACK Cholesky factorisation) and which of
+them to re-factorise and re-solve after a change; the engine only observes what changed (a
+contact matrix, a subdomain's condensation, a right-hand side) and does what the schedule
+says. Contact on a subdomain's own boundary (``ContactBoundary``, order ``"v-u"``) makes
+that subdomain's matrix change: it is then re-factorised and re-condensed on each of its
+contact changes.
 
 Parallel: ranks own whole subdomains (the owner of ``u:<name>`` factorises, condenses and
 back-substitutes it); the dense surface system, small by construction, is solved on rank 0.
@@ -39,28 +37,89 @@ from dd_contact.solvers.linalg import (
     PatternedMatrix,
     SparseCholesky,
     SparseStatistics,
-    WorkLog,
     coo_of,
     sparse_statistics,
 )
-from dd_contact.solvers.schedule import CONDENSATIONS, ORDERS
+from dd_contact.solvers.schedule import Group, Schedule, block_kind, condensation_chunks
+from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
     "BlockEliminationSolver",
-    "plan_groups",
+    "SubdomainCondensation",
+    "coupling_layout",
+    "order_schedule",
     "subdomain_statistics",
+    "surface_structure",
 ]
 
-_CHUNK = 256  # right-hand sides per MUMPS multi-RHS solve when condensing
+
+def coupling_layout(block: str, system: BlockSystem) -> tuple[list, sp.csr_array]:
+    """The couplings of a subdomain: ``(surface block, tied dofs)`` each, and their columns.
+
+    Returns the layout and ``C``, the subdomain's non-zero coupling columns side by side.
+    """
+    layout, columns = [], []
+    for (row, col), A in system.matrices.items():
+        if row == col or block not in (row, col):
+            continue
+        A = sp.csr_array(A if row == block else A.T)
+        A.eliminate_zeros()
+        J = np.unique(A.indices)
+        layout.append((col if row == block else row, J))
+        columns.append(A[:, J])
+    n = system.sizes[block]
+    return layout, (sp.csr_array(sp.hstack(columns)) if columns else sp.csr_array((n, 0)))
 
 
-def _kind(block: str) -> str:
-    return block.split(":", 1)[0]
+def order_schedule(
+    comm: MPI.Comm,
+    system: BlockSystem,
+    contacts: dict,
+    order: str,
+    condensation: str,
+) -> Schedule:
+    """Collective: the schedule of ``order`` for this block system (same on every rank).
+
+    Args:
+        comm: Communicator.
+        system: This rank's pieces of the (constrained) block system.
+        contacts: This rank's contact regions ``key -> (block, dofs, pattern)``.
+        order: One of the orders.
+        condensation: How subdomains are condensed.
+    """
+    layouts = {
+        b: coupling_layout(b, system)[0]
+        for b, owner in system.owners.items()
+        if block_kind(b) == "u" and owner == comm.rank
+    }
+    pairs, regions = surface_structure(comm, system, contacts)
+    return Schedule(order, system.sizes, gathered(comm, layouts), pairs, regions, condensation)
+
+
+def surface_structure(
+    comm: MPI.Comm, system: BlockSystem, contacts: dict
+) -> tuple[set[tuple[str, str]], dict[str, str]]:
+    """Collective: what every rank knows of the surface, gathered.
+
+    Returns the surface block pairs with a matrix of their own (both orientations) and the
+    block each contact region acts on.
+    """
+    pairs = {(r, c) for r, c in system.matrices if block_kind(r) != "u" != block_kind(c)}
+    pairs = {p for part in comm.allgather(pairs) for p in part}
+    regions = gathered(comm, {key: block for key, (block, _, _) in contacts.items()})
+    return pairs | {(c, r) for r, c in pairs}, regions
 
 
 # -- the subdomain level ------------------------------------------------------------------
-class _Subdomain:
+class SubdomainCondensation:
     """One owned subdomain: its factorisation, condensation, u_hat and back-substitution.
+
+    Args:
+        block: The subdomain's block.
+        system: The block system (this rank holds every piece of the block).
+        contacts: ``key -> (dofs, pattern)`` of contact regions on the subdomain's boundary.
+        log: Where the work is recorded.
+        condensation: ``"schur"`` or ``"multi-rhs"``.
 
     Attributes:
         layout: ``(surface block, columns)`` of each coupling: the surface dofs tied here.
@@ -70,16 +129,7 @@ class _Subdomain:
     def __init__(self, block, system: BlockSystem, contacts: dict, log: WorkLog, condensation: str):
         self.block, self.log = block, log
         n = system.sizes[block]
-        self.layout, columns = [], []
-        for (row, col), A in system.matrices.items():
-            if row == col or block not in (row, col):
-                continue
-            A = sp.csr_array(A if row == block else A.T)
-            A.eliminate_zeros()
-            J = np.unique(A.indices)
-            self.layout.append((col if row == block else row, J))
-            columns.append(A[:, J])
-        self.C = sp.csr_array(sp.hstack(columns)) if columns else sp.csr_array((n, 0))
+        self.layout, self.C = coupling_layout(block, system)
         m = self.C.shape[1]
         # MUMPS's Schur complement: factorise [[K, C], [C^T, 0]] with the last m as Schur
         # block; it gives -Z directly, and solves with K alone (zero-padded vectors).
@@ -115,8 +165,7 @@ class _Subdomain:
             m = self.C.shape[1]
             self.Z = np.zeros((m, m))
             Csc = self.C.tocsc()
-            for j0 in range(0, m, _CHUNK):
-                j1 = min(m, j0 + _CHUNK)
+            for j0, j1 in condensation_chunks(m):
                 X = self.factor.solve_many(Csc[:, j0:j1].toarray(), "condense")
                 self.Z[:, j0:j1] = self.C.T @ X
         self.Z = 0.5 * (self.Z + self.Z.T)  # symmetric up to round-off; make it exact
@@ -142,6 +191,12 @@ class _Subdomain:
             self.u = self._solve(self._b - self.C @ xs, "u")
         return self.u
 
+    def destroy(self) -> None:
+        """Free the PETSc objects."""
+        if self.factor is not None:
+            self.factor.destroy()
+        self.matrix.A.destroy()
+
 
 def subdomain_statistics(
     comm: MPI.Comm, system: BlockSystem, contacts: dict, condensation: str = "schur"
@@ -153,206 +208,134 @@ def subdomain_statistics(
     """
     mine = {}
     for block, owner in system.owners.items():
-        if _kind(block) == "u" and owner == comm.rank:
+        if block_kind(block) == "u" and owner == comm.rank:
             regions = {k: (d, p) for k, (b, d, p) in contacts.items() if b == block}
-            sub = _Subdomain(block, system, regions, WorkLog(), condensation)
+            sub = SubdomainCondensation(block, system, regions, WorkLog(), condensation)
             sub.matrix.push()
             mine[block] = (sparse_statistics(sub.matrix.A, sub.schur), sub.layout)
-            sub.matrix.A.destroy()
+            sub.destroy()
     return gathered(comm, mine)
 
 
 # -- the dense surface levels (rank 0) ----------------------------------------------------
 @dataclass
-class _Group:
-    """Surface blocks eliminated together, and what was computed for them."""
+class _GroupState:
+    """What was computed for one group of the schedule."""
 
-    blocks: list[str]
-    last: bool
-    name: str
-    neighbours: list[str] = field(default_factory=list)  # later blocks coupled to it
-    key: tuple | None = None
     factor: DenseCholesky | None = None
-    version: int = 0
-    xkey: tuple | None = None
     B: np.ndarray | None = None  # the non-zero coupling columns to the neighbours
     BtX: np.ndarray | None = None  # B^T A_GG^-1 B: what eliminating the group subtracts
     columns: list[tuple[str, np.ndarray]] = field(default_factory=list)
     offsets: np.ndarray | None = None
     g_in: np.ndarray | None = None  # right-hand side when last eliminated
     y: np.ndarray | None = None  # A_GG^-1 g_in
-    yversion: int = -1
-
-
-def plan_groups(
-    sizes: dict[str, int], base_pairs: set, layouts: dict[str, list], levels: tuple[str, ...]
-) -> tuple[dict[str, dict], set, list[list[_Group]]]:
-    """The elimination plan of the surface system for one order.
-
-    Args:
-        sizes: Size of every surface block.
-        base_pairs: Surface block pairs with a matrix of their own (not from condensation).
-        layouts: Per subdomain, ``(surface block, coupled dofs)`` of each of its couplings.
-        levels: The order's surface levels (:data:`ORDERS`).
-
-    Returns:
-        ``where`` (per subdomain, surface block -> (offset in Z, dofs)), the non-zero block
-        pairs after condensation, and the groups of each level: the connected blocks of the
-        level's kind, given the fill-in of the earlier eliminations.
-    """
-    pairs = set(base_pairs)
-    where = {}
-    for block, layout in layouts.items():
-        offsets = np.cumsum([0] + [len(J) for _, J in layout])
-        where[block] = {s: (offsets[i], J) for i, (s, J) in enumerate(layout)}
-        pairs |= {(a, b) for a, _ in layout for b, _ in layout}
-    coupled = {frozenset(p) for p in pairs if p[0] != p[1]}
-    remaining = set(sizes)
-    all_groups = []
-    for li, kind in enumerate(levels):
-        level = sorted(b for b in remaining if _kind(b) == kind)
-        last = li == len(levels) - 1
-        groups: list[_Group] = []
-        for b in level:
-            joined = [g for g in groups if any(frozenset((b, a)) in coupled for a in g.blocks)]
-            merged = [b] + [a for g in joined for a in g.blocks]
-            groups = [g for g in groups if g not in joined]
-            groups.append(_Group(sorted(merged), last, ""))
-        remaining -= set(level)
-        for g in groups:
-            g.name = "+".join(g.blocks)
-            g.neighbours = sorted(
-                r for r in remaining if any(frozenset((a, r)) in coupled for a in g.blocks)
-            )
-            for r1 in g.neighbours:  # fill-in of the elimination
-                for r2 in g.neighbours:
-                    if r1 != r2:
-                        coupled.add(frozenset((r1, r2)))
-        all_groups.append(groups)
-    return where, pairs, all_groups
 
 
 class _Surface:
-    """The condensed surface system on rank 0 and its elimination by groups."""
+    """The condensed surface system on rank 0, eliminated group by group as scheduled."""
 
-    def __init__(self, sizes: dict[str, int], levels: tuple[str, ...], log: WorkLog):
-        self.sizes, self.log = sizes, log
+    def __init__(self, schedule: Schedule, log: WorkLog):
+        self.schedule, self.sizes, self.log = schedule, schedule.surface, log
         self.base: dict[tuple[str, str], np.ndarray] = {}
         self.condensed: dict[str, np.ndarray] = {}  # latest Z of each subdomain
-        self.where: dict[str, dict] = {}  # subdomain -> surface block -> (offset in Z, dofs)
-        self.pairs: set[tuple[str, str]] = set()  # surface block pairs that are not zero
         self.contact: dict[str, sp.csr_array] = {}
-        self.contact_version: dict[str, int] = {}
-        self.R: dict[tuple[str, str], np.ndarray] = {}
-        self.version: dict[tuple[str, str], int] = {}
-        self.levels = levels
-        self.groups: list[list[_Group]] = []
-        self._eliminated: dict[tuple[str, str], tuple] = {}  # pair -> (key, matrix) cache
+        self.R: dict[tuple[str, str], np.ndarray] = {}  # base minus the condensations
+        self.eliminated: dict[tuple[str, str], np.ndarray] = {}  # after an earlier level
+        self.state = {g.name: _GroupState() for g in schedule.flat}
+        self.changed: set[str] = set()  # surface blocks changed since the last factorise
+        self.new_pairs: set[tuple[str, str]] = set()  # pairs of R changed since then
+        self.stale: set[str] = {g.name for g in schedule.flat}  # nothing factorised yet
 
-    # set-up
     def add_base(self, row: str, col: str, A: sp.sparray) -> None:
+        """Add a surface block's own matrix (not from condensation)."""
         dense = sp.csr_array(A).toarray()
         self.base[(row, col)] = self.base.get((row, col), 0.0) + dense
         if row != col:
             self.base[(col, row)] = self.base[(row, col)].T
 
-    def plan(self, layouts: dict[str, list]) -> None:
-        """Where each subdomain's Z lands, and the groups of each level."""
-        self.where, self.pairs, self.groups = plan_groups(
-            self.sizes, set(self.base), layouts, self.levels
-        )
-
-    # updates
     def set_condensed(self, block: str, Z: np.ndarray) -> None:
         """A subdomain's new condensation: rebuild the surface pairs it touches."""
         self.condensed[block] = Z
-        touched = {(a, b) for a in self.where[block] for b in self.where[block]}
+        where = self.schedule.where
+        touched = {(a, b) for a in where[block] for b in where[block]}
         for pair in touched:
             R = np.array(self.base.get(pair, np.zeros((self.sizes[pair[0]], self.sizes[pair[1]]))))
             for k, Zk in self.condensed.items():
-                where = self.where[k]
-                if pair[0] in where and pair[1] in where:
-                    (o1, J1), (o2, J2) = where[pair[0]], where[pair[1]]
+                if pair[0] in where[k] and pair[1] in where[k]:
+                    (o1, J1), (o2, J2) = where[k][pair[0]], where[k][pair[1]]
                     R[np.ix_(J1, J2)] -= Zk[o1 : o1 + len(J1), o2 : o2 + len(J2)]
             self.R[pair] = R
-            self.version[pair] = self.version.get(pair, 0) + 1
+        self.new_pairs |= touched
+        self.changed |= self.schedule.touched(block)
 
     def set_contact(self, block: str, matrix: sp.csr_array) -> None:
+        """A surface block's new contact matrix."""
         self.contact[block] = matrix
-        self.contact_version[block] = self.contact_version.get(block, 0) + 1
+        self.changed.add(block)
 
-    def _matrix(self, pair) -> np.ndarray | None:
-        if pair in self.R:
-            return self.R[pair]
-        return self.base.get(pair)
+    def _raw(self, pair) -> np.ndarray | None:
+        return self.R[pair] if pair in self.R else self.base.get(pair)
 
-    # elimination
     def factorise(self) -> None:
-        """Redo every group factorisation whose inputs changed since the last time."""
-        # E: the current (partly eliminated) pair matrices with a key of what they depend on.
-        E = {p: (self._matrix(p), ("R", self.version.get(p, 0))) for p in self.pairs}
-        for level in self.groups:
+        """Re-factorise the groups the schedule finds stale after what changed."""
+        if self.changed or self.new_pairs:
+            self.stale |= self.schedule.stale_groups(self.changed)
+        if not self.stale:
+            return
+        E = {p: self._raw(p) for p in self.schedule.pairs}  # the pairs as each level sees them
+        for level in self.schedule.groups:
             updates: dict[tuple[str, str], list] = {}
             for g in level:
-                key = tuple(E[(a, b)][1] for a in g.blocks for b in g.blocks if (a, b) in E)
-                key += tuple(self.contact_version.get(b, 0) for b in g.blocks)
-                if key != g.key:
-                    g.factor = DenseCholesky(self._assemble(g, E), self.log, g.name)
-                    g.key, g.version = key, g.version + 1
-                if g.last or not g.neighbours:
-                    continue
-                xkey = (
-                    g.version,
-                    *(E[(a, r)][1] for a in g.blocks for r in g.neighbours if (a, r) in E),
-                )
-                if xkey != g.xkey:
-                    self._couple(g, E)
-                    g.xkey = xkey
-                for i, (r1, J1) in enumerate(g.columns):
-                    for j, (r2, J2) in enumerate(g.columns):
-                        updates.setdefault((r1, r2), []).append((g, i, j))
+                st = self.state[g.name]
+                if g.name in self.stale:
+                    st.factor = DenseCholesky(self._assemble(g, E), self.log, g.name)
+                    if not g.last and g.neighbours:
+                        self._couple(g, st, E)
+                if not g.last and g.neighbours:
+                    for i, (r1, _) in enumerate(st.columns):
+                        for j, (r2, _) in enumerate(st.columns):
+                            updates.setdefault((r1, r2), []).append((g, st, i, j))
             for pair, parts in updates.items():
-                key = (E.get(pair, (None, None))[1], tuple(g.xkey for g, _, _ in parts))
-                cached = self._eliminated.get(pair)
-                if cached is None or cached[0] != key:  # else nothing it depends on changed
-                    M = E.get(pair, (None, None))[0]
-                    shape = (self.sizes[pair[0]], self.sizes[pair[1]])
-                    M = np.zeros(shape) if M is None else M.copy()
-                    for g, i, j in parts:
-                        (_, J1), (_, J2) = g.columns[i], g.columns[j]
-                        o1, o2 = g.offsets[i], g.offsets[j]
-                        M[np.ix_(J1, J2)] -= g.BtX[o1 : o1 + len(J1), o2 : o2 + len(J2)]
-                    self._eliminated[pair] = cached = (key, M)
-                E[pair] = (cached[1], key)
+                redo = pair in self.new_pairs or any(g.name in self.stale for g, *_ in parts)
+                if redo or pair not in self.eliminated:
+                    M = E.get(pair)
+                    M = np.zeros((self.sizes[pair[0]], self.sizes[pair[1]])) if M is None else M
+                    M = M.copy()
+                    for _, st, i, j in parts:
+                        (_, J1), (_, J2) = st.columns[i], st.columns[j]
+                        o1, o2 = st.offsets[i], st.offsets[j]
+                        M[np.ix_(J1, J2)] -= st.BtX[o1 : o1 + len(J1), o2 : o2 + len(J2)]
+                    self.eliminated[pair] = M
+                E[pair] = self.eliminated[pair]
+        self.changed, self.new_pairs = set(), set()
 
-    def _assemble(self, g: _Group, E) -> np.ndarray:
+    def _assemble(self, g: Group, E) -> np.ndarray:
         offsets = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
         A = np.zeros((offsets[-1], offsets[-1]))
         for i, a in enumerate(g.blocks):
+            rows = slice(offsets[i], offsets[i + 1])
             for j, b in enumerate(g.blocks):
-                if (a, b) in E:
-                    A[offsets[i] : offsets[i + 1], offsets[j] : offsets[j + 1]] = E[(a, b)][0]
+                if E.get((a, b)) is not None:
+                    A[rows, offsets[j] : offsets[j + 1]] = E[(a, b)]
             if a in self.contact:
-                A[offsets[i] : offsets[i + 1], offsets[i] : offsets[i + 1]] += self.contact[
-                    a
-                ].toarray()
+                A[rows, rows] += self.contact[a].toarray()
         return A
 
-    def _couple(self, g: _Group, E) -> None:
+    def _couple(self, g: Group, st: _GroupState, E) -> None:
         """X = A_GG^-1 B with B the non-zero coupling columns to the later blocks."""
         rows = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
-        g.columns, parts = [], []
+        st.columns, parts = [], []
         for r in g.neighbours:
             B = np.zeros((rows[-1], self.sizes[r]))
             for i, a in enumerate(g.blocks):
-                if (a, r) in E:
-                    B[rows[i] : rows[i + 1]] = E[(a, r)][0]
+                if E.get((a, r)) is not None:
+                    B[rows[i] : rows[i + 1]] = E[(a, r)]
             J = np.flatnonzero(np.any(B != 0.0, axis=0))
-            g.columns.append((r, J))
+            st.columns.append((r, J))
             parts.append(B[:, J])
-        g.B = np.hstack(parts)
-        g.offsets = np.cumsum([0] + [len(J) for _, J in g.columns])
-        g.BtX = g.factor.congruence(g.B, "condense")
+        st.B = np.hstack(parts)
+        st.offsets = np.cumsum([0] + [len(J) for _, J in st.columns])
+        st.BtX = st.factor.congruence(st.B, "condense")
 
     def solve(self, g: dict[str, np.ndarray], complete: bool) -> dict[str, np.ndarray]:
         """Eliminate the right-hand side forward and solve the last level.
@@ -360,23 +343,22 @@ class _Surface:
         With ``complete``, back-substitute the earlier levels too.
         """
         g = {b: v.copy() for b, v in g.items()}
-        for level in self.groups:
+        for level in self.schedule.groups:
             for grp in level:
+                st = self.state[grp.name]
                 rhs = np.concatenate([g[b] for b in grp.blocks])
                 if grp.last:
-                    self._split(grp, grp.factor.solve(rhs, "x"), g)
+                    self._split(grp, st.factor.solve(rhs, "x"), g)
                     continue
-                if (
-                    grp.y is None
-                    or grp.yversion != grp.version
-                    or not np.array_equal(rhs, grp.g_in)
-                ):
-                    grp.y, grp.g_in, grp.yversion = grp.factor.solve(rhs, "y"), rhs, grp.version
+                new_rhs = st.y is None or not np.array_equal(rhs, st.g_in)
+                if self.schedule.solves(grp, self.stale, new_rhs):
+                    st.y, st.g_in = st.factor.solve(rhs, "y"), rhs
                 if grp.neighbours:
-                    correction = grp.B.T @ grp.y
-                    for i, (r, J) in enumerate(grp.columns):
-                        g[r][J] -= correction[grp.offsets[i] : grp.offsets[i + 1]]
-        x = {b: g[b] for grp in self.groups[-1] for b in grp.blocks}
+                    correction = st.B.T @ st.y
+                    for i, (r, J) in enumerate(st.columns):
+                        g[r][J] -= correction[st.offsets[i] : st.offsets[i + 1]]
+        self.stale = set()
+        x = {b: g[b] for grp in self.schedule.groups[-1] for b in grp.blocks}
         if complete:
             x.update(self.back_substitute(x))
         return x
@@ -384,16 +366,17 @@ class _Surface:
     def back_substitute(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Solve the earlier levels, last first, given the later blocks in ``x``."""
         x = dict(x)
-        for level in reversed(self.groups[:-1]):
+        for level in reversed(self.schedule.groups[:-1]):
             for grp in level:
-                rhs = grp.g_in.copy()
+                st = self.state[grp.name]
+                rhs = st.g_in.copy()
                 if grp.neighbours:
-                    coupled = np.concatenate([x[r][J] for r, J in grp.columns])
-                    rhs -= grp.B @ coupled
-                self._split(grp, grp.factor.solve(rhs, "x"), x)
+                    coupled = np.concatenate([x[r][J] for r, J in st.columns])
+                    rhs -= st.B @ coupled
+                self._split(grp, st.factor.solve(rhs, "x"), x)
         return x
 
-    def _split(self, grp: _Group, values: np.ndarray, out: dict) -> None:
+    def _split(self, grp: Group, values: np.ndarray, out: dict) -> None:
         start = 0
         for b in grp.blocks:
             out[b] = values[start : start + self.sizes[b]]
@@ -414,7 +397,7 @@ class BlockEliminationSolver:
         system: This rank's pieces of the (constrained) block system.
         contacts: ``key -> (block, dofs, pattern)`` of this rank's contact regions.
         log: Where factorisations and solves are recorded.
-        order: One of :data:`ORDERS`.
+        order: One of :data:`~dd_contact.solvers.schedule.ORDERS`.
         condensation: How ``C^T K^-1 C`` is formed: ``"schur"`` (default: MUMPS computes the
             Schur complement of ``[[K, C], [C^T, 0]]`` within the factorisation; measured
             about 3x faster at 150k dofs) or ``"multi-rhs"`` (one substitution per coupling
@@ -430,36 +413,30 @@ class BlockEliminationSolver:
         order: str,
         condensation: str = "schur",
     ):
-        if condensation not in CONDENSATIONS:
-            raise ValueError(
-                f"unknown condensation {condensation!r}; valid: {', '.join(CONDENSATIONS)}"
-            )
         self.comm, self.system, self.log, self.order = comm, system, log, order
-        rank = comm.rank
+        self.schedule = order_schedule(comm, system, contacts, order, condensation)
         self._zone_block = {key: block for key, (block, _, _) in contacts.items()}
         self._zone_dofs = {key: dofs for key, (_, dofs, _) in contacts.items()}
-        self.subdomains: dict[str, _Subdomain] = {}
+        self.subdomains: dict[str, SubdomainCondensation] = {}
         for block, owner in system.owners.items():
-            if _kind(block) == "u" and owner == rank:
+            if block_kind(block) == "u" and owner == comm.rank:
                 mine = {k: (d, p) for k, (b, d, p) in contacts.items() if b == block}
-                self.subdomains[block] = _Subdomain(block, system, mine, log, condensation)
-        surface_sizes = {b: n for b, n in system.sizes.items() if _kind(b) != "u"}
-        # Blocks the contact check reads (any rank): they are solved in every iteration.
-        needed = {b for part in comm.allgather(set(self._zone_block.values())) for b in part}
-        # Anything but the last level is found by back-substitution; u needs every surface block.
-        self._needs_all_surface = any(_kind(b) != ORDERS[order][-1] for b in needed)
-        self._needed_u = needed & set(self.subdomains)
-        pieces = [(r, c, A) for (r, c), A in system.matrices.items() if _kind(r) != "u" != _kind(c)]
+                self.subdomains[block] = SubdomainCondensation(
+                    block, system, mine, log, condensation
+                )
+        self._needed_u = set(self.schedule.needed_u) & set(self.subdomains)
+        pieces = [
+            (r, c, A)
+            for (r, c), A in system.matrices.items()
+            if block_kind(r) != "u" != block_kind(c)
+        ]
         pieces = gather_to_root(comm, pieces)
         self.surface: _Surface | None = None
-        if rank == ROOT:
-            self.surface = _Surface(surface_sizes, ORDERS[order], log)
+        if comm.rank == ROOT:
+            self.surface = _Surface(self.schedule, log)
             for part in pieces:
                 for r, c, A in part:
                     self.surface.add_base(r, c, A)
-        layouts = gather_to_root(comm, {b: s.layout for b, s in self.subdomains.items()})
-        if rank == ROOT:
-            self.surface.plan({b: layout for part in layouts for b, layout in part.items()})
         self._contact: dict[str, sp.csr_array] = {}  # latest contact matrix of each w block
         self._pending_contact: dict[str, sp.csr_array] = {}  # changed since the last solve
         self._x: dict[str, np.ndarray] = {}
@@ -498,10 +475,11 @@ class BlockEliminationSolver:
                 payload["g"].append((s, J, g[start : start + len(J)]))
                 start += len(J)
         for block, vector in rhs.items():
-            if _kind(block) != "u":
+            if block_kind(block) != "u":
                 payload["g"].append((block, None, vector))
         received = gather_to_root(self.comm, payload)
         x = None
+        complete = self.schedule.needs_all_surface
         if self.comm.rank == ROOT:
             surface = self.surface
             g = {b: np.zeros(n) for b, n in surface.sizes.items()}
@@ -516,9 +494,9 @@ class BlockEliminationSolver:
                     else:
                         g[s][J] += vector
             surface.factorise()
-            x = surface.solve(g, complete=self._needs_all_surface)
+            x = surface.solve(g, complete=complete)
         self._x = bcast_from_root(self.comm, x)
-        self._complete = self._needs_all_surface
+        self._complete = complete
         out = dict(self._x)
         for block in self._needed_u:
             out[block] = self.subdomains[block].back_substitute(self._x)
@@ -536,6 +514,4 @@ class BlockEliminationSolver:
     def destroy(self) -> None:
         """Free the PETSc objects."""
         for sub in self.subdomains.values():
-            if sub.factor is not None:
-                sub.factor.destroy()
-            sub.matrix.A.destroy()
+            sub.destroy()

@@ -8,10 +8,21 @@ sizes, block kinds and couplings only: numpy, no PETSc, no dolfinx.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import numpy as np
+
 __all__ = [
     "ALGORITHMS",
     "CONDENSATIONS",
+    "CONDENSATION_CHUNK",
     "ORDERS",
+    "FullSchedule",
+    "Group",
+    "Operation",
+    "Schedule",
+    "block_kind",
+    "condensation_chunks",
     "fitting_algorithms",
 ]
 
@@ -30,6 +41,9 @@ ALGORITHMS: tuple[str, ...] = ("FULL", *ORDERS)
 #: Ways to form a subdomain's condensed operator ``C^T K^-1 C``: MUMPS's Schur complement
 #: within the factorisation, or one substitution per coupling column.
 CONDENSATIONS = ("schur", "multi-rhs")
+
+#: Right-hand sides per MUMPS multi-RHS solve when condensing with ``"multi-rhs"``.
+CONDENSATION_CHUNK = 256
 
 
 def fitting_algorithms(
@@ -57,3 +71,287 @@ def fitting_algorithms(
         if (set(levels) <= kinds if variants else set(levels) == kinds)
     ]
     return ("FULL", *fit)
+
+
+def condensation_chunks(m: int) -> list[tuple[int, int]]:
+    """Column ranges of the multi-RHS solves that condense ``m`` coupling columns."""
+    return [(j0, min(m, j0 + CONDENSATION_CHUNK)) for j0 in range(0, m, CONDENSATION_CHUNK)]
+
+
+def block_kind(block: str) -> str:
+    """``"u"``, ``"v"`` or ``"w"``: the kind of unknowns of a block named ``kind:name``."""
+    return block.split(":", 1)[0]
+
+
+@dataclass(frozen=True)
+class Group:
+    """Surface blocks eliminated together by one dense factorisation.
+
+    Attributes:
+        blocks: The blocks, sorted.
+        last: In the order's last level: solved for, not eliminated.
+        neighbours: Blocks of later levels coupled to the group (after the fill-in of
+            the earlier eliminations): what eliminating it changes.
+    """
+
+    blocks: tuple[str, ...]
+    last: bool
+    neighbours: tuple[str, ...]
+
+    @property
+    def name(self) -> str:
+        """The blocks joined by ``+`` (the name in the work log)."""
+        return "+".join(self.blocks)
+
+
+@dataclass(frozen=True)
+class Operation:
+    """One factorisation or substitution the schedule calls for.
+
+    Attributes:
+        target: A subdomain block (sparse) or a group name (dense).
+        kind: ``"sparse_factor"``, ``"schur"`` (MUMPS's Schur complement of a subdomain
+            factorisation), ``"sparse_solve"``, ``"dense_factor"`` or ``"dense_solve"``.
+        size: Rows of the matrix, or of the solved vectors for sparse solves.
+        nrhs: Right-hand sides (0 for factorisations).
+        what: What a solve is for: ``"condense"``, ``"u_hat"``, ``"u"``, ``"y"`` (a group's
+            forward elimination), ``"x"`` (a group's solution).
+        analysis: A sparse factorisation that includes the symbolic analysis (the first).
+    """
+
+    target: str
+    kind: str
+    size: int
+    nrhs: int = 0
+    what: str = ""
+    analysis: bool = False
+
+
+def _plan_groups(surface: dict[str, int], pairs: set, levels: tuple[str, ...]) -> list[list[Group]]:
+    """The groups of each level: connected blocks of the level's kind, given the fill-in."""
+    coupled = {frozenset(p) for p in pairs if p[0] != p[1]}
+    remaining = set(surface)
+    all_groups = []
+    for li, kind in enumerate(levels):
+        level = sorted(b for b in remaining if block_kind(b) == kind)
+        members: list[list[str]] = []
+        for b in level:
+            joined = [m for m in members if any(frozenset((b, a)) in coupled for a in m)]
+            members = [m for m in members if m not in joined] + [
+                [b] + [a for m in joined for a in m]
+            ]
+        remaining -= set(level)
+        groups = []
+        for m in members:
+            neighbours = sorted(
+                r for r in remaining if any(frozenset((a, r)) in coupled for a in m)
+            )
+            for r1 in neighbours:  # fill-in of the elimination
+                for r2 in neighbours:
+                    if r1 != r2:
+                        coupled.add(frozenset((r1, r2)))
+            groups.append(Group(tuple(sorted(m)), li == len(levels) - 1, tuple(neighbours)))
+        all_groups.append(groups)
+    return all_groups
+
+
+class Schedule:
+    """What one order factorises and substitutes, and when: the rules the engine follows.
+
+    The engine condenses every subdomain first (its sparse factorisation made once, again
+    only when contact on its own boundary changes its matrix), which leaves a dense system
+    on the surface blocks; the order's levels then eliminate the surface blocks group by
+    group (:attr:`groups`). A group is re-factorised when something it depends on changed
+    (:meth:`stale_groups`), and solved when it is stale, its right-hand side is new, or it
+    is in the last level (:meth:`solves`).
+
+    Args:
+        order: One of :data:`ORDERS`.
+        sizes: Size of every block (subdomains ``u:``, interface ``v:``, contact ``w:``).
+        layouts: Per subdomain block, ``(surface block, tied dofs)`` of each coupling: the
+            non-zero columns of its coupling matrices.
+        base_pairs: Surface block pairs with a matrix of their own (either orientation).
+        regions: Contact region -> the block it acts on (``w:`` or, for contact on a
+            subdomain's own boundary, ``u:``).
+        condensation: One of :data:`CONDENSATIONS`.
+    """
+
+    def __init__(
+        self,
+        order: str,
+        sizes: dict[str, int],
+        layouts: dict[str, list],
+        base_pairs: set,
+        regions: dict[str, str],
+        condensation: str = "schur",
+    ):
+        if order not in ORDERS:
+            raise ValueError(f"unknown order {order!r}; valid: {', '.join(ORDERS)}")
+        if condensation not in CONDENSATIONS:
+            raise ValueError(
+                f"unknown condensation {condensation!r}; valid: {', '.join(CONDENSATIONS)}"
+            )
+        self.order, self.levels, self.condensation = order, ORDERS[order], condensation
+        self.surface = {b: n for b, n in sizes.items() if block_kind(b) != "u"}
+        self.subdomains = {b: n for b, n in sizes.items() if block_kind(b) == "u"}
+        self.layouts = layouts
+        self.regions = dict(regions)
+        #: Per subdomain: surface block -> (offset in the condensed operator Z, tied dofs).
+        self.where: dict[str, dict[str, tuple[int, np.ndarray]]] = {}
+        pairs = {(a, b) for a, b in base_pairs} | {(b, a) for a, b in base_pairs}
+        self.base_pairs = frozenset(pairs)
+        for block, layout in layouts.items():
+            offsets = np.cumsum([0] + [len(J) for _, J in layout])
+            self.where[block] = {s: (int(offsets[i]), J) for i, (s, J) in enumerate(layout)}
+            pairs |= {(a, b) for a, _ in layout for b, _ in layout}
+        #: Surface block pairs that are not zero after the subdomain condensation.
+        self.pairs = frozenset(pairs)
+        #: The groups of each level, first level first.
+        self.groups = _plan_groups(self.surface, pairs, self.levels)
+        self.flat = [g for level in self.groups for g in level]
+        needed = set(self.regions.values())
+        #: Blocks the contact check reads that are not in the last level: every solve of the
+        #: contact iteration must back-substitute the earlier levels too.
+        self.needs_all_surface = any(block_kind(b) != self.levels[-1] for b in needed)
+        #: Subdomains with contact on their own boundary: back-substituted in every solve.
+        self.needed_u = sorted(b for b in needed if block_kind(b) == "u")
+
+    # -- the rules -------------------------------------------------------------------------
+    def coupling_size(self, block: str) -> int:
+        """Columns of a subdomain's couplings: the size of its condensed operator."""
+        return sum(len(J) for _, J in self.layouts.get(block, []))
+
+    def touched(self, block: str) -> set[str]:
+        """Surface blocks whose matrices change when ``block`` changes.
+
+        A surface block itself; for a subdomain (re-condensed after its own contact changed),
+        the surface blocks it is tied to.
+        """
+        return set(self.where.get(block, {})) if block_kind(block) == "u" else {block}
+
+    def stale_groups(self, changed: set[str]) -> set[str]:
+        """Names of the groups to re-factorise after the surface blocks ``changed`` changed.
+
+        A group is stale if one of its blocks changed, or if an earlier stale group is
+        eliminated into it (its neighbours are among the group's blocks).
+        """
+        stale: set[str] = set()
+        for g in self.flat:  # earlier levels first: one pass propagates
+            if set(g.blocks) & changed or any(
+                set(h.neighbours) & set(g.blocks) for h in self.flat if h.name in stale
+            ):
+                stale.add(g.name)
+        return stale
+
+    @staticmethod
+    def solves(group: Group, stale: set[str], new_rhs: bool) -> bool:
+        """Whether a solve substitutes with ``group``: last level, re-factorised, or new rhs."""
+        return group.last or group.name in stale or new_rhs
+
+    def coupling_columns(self, g: Group) -> int:
+        """Coupling columns of a group to its later neighbours (what its condensation solves).
+
+        A neighbour with a matrix of its own couples all its dofs; one coupled only through
+        subdomain condensations couples the dofs those subdomains tie.
+        """
+        total = 0
+        for r in g.neighbours:
+            if any((a, r) in self.base_pairs for a in g.blocks):
+                total += self.surface[r]
+                continue
+            tied = [
+                w[r][1] for w in self.where.values() if r in w and any(a in w for a in g.blocks)
+            ]
+            total += len(np.unique(np.concatenate(tied))) if tied else 0
+        return total
+
+    # -- the plans -------------------------------------------------------------------------
+    def factorise_subdomain(self, block: str, analysis: bool) -> list[Operation]:
+        """Factorise a subdomain and condense its couplings."""
+        n, m = self.subdomains[block], self.coupling_size(block)
+        if self.condensation == "schur" and m:
+            return [
+                Operation(block, "sparse_factor", n, analysis=analysis),
+                Operation(block, "schur", m),
+            ]
+        ops = [Operation(block, "sparse_factor", n, analysis=analysis)]
+        ops += [
+            Operation(block, "sparse_solve", n, j1 - j0, "condense")
+            for j0, j1 in condensation_chunks(m)
+        ]
+        return ops
+
+    def substitute_subdomain(self, block: str, what: str) -> Operation:
+        """One substitution with a subdomain's factor (``"u_hat"`` or ``"u"``)."""
+        n = self.subdomains[block]
+        if self.condensation == "schur":  # the vectors carry the (zero) Schur block
+            n += self.coupling_size(block)
+        return Operation(block, "sparse_solve", n, 1, what)
+
+    def factorise_group(self, g: Group) -> list[Operation]:
+        """Factorise a group and, if it is eliminated, condense its coupling columns."""
+        n = sum(self.surface[b] for b in g.blocks)
+        ops = [Operation(g.name, "dense_factor", n)]
+        if not g.last and g.neighbours and (m := self.coupling_columns(g)):
+            ops.append(Operation(g.name, "dense_solve", n, m, "condense"))
+        return ops
+
+    def solve_group(self, g: Group, what: str | None = None) -> Operation:
+        """A forward elimination (``"y"``) or solution (``"x"``) with a group's factor."""
+        n = sum(self.surface[b] for b in g.blocks)
+        return Operation(g.name, "dense_solve", n, 1, what or ("x" if g.last else "y"))
+
+    def back_substitution(self) -> list[Operation]:
+        """Solutions of the earlier levels given the last (in the engine's order)."""
+        return [self.solve_group(g, "x") for level in reversed(self.groups[:-1]) for g in level]
+
+    def setup(self) -> list[Operation]:
+        """Before the first solution: every factorisation and condensation."""
+        ops = [op for b in self.layouts for op in self.factorise_subdomain(b, True)]
+        return ops + [op for g in self.flat for op in self.factorise_group(g)]
+
+    def step(self) -> list[Operation]:
+        """One time step (new right-hand sides) without a contact state change."""
+        ops = [self.substitute_subdomain(b, "u_hat") for b in self.layouts]
+        ops += [self.solve_group(g) for g in self.flat] + self.back_substitution()
+        return ops + [self.substitute_subdomain(b, "u") for b in self.layouts]
+
+    def change(self, region: str) -> list[Operation]:
+        """One more solve of the contact iteration after a change on ``region``."""
+        block = self.regions[region]
+        ops: list[Operation] = []
+        if block_kind(block) == "u":  # contact on the subdomain's own boundary: K changes
+            ops += self.factorise_subdomain(block, False)
+            ops.append(self.substitute_subdomain(block, "u_hat"))
+        stale = self.stale_groups(self.touched(block))
+        ops += [op for g in self.flat if g.name in stale for op in self.factorise_group(g)]
+        ops += [self.solve_group(g) for g in self.flat if self.solves(g, stale, False)]
+        if self.needs_all_surface:
+            ops += self.back_substitution()
+        return ops + [self.substitute_subdomain(b, "u") for b in self.needed_u]
+
+
+class FullSchedule:
+    """FULL: the whole system as one sparse matrix, re-factorised on every contact change.
+
+    Args:
+        size: Rows of the whole (constrained) system.
+        regions: Contact region -> the block it acts on.
+    """
+
+    order = "FULL"
+
+    def __init__(self, size: int, regions: dict[str, str]):
+        self.size, self.regions = size, dict(regions)
+
+    def setup(self) -> list[Operation]:
+        """The first factorisation, with the symbolic analysis."""
+        return [Operation("FULL", "sparse_factor", self.size, analysis=True)]
+
+    def step(self) -> list[Operation]:
+        """One substitution per time step."""
+        return [Operation("FULL", "sparse_solve", self.size, 1)]
+
+    def change(self, region: str) -> list[Operation]:
+        """A numeric re-factorisation and one more substitution."""
+        return [Operation("FULL", "sparse_factor", self.size), *self.step()]
