@@ -31,20 +31,8 @@ def test_every_order_reproduces_full(agreement, kappa, tolerance):
 
 
 def _sizes(problem, n_steps: int) -> flops.SceneSizes:
-    """The paper's model of a run of :func:`verify.order_scene` (sizes, N_TS, alpha, gamma)."""
-    sizes = problem.solver.system.sizes
-    subs = [flops.SubdomainCounts(b, n, 1) for b, n in sizes.items() if b.startswith("u:")]
-    changes = problem.changes
-    contacts = [flops.ContactCounts("w:end", 48, 0, changes["end"])]  # 4 x 4 nodes
-    return flops.SceneSizes(
-        subdomains=subs,
-        contacts=contacts,
-        interface_dofs=sizes.get("v:interface"),
-        n_steps=n_steps,
-        gamma=changes["gamma"],
-        whole=flops.MeshCounts("u:A" if len(subs) == 1 else "FULL", sum(sizes.values()), 1),
-        interface_name="v:interface",
-    )
+    """The paper's model of a run of :func:`verify.order_scene`, read off its Scene."""
+    return flops.sizes_from_scene(problem.scene, n_steps, problem.changes)
 
 
 # Coupling columns of each subdomain (D_V^(k) + D_W^(k)): the interface and the contact
@@ -153,3 +141,16 @@ def test_parallelepiped_scene_for_every_algorithm(algorithm):
     active = [r["active"]["end"] for r in history]
     assert active == [min(2 * k, ny + 1) * (nz + 1) for k in range(1, 5)]
     assert problem.changes["gamma"] >= 3
+
+
+@pytest.mark.parametrize("kind", ["interface", "boundary", "single"])
+def test_sizes_from_scene_read_the_coupling_columns(kind):
+    """The bridge finds each subdomain's tied interface dofs and its contact-interface dofs."""
+    sizes = flops.sizes_from_scene(verify.order_scene(kind, False, 1e4))
+    for k, sd in enumerate(sizes.subdomains):
+        contact = sizes.contact_of(k)
+        own_w = contact.dofs if contact is not None and kind != "boundary" else 0
+        assert sizes.tied_dofs(k) + own_w == _COLUMNS[kind][sd.name], sd.name
+    # FULL's matrix: every block (v and w have 48 dofs each); one subdomain is its own whole.
+    surfaces = {"interface": 96, "boundary": 48, "single": 0}[kind]
+    assert sizes.whole.dofs == sum(sd.dofs for sd in sizes.subdomains) + surfaces

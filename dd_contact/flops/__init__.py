@@ -10,9 +10,13 @@ listed before it:
   joint, as scene-size generators;
 * :mod:`~dd_contact.flops.scene_files`: the JSON scene format;
 * :mod:`~dd_contact.flops.studies`: the paper's parameter studies, their charts, and the text
-  and JSON forms of the reports.
+  and JSON forms of the reports;
+* :mod:`~dd_contact.flops.bridge`: the sizes of a dolfinx :class:`~dd_contact.scene.Scene`
+  (``sizes_from_scene``).
 
-None of them imports dolfinx; matplotlib is imported only when a chart is drawn. The model, its
+The counts are the engine's own schedule (:mod:`dd_contact.solvers.schedule`) tallied on each
+algorithm's variant of the scene. Only the bridge reads dolfinx objects; matplotlib is imported
+only when a chart is drawn. The model, its
 derivations and the scene schema are described in ``docs/cost.md``.
 """
 
@@ -22,6 +26,7 @@ from dd_contact.flops.bandwidth import (
     matrix_half_bandwidth,
     rcm_half_bandwidth,
 )
+from dd_contact.flops.bridge import half_bandwidth_of, sizes_from_scene
 from dd_contact.flops.model import (
     ALGORITHMS,
     ContactCounts,
@@ -37,6 +42,7 @@ from dd_contact.flops.model import (
     f3,
     f4,
     operation_counts,
+    schedule_counts,
 )
 from dd_contact.flops.paper import (
     PinJointLayout,
@@ -80,6 +86,7 @@ __all__ = [
     "f4",
     "format_table",
     "half_bandwidth_box",
+    "half_bandwidth_of",
     "half_bandwidth_structured_hex",
     "load_scene",
     "matrix_half_bandwidth",
@@ -94,6 +101,8 @@ __all__ = [
     "scene_from_dict",
     "scene_studies",
     "scene_to_dict",
+    "schedule_counts",
+    "sizes_from_scene",
     "to_json_dict",
     "write_studies",
 ]

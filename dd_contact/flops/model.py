@@ -26,20 +26,31 @@ Algorithms (the name lists the order in which the unknowns are obtained):
 
 The names and the rule of which algorithms fit a scene are those of
 :mod:`dd_contact.solvers.schedule` (:data:`ALGORITHMS`, ``fitting_algorithms``), read as the
-paper does: each algorithm runs on its own variant of the model. The derivation of each order is
-in the docstring of its private ``_counts_*`` function and, with tables, in ``docs/cost.md``.
+paper does: each algorithm runs on its own variant of the model. The counts are not written
+out here: each variant is handed to the engine's own schedule (:func:`schedule_counts`), so
+the model counts exactly what the solvers do. ``docs/cost.md`` derives them per order, with
+tables, and the tests check them against the paper's Table 1.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import operator
+from collections import Counter
 from dataclasses import dataclass
+from functools import reduce
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
+from dd_contact.solvers.schedule import (
+    ALGORITHMS,
+    FullSchedule,
+    Operation,
+    Schedule,
+    fitting_algorithms,
+)
 
 __all__ = [
     "ALGORITHMS",
@@ -365,139 +376,126 @@ def _require_interface(s: SceneSizes, algorithm: str) -> int:
     return s.interface_dofs
 
 
-def _coupled_contacts(s: SceneSizes) -> tuple[str, int]:
-    """Name and size of the single dense block holding all w^(k) (w-v-u and w-u)."""
-    names = [c.name for c in s.contacts]
-    name = "+".join(names) if len(names) <= 3 else f"{len(names)} coupled contact interfaces"
-    return name, sum(c.dofs for c in s.contacts)
+def _coupled_name(contacts: list[ContactCounts]) -> str:
+    """Name of a dense block holding several w^(k) (w-v-u and w-u)."""
+    names = [c.name for c in contacts]
+    return "+".join(names) if len(names) <= 3 else f"{len(names)} coupled contact interfaces"
 
 
-def _counts_full(s: SceneSizes) -> list[MeshCost]:
-    """FULL: classical solve of the undecomposed model.
+# The paper's model runs each algorithm on its own variant of the scene (method.md section
+# 6): FULL on the whole model, v-w-u and w-v-u on the scene as described, w-u with the
+# subdomains merged into the whole model (no interface), v-u with contact on the owning
+# subdomain's boundary (no contact meshes). Each variant is written as the block system the
+# engine would see, and its counts are those of the engine's own schedule
+# (dd_contact.solvers.schedule), with the paper's condensation: one substitution per
+# coupling column.
+def _u(k: int) -> str:
+    return f"u:{k}"
 
-    One banded matrix ``[D, B] = [whole.dofs, whole.half_bandwidth]``, factorised at the first
-    step and after every contact change anywhere (``1 + gamma``), and substituted once per time
-    step and once per contact iteration caused by a change (``N_TS + gamma``).
+
+def _w(k: int) -> str:
+    return f"w:{k}"
+
+
+_V = "v:interface"
+_WHOLE = "u:whole"
+
+
+def _variant(s: SceneSizes, algorithm: str) -> tuple[Schedule | FullSchedule, list]:
+    """The schedule of ``algorithm`` on its variant of ``s``, and the meshes to report.
+
+    Returns the schedule and, in report order, ``(schedule target, name, dofs,
+    half-bandwidth or None for a dense matrix, contacts)`` of every mesh.
     """
-    w = s.whole
-    return [_banded(w.name, w.dofs, w.half_bandwidth, 1 + s.gamma, s.n_steps + s.gamma)]
+    regions = {c.name: _w(i) for i, c in enumerate(s.contacts)}
+    if algorithm == "FULL":
+        w = s.whole
+        regions = {c.name: "FULL" for c in s.contacts}
+        return FullSchedule(w.dofs, regions), [("FULL", w.name, w.dofs, w.half_bandwidth)]
+    contact_of = {c.subdomain: (i, c) for i, c in enumerate(s.contacts)}
+    sizes = {_w(i): c.dofs for i, c in enumerate(s.contacts)}
+    pairs = {(b, b) for b in sizes}
+    layouts: dict[str, list] = {}
+    volumes = []
+    if algorithm == "w-u":  # the subdomains merged: one volume tied to every contact mesh
+        w = s.whole
+        sizes[_WHOLE] = w.dofs
+        layouts[_WHOLE] = [(_w(i), np.arange(c.dofs)) for i, c in enumerate(s.contacts)]
+        volumes.append((_WHOLE, w.name, w.dofs, w.half_bandwidth))
+    else:
+        sizes[_V] = _require_interface(s, algorithm)
+        pairs.add((_V, _V))
+        for k, sd in enumerate(s.subdomains):
+            sizes[_u(k)] = sd.dofs
+            tied = s.tied_dofs(k)
+            layouts[_u(k)] = [(_V, np.arange(tied))] if tied else []
+            if k in contact_of and algorithm != "v-u":
+                i, c = contact_of[k]
+                layouts[_u(k)].append((_w(i), np.arange(c.dofs)))
+            volumes.append((_u(k), sd.name, sd.dofs, sd.half_bandwidth))
+    if algorithm == "v-u":  # contact on the subdomain's own boundary: no contact meshes
+        sizes = {b: n for b, n in sizes.items() if not b.startswith("w:")}
+        pairs = {p for p in pairs if p[0] in sizes}
+        regions = {c.name: _u(c.subdomain) for c in s.contacts}
+    schedule = Schedule(algorithm, sizes, layouts, pairs, regions, "multi-rhs")
+    surfaces = []
+    for g in schedule.flat:
+        if g.blocks == (_V,):
+            surfaces.append((g.name, s.interface_name, sizes[_V], None))
+            continue
+        contacts = [c for i, c in enumerate(s.contacts) if _w(i) in g.blocks]
+        name = contacts[0].name if len(contacts) == 1 else _coupled_name(contacts)
+        surfaces.append((g.name, name, sum(c.dofs for c in contacts), None))
+    if algorithm == "v-w-u":  # the paper's Table 2 lists the contact meshes first
+        surfaces.sort(key=lambda m: m[0] == _V)
+    return schedule, volumes + surfaces
 
 
-def _counts_vwu(s: SceneSizes) -> list[MeshCost]:
-    """v-w-u: condense u, then w, solve v; back-substitute w, then u (Table 1, summed per mesh).
+def _tally(ops: list[Operation]) -> Counter:
+    """Decompositions and single right-hand-side substitutions per schedule target."""
+    counts: Counter = Counter()
+    for op in ops:
+        if op.kind.endswith("_factor"):
+            counts[(op.target, "decompositions")] += 1
+        elif op.kind.endswith("_solve"):
+            counts[(op.target, "substitutions")] += op.nrhs
+    return counts
 
-    * ``Omega^(k)``: ``f3(D_U, B_U)`` once; ``f4(D_U, B_U)`` for ``K_D^-1 P_CI2`` (``D_W``
-      columns, only if it owns a contact interface), ``K_D^-1 P_DI2`` (``D_V^(k)`` non-zero
-      columns; ``D_V`` in the paper's bar), ``u_hat`` (``N_TS``) and ``u`` (``N_TS``):
-      ``D_W + D_V^(k) + 2 N_TS`` substitutions.
-    * ``Gamma_C^(k)``: ``f1(D_W)`` ``1 + alpha`` times; ``f2(D_W)`` for ``K_CI^-1 P_CD``
-      (``(1 + alpha) D_V^(k)``: ``P_CD^(k)`` has the non-zero columns of ``P_DI2^(k)``),
-      ``K_CI^-1 p_C2`` (``N_TS + alpha``) and ``w`` (``N_TS + gamma``).
-    * ``Gamma_I``: ``f1(D_V)`` ``1 + gamma`` times; ``f2(D_V)`` for ``v``, ``N_TS + gamma`` times.
+
+def schedule_counts(
+    schedule: Schedule | FullSchedule, n_steps: int, gamma: int, alpha: dict[str, int]
+) -> Counter:
+    """Counts of a run of the schedule: ``(target, "decompositions"|"substitutions") -> n``.
+
+    Set-up once, a step ``n_steps`` times, and the contact changes: what every region's
+    change does (the surface levels all changes go through) once per change anywhere
+    (``gamma``), the rest of a region's change once per change there (``alpha``).
     """
-    d_v = _require_interface(s, "v-w-u")
-    n, g = s.n_steps, s.gamma
+    changes = {key: _tally(schedule.change(key)) for key, _ in alpha.items()}
+    common = reduce(operator.and_, changes.values()) if changes else Counter()
+    total = _tally(schedule.setup())
+    for key, n in _tally(schedule.step()).items():
+        total[key] += n_steps * n
+    for key, n in common.items():
+        total[key] += gamma * n
+    for region, count in alpha.items():
+        for key, n in (changes[region] - common).items():
+            total[key] += count * n
+    return total
+
+
+def _counts(s: SceneSizes, algorithm: str) -> list[MeshCost]:
+    """Per mesh, the counts of the algorithm's schedule priced with the paper's kernels."""
+    schedule, meshes = _variant(s, algorithm)
+    counts = schedule_counts(schedule, s.n_steps, s.gamma, {c.name: c.alpha for c in s.contacts})
     out = []
-    for k, sd in enumerate(s.subdomains):
-        c = s.contact_of(k)
-        cols = (c.dofs if c else 0) + s.tied_dofs(k)
-        out.append(_banded(sd.name, sd.dofs, sd.half_bandwidth, 1, cols + 2 * n))
-    for c in s.contacts:
-        n_sub = (1 + c.alpha) * s.tied_dofs(c.subdomain) + (n + c.alpha) + (n + g)
-        out.append(_dense(c.name, c.dofs, 1 + c.alpha, n_sub))
-    out.append(_dense(s.interface_name, d_v, 1 + g, n + g))
-    return out
-
-
-def _counts_wvu(s: SceneSizes) -> list[MeshCost]:
-    """w-v-u: condense u, then v, solve w; back-substitute v, then u.
-
-    Derivation (same bookkeeping as Table 1):
-
-    * ``Omega^(k)``: identical to v-w-u (``K_D`` is contact independent): ``f3`` once,
-      ``f4`` ``D_W + D_V^(k) + 2 N_TS`` times.
-    * ``Gamma_I``: ``K_DI_hat = K_DI - sum P^T K_D^-1 P`` does not depend on contact, so
-      ``f1(D_V)`` once. ``f2(D_V)`` for ``K_DI_hat^-1 P_CD^T`` (once, one column per contact dof,
-      ``sum D_W``), for ``K_DI_hat^-1 sum P_DI2^T u_hat`` (the w right-hand side, once per step,
-      ``N_TS``) and for the back-substitution of ``v`` (once per converged step, ``N_TS``; the
-      contact check needs only ``w``): ``sum D_W + 2 N_TS``.
-    * Contact: condensing ``v`` couples every ``w^(k)`` with every other, so all contact
-      interfaces form one dense block of ``sum D_W`` dofs. It changes whenever any contact
-      interface changes: ``f1`` ``1 + gamma`` times, ``f2`` (solve for ``w``) ``N_TS + gamma``
-      times. With one contact interface this is ``Gamma_C^(1)`` and ``gamma == alpha``.
-    """
-    d_v = _require_interface(s, "w-v-u")
-    n, g = s.n_steps, s.gamma
-    name_c, d_c = _coupled_contacts(s)
-    out = []
-    for k, sd in enumerate(s.subdomains):
-        c = s.contact_of(k)
-        cols = (c.dofs if c else 0) + s.tied_dofs(k)
-        out.append(_banded(sd.name, sd.dofs, sd.half_bandwidth, 1, cols + 2 * n))
-    out.append(_dense(s.interface_name, d_v, 1, d_c + 2 * n))
-    out.append(_dense(name_c, d_c, 1 + g, n + g))
-    return out
-
-
-def _counts_wu(s: SceneSizes) -> list[MeshCost]:
-    """w-u: no interface; contact interfaces on the merged (undecomposed) model.
-
-    Without ``v`` the subdomains are one body, so the volume matrix is ``whole`` (its dofs and
-    half-bandwidth), factorised once: ``f3`` once; ``f4`` for ``K^-1 P_CI2`` (``sum D_W``
-    columns), ``u_hat`` (``N_TS``) and ``u`` (``N_TS``). Condensing the merged ``u`` couples all
-    contact interfaces into one dense block of ``sum D_W`` dofs, re-factorised ``1 + gamma``
-    times and solved for ``w`` ``N_TS + gamma`` times. The cost of a contact change,
-    ``f1(sum D_W) + f2(sum D_W)``, does not depend on any volume bandwidth.
-    """
-    n, g = s.n_steps, s.gamma
-    name_c, d_c = _coupled_contacts(s)
-    w = s.whole
-    return [
-        _banded(w.name, w.dofs, w.half_bandwidth, 1, d_c + 2 * n),
-        _dense(name_c, d_c, 1 + g, n + g),
-    ]
-
-
-def _counts_vu(s: SceneSizes) -> list[MeshCost]:
-    """v-u: interface only; contact acts on the boundary of its owning subdomain.
-
-    * Contact subdomain ``k`` (owns ``Gamma_C^(k)`` in the scene; the contact mesh itself is not
-      used): its banded matrix ``[D_U, B_U]`` holds the contact penalty, so ``f3`` ``1 + alpha``
-      times; ``f4`` for ``K_D^-1 P_DI2`` with the new factor after every factorisation
-      (``(1 + alpha) D_V^(k)``; ``K_DI_hat`` (A17) needs it), ``u_hat`` at each step and after
-      each own change (``N_TS + alpha``), and ``u`` at each step and each change anywhere
-      (``N_TS + gamma``; the contact check needs ``u`` on the boundary, and ``u`` depends on
-      ``v``).
-    * Other subdomains: their condensation is contact independent and reused: ``f3`` once,
-      ``f4`` ``D_V^(k) + 2 N_TS`` times.
-    * ``Gamma_I``: ``K_DI_hat`` contains every ``K_D^-1``, so ``f1(D_V)`` ``1 + gamma`` times;
-      ``f2(D_V)`` for ``v`` ``N_TS + gamma`` times.
-
-    This is the only order whose cost per contact change grows with the contact subdomain's
-    half-bandwidth (through ``f3(D_U, B_U) + f4(D_U, B_U) (D_V^(k) + 2)``).
-    """
-    d_v = _require_interface(s, "v-u")
-    n, g = s.n_steps, s.gamma
-    out = []
-    for k, sd in enumerate(s.subdomains):
-        c = s.contact_of(k)
-        dv_k = s.tied_dofs(k)
-        if c is None:
-            out.append(_banded(sd.name, sd.dofs, sd.half_bandwidth, 1, dv_k + 2 * n))
+    for target, name, dofs, bandwidth in meshes:
+        n_dec, n_sub = counts[(target, "decompositions")], counts[(target, "substitutions")]
+        if bandwidth is None:
+            out.append(_dense(name, dofs, n_dec, n_sub))
         else:
-            n_sub = (1 + c.alpha) * dv_k + (n + c.alpha) + (n + g)
-            out.append(_banded(sd.name, sd.dofs, sd.half_bandwidth, 1 + c.alpha, n_sub))
-    out.append(_dense(s.interface_name, d_v, 1 + g, n + g))
+            out.append(_banded(name, dofs, bandwidth, n_dec, n_sub))
     return out
-
-
-_COUNTERS = {
-    "FULL": _counts_full,
-    "v-w-u": _counts_vwu,
-    "w-v-u": _counts_wvu,
-    "w-u": _counts_wu,
-    "v-u": _counts_vu,
-}
 
 
 def applicable_algorithms(sizes: SceneSizes) -> tuple[str, ...]:
@@ -530,9 +528,9 @@ def operation_counts(sizes: SceneSizes, algorithm: str) -> CostReport:
     Raises:
         ValueError: Unknown algorithm, or one that needs an interface the scene lacks.
     """
-    if algorithm not in _COUNTERS:
+    if algorithm not in ALGORITHMS:
         raise ValueError(f"unknown algorithm {algorithm!r}; choose from {ALGORITHMS}")
-    meshes = tuple(_COUNTERS[algorithm](sizes))
+    meshes = tuple(_counts(sizes, algorithm))
     return CostReport(algorithm, meshes, 100.0 if algorithm == "FULL" else None)
 
 
