@@ -13,7 +13,8 @@ import pytest
 import dd_contact as dd
 from dd_contact import timing, verify
 from dd_contact.examples import parallelepiped, row_of_blocks
-from dd_contact.solvers.linalg import SparseCholesky, WorkLog, WorkRecord, sparse_statistics
+from dd_contact.solvers.linalg import SparseCholesky, sparse_statistics
+from dd_contact.solvers.worklog import WorkLog, WorkRecord
 
 
 @pytest.fixture(scope="module")

@@ -18,10 +18,10 @@ from dd_contact.solvers.linalg import (
     PatternedMatrix,
     SparseCholesky,
     SparseStatistics,
-    WorkLog,
     coo_of,
     sparse_statistics,
 )
+from dd_contact.solvers.worklog import WorkLog
 
 __all__ = ["MonolithicSolver", "monolithic_statistics"]
 

@@ -1,9 +1,9 @@
 """Factorisations that count their work: MUMPS for sparse blocks, LAPACK for dense ones.
 
-Every factorisation and solve is appended to a :class:`WorkLog` (kind, size, right-hand
-sides, wall time, flop count: MUMPS's own for sparse factorisations, LAPACK's operation
-count for dense ones), so a run can report what it did and compare it with the paper's
-counting (``dd_contact.cost``).
+Every factorisation and solve is appended to a :class:`~dd_contact.solvers.worklog.WorkLog`
+(kind, size, right-hand sides, wall time, flop count: MUMPS's own for sparse
+factorisations, LAPACK's operation count for dense ones), so a run can report what it did
+and compare it with the paper's counting (``dd_contact.cost``).
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -21,6 +21,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from dd_contact.errors import SingularMatrixError
+from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
     "DenseCholesky",
@@ -28,108 +29,9 @@ __all__ = [
     "SingularMatrixError",
     "SparseCholesky",
     "SparseStatistics",
-    "WorkLog",
-    "WorkRecord",
     "petsc_matrix",
     "sparse_statistics",
 ]
-
-
-@dataclass
-class WorkRecord:
-    """One factorisation or solve."""
-
-    block: str
-    kind: str  # "sparse_factor", "sparse_solve", "dense_factor", "dense_solve", "schur"
-    size: int
-    nrhs: int
-    seconds: float
-    flops: float | None = None
-    what: str = ""  # what was solved for, e.g. "condense", "u_hat", "u"
-    entries: float | None = None  # sparse: entries of the factor (MUMPS INFOG(29))
-    nnz: int = 0  # sparse factorisation with its symbolic analysis: entries of the matrix
-
-
-@dataclass
-class WorkLog:
-    """All factorisations and solves of a run."""
-
-    records: list[WorkRecord] = field(default_factory=list)
-
-    def add(self, *args, **kwargs) -> None:
-        """Append a :class:`WorkRecord`."""
-        self.records.append(WorkRecord(*args, **kwargs))
-
-    def count(self, kind: str, block: str | None = None) -> int:
-        """Number of records of ``kind`` (for ``block``, if given)."""
-        return sum(r.kind == kind and block in (None, r.block) for r in self.records)
-
-    def summary(self) -> dict[str, dict[str, float]]:
-        """Per kind: count, right-hand sides, total seconds, total flops."""
-        out: dict[str, dict[str, float]] = {}
-        for r in self.records:
-            s = out.setdefault(r.kind, {"count": 0, "nrhs": 0, "seconds": 0.0, "flops": 0.0})
-            s["count"] += 1
-            s["nrhs"] += r.nrhs
-            s["seconds"] += r.seconds
-            s["flops"] += r.flops or 0.0
-        return out
-
-    def per_block(self) -> dict[str, dict]:
-        """Per block: what was done with its matrix.
-
-        Matrix kind (sparse/dense) and size, decompositions, substitutions (right-hand sides
-        summed, as the paper counts them), Schur complements, seconds and GFLOPs of each.
-        """
-        out: dict[str, dict] = {}
-        for r in self.records:
-            b = out.setdefault(
-                r.block,
-                {
-                    "matrix": r.kind.split("_")[0],
-                    "size": r.size,
-                    "decompositions": 0,
-                    "substitutions": 0,
-                    "schur": 0,
-                    "seconds_decomposition": 0.0,
-                    "seconds_substitution": 0.0,
-                    "seconds_schur": 0.0,
-                    "gflops_decomposition": 0.0,
-                    "gflops_substitution": 0.0,
-                },
-            )
-            if r.kind.endswith("_factor"):
-                b["decompositions"] += 1
-                b["seconds_decomposition"] += r.seconds
-                b["gflops_decomposition"] += (r.flops or 0.0) / 1e9
-            elif r.kind.endswith("_solve"):
-                b["substitutions"] += r.nrhs
-                b["seconds_substitution"] += r.seconds
-                b["gflops_substitution"] += (r.flops or 0.0) / 1e9
-            else:
-                b["schur"] += 1
-                b["seconds_schur"] += r.seconds
-        return out
-
-    def merged(self, comm: MPI.Comm) -> WorkLog:
-        """Collective: one log with the records of every rank."""
-        if comm.size == 1:
-            return self
-        return WorkLog([r for part in comm.allgather(self.records) for r in part])
-
-    def table(self) -> str:
-        """The per-block summary as a text table."""
-        rows = [
-            f"{'block':<24} {'matrix':<6} {'size':>8} {'decompositions':>14} "
-            f"{'substitutions':>13} {'s decomp.':>10} {'s subst.':>9} {'GFLOP decomp.':>13}"
-        ]
-        for name, b in self.per_block().items():
-            rows.append(
-                f"{name:<24} {b['matrix']:<6} {b['size']:>8} {b['decompositions']:>14} "
-                f"{b['substitutions']:>13} {b['seconds_decomposition']:>10.3f} "
-                f"{b['seconds_substitution']:>9.3f} {b['gflops_decomposition']:>13.3g}"
-            )
-        return "\n".join(rows)
 
 
 def petsc_matrix(
