@@ -19,6 +19,7 @@ from petsc4py import PETSc
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+from dolfinx.fem.petsc import get_petsc_lib
 
 from dd_contact.errors import SingularMatrixError
 from dd_contact.solvers.worklog import WorkLog
@@ -57,15 +58,21 @@ def petsc_matrix(
 
 @functools.cache
 def _libpetsc() -> ctypes.CDLL:
-    """The PETSc C library petsc4py is running on (for calls petsc4py does not wrap)."""
-    with open("/proc/self/maps") as maps:
-        for line in maps:
-            if "libpetsc.so" in line:
-                return ctypes.CDLL(line.split()[-1])
-    raise RuntimeError(
-        "cannot locate the PETSc library (needed for MUMPS's Schur complement and symbolic "
-        "analysis); use condensation='multi-rhs' and an explicit algorithm"
-    )
+    """The PETSc C library petsc4py is running on (for calls petsc4py does not wrap).
+
+    Found by dolfinx's :func:`dolfinx.fem.petsc.get_petsc_lib` (the library of the
+    installed PETSc: ``PETSC_DIR/PETSC_ARCH/lib`` from ``petsc4py.get_config()``, or the
+    copy vendored in the dolfinx-solver wheel) and opened with ctypes; the process has it
+    loaded already, so this is the very library petsc4py calls.
+    """
+    try:
+        return ctypes.CDLL(str(get_petsc_lib()))
+    except (RuntimeError, OSError) as error:
+        raise RuntimeError(
+            "cannot load the PETSc shared library through dolfinx.fem.petsc.get_petsc_lib() "
+            f"({error}); it is needed for MUMPS's Schur complement and symbolic analysis: "
+            "use condensation='multi-rhs' and an explicit algorithm"
+        ) from error
 
 
 class SparseCholesky:
