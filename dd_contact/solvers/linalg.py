@@ -34,6 +34,22 @@ __all__ = [
     "sparse_statistics",
 ]
 
+# MUMPS control parameters and statistics (MUMPS 5.8 Users' guide, sections 6.1 "Integer
+# control parameters" and 7 "Information parameters"; ICNTL(k) is ``id.ICNTL(k)``).
+ICNTL_NULL_PIVOT_DETECTION = 24  # ICNTL(24): detection of null pivot rows (0: off, 1: on)
+NULL_PIVOTS_DETECTED = 1  # ... on: null pivot rows are detected and counted in INFOG(28)
+ICNTL_SCHUR_SOLUTION = 26  # ICNTL(26): solution phase when a Schur complement was computed
+SCHUR_SOLVE_INTERNAL = 0  # ... 0: solve the internal problem only (Schur variables ignored)
+INFOG_STATUS = 1  # INFOG(1): 0 success, < 0 error (-10: numerically singular matrix)
+INFOG_FACTOR_ENTRIES_ESTIMATED = 20  # INFOG(20): entries of the factor, from the analysis
+INFOG_NULL_PIVOTS = 28  # INFOG(28): null pivots found (with ICNTL(24) = 1)
+INFOG_FACTOR_ENTRIES = 29  # INFOG(29): entries of the factor, after the factorisation
+RINFOG_FLOPS_ESTIMATED = 1  # RINFOG(1): operations of the factorisation, from the analysis
+RINFOG_FLOPS = 3  # RINFOG(3): operations of the factorisation, as done
+
+# PETSc's MatFactorType (petsc4py has no enum for it): MAT_FACTOR_CHOLESKY.
+MAT_FACTOR_CHOLESKY = 2
+
 
 def petsc_matrix(
     comm: MPI.Comm,
@@ -104,7 +120,8 @@ class SparseCholesky:
         pc.setFactorSolverType("mumps")
         pc.setFactorSetUpSolverType()
         factor = pc.getFactorMatrix()
-        factor.setMumpsIcntl(24, 1)  # detect null pivots: singular fails loudly
+        # detect null pivots: singular fails loudly
+        factor.setMumpsIcntl(ICNTL_NULL_PIVOT_DETECTION, NULL_PIVOTS_DETECTED)
         if schur:
             n = A.getSize()[0]
             self._schur_is = PETSc.IS().createStride(schur, n - schur, 1, comm=A.comm)
@@ -120,32 +137,34 @@ class SparseCholesky:
         start = time.perf_counter()
         self.ksp.setUp()
         factor = self.ksp.getPC().getFactorMatrix()
-        info = factor.getMumpsInfog(1)
+        info = factor.getMumpsInfog(INFOG_STATUS)
         if info < 0:
             raise SingularMatrixError(
                 f"MUMPS factorisation of block {self.block!r} failed (INFOG(1) = {info}); "
                 "the matrix is singular or not positive definite"
             )
-        if factor.getMumpsInfog(28) > 0:
+        null_pivots = factor.getMumpsInfog(INFOG_NULL_PIVOTS)
+        if null_pivots > 0:
             raise SingularMatrixError(
-                f"block {self.block!r} is singular ({factor.getMumpsInfog(28)} null pivots): "
+                f"block {self.block!r} is singular ({null_pivots} null pivots): "
                 "part of the model can move freely; check its supports, ties and contacts"
             )
-        self.entries = float(_mumps_count(factor.getMumpsInfog(29)))
+        self.entries = float(_mumps_count(factor.getMumpsInfog(INFOG_FACTOR_ENTRIES)))
         self.log.add(
             self.block,
             "sparse_factor",
             self.A.getSize()[0] - self.schur,
             0,
             time.perf_counter() - start,
-            factor.getMumpsRinfog(3),
+            factor.getMumpsRinfog(RINFOG_FLOPS),
             f"with a Schur complement of {self.schur}" if self.schur else "",
             self.entries,
             0 if self._analysed else int(self.A.getInfo()["nz_used"]),
         )
         self._analysed = True
         if self.schur:
-            factor.setMumpsIcntl(26, 0)  # solves: the internal problem K only (reset by PETSc)
+            # solves: the internal problem K only (reset by PETSc)
+            factor.setMumpsIcntl(ICNTL_SCHUR_SOLUTION, SCHUR_SOLVE_INTERNAL)
             start = time.perf_counter()
             self.schur_complement = _schur_complement(factor, self.schur)
             self.log.add(self.block, "schur", self.schur, 0, time.perf_counter() - start)
@@ -232,7 +251,7 @@ def sparse_statistics(A: PETSc.Mat, schur: int = 0) -> SparseStatistics:
     F = ctypes.c_void_p()
     A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
     A.setOption(PETSc.Mat.Option.SPD, True)
-    _check(lib.MatGetFactor(_ptr(A), b"mumps", 2, ctypes.byref(F)))  # 2: MAT_FACTOR_CHOLESKY
+    _check(lib.MatGetFactor(_ptr(A), b"mumps", MAT_FACTOR_CHOLESKY, ctypes.byref(F)))
     try:
         schur_is = None
         if schur:
@@ -241,8 +260,10 @@ def sparse_statistics(A: PETSc.Mat, schur: int = 0) -> SparseStatistics:
             _check(lib.MatFactorSetSchurIS(F, _ptr(schur_is)))
         _check(lib.MatCholeskyFactorSymbolic(F, _ptr(A), None, None))
         infog, rinfog = integer(), ctypes.c_double()
-        _check(lib.MatMumpsGetInfog(F, integer(20), ctypes.byref(infog)))
-        _check(lib.MatMumpsGetRinfog(F, integer(1), ctypes.byref(rinfog)))
+        _check(
+            lib.MatMumpsGetInfog(F, integer(INFOG_FACTOR_ENTRIES_ESTIMATED), ctypes.byref(infog))
+        )
+        _check(lib.MatMumpsGetRinfog(F, integer(RINFOG_FLOPS_ESTIMATED), ctypes.byref(rinfog)))
     finally:
         _check(lib.MatDestroy(ctypes.byref(F)))
         if schur:
