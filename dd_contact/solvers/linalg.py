@@ -4,6 +4,10 @@ Every factorisation and solve is appended to a :class:`~dd_contact.solvers.workl
 (kind, size, right-hand sides, wall time, flop count: MUMPS's own for sparse
 factorisations, LAPACK's operation count for dense ones), so a run can report what it did
 and compare it with the paper's counting (``dd_contact.cost``).
+
+MUMPS can be tuned through the PETSc options database under the prefix
+:data:`OPTIONS_PREFIX` (``dd_contact_``), e.g. ``-dd_contact_mat_mumps_icntl_14 50``; the
+settings the package relies on (:data:`REQUIRED_ICNTL`) cannot be changed that way.
 """
 
 from __future__ import annotations
@@ -21,10 +25,12 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from dolfinx.fem.petsc import get_petsc_lib
 
-from dd_contact.errors import SingularMatrixError
+from dd_contact.errors import InputError, SingularMatrixError
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
+    "OPTIONS_PREFIX",
+    "REQUIRED_ICNTL",
     "DenseCholesky",
     "PatternedMatrix",
     "SingularMatrixError",
@@ -33,6 +39,11 @@ __all__ = [
     "petsc_matrix",
     "sparse_statistics",
 ]
+
+#: PETSc options prefix of every MUMPS factorisation of the package (the KSP, its PC and
+#: the factor matrix): ``-dd_contact_mat_mumps_icntl_14 50`` on the command line, or
+#: ``PETSc.Options()["dd_contact_mat_mumps_icntl_14"] = 50`` before the solver is built.
+OPTIONS_PREFIX = "dd_contact_"
 
 # MUMPS control parameters and statistics (MUMPS 5.8 Users' guide, sections 6.1 "Integer
 # control parameters" and 7 "Information parameters"; ICNTL(k) is ``id.ICNTL(k)``).
@@ -46,6 +57,11 @@ INFOG_NULL_PIVOTS = 28  # INFOG(28): null pivots found (with ICNTL(24) = 1)
 INFOG_FACTOR_ENTRIES = 29  # INFOG(29): entries of the factor, after the factorisation
 RINFOG_FLOPS_ESTIMATED = 1  # RINFOG(1): operations of the factorisation, from the analysis
 RINFOG_FLOPS = 3  # RINFOG(3): operations of the factorisation, as done
+
+#: The MUMPS settings the package relies on, ICNTL index -> value: null pivots detected, so
+#: a singular block fails with :class:`SingularMatrixError` (INFOG(28) > 0). An option under
+#: :data:`OPTIONS_PREFIX` that changes one of them is refused.
+REQUIRED_ICNTL = {ICNTL_NULL_PIVOT_DETECTION: NULL_PIVOTS_DETECTED}
 
 # PETSc's MatFactorType (petsc4py has no enum for it): MAT_FACTOR_CHOLESKY.
 MAT_FACTOR_CHOLESKY = 2
@@ -91,6 +107,18 @@ def _libpetsc() -> ctypes.CDLL:
         ) from error
 
 
+def _check_required_options() -> None:
+    """Refuse options under :data:`OPTIONS_PREFIX` that change :data:`REQUIRED_ICNTL`."""
+    options = PETSc.Options(OPTIONS_PREFIX)
+    for icntl, value in REQUIRED_ICNTL.items():
+        name = f"mat_mumps_icntl_{icntl}"
+        if options.getInt(name, value) != value:
+            raise InputError(
+                f"-{OPTIONS_PREFIX}{name} must be {value} (MUMPS ICNTL({icntl})): dd_contact "
+                "relies on it to report singular blocks; remove the option"
+            )
+
+
 class SparseCholesky:
     """A MUMPS Cholesky factorisation of an SPD PETSc matrix.
 
@@ -106,6 +134,7 @@ class SparseCholesky:
     """
 
     def __init__(self, A: PETSc.Mat, log: WorkLog, block: str, schur: int = 0):
+        _check_required_options()
         self.A, self.log, self.block, self.schur = A, log, block, schur
         self.schur_complement: np.ndarray | None = None
         self.entries = 0.0
@@ -113,20 +142,30 @@ class SparseCholesky:
         A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
         A.setOption(PETSc.Mat.Option.SPD, True)
         self.ksp = PETSc.KSP().create(A.comm)
+        self.ksp.setOptionsPrefix(OPTIONS_PREFIX)  # the factor matrix inherits it
         self.ksp.setOperators(A)
-        self.ksp.setType(PETSc.KSP.Type.PREONLY)
+        self._set_types()
+        # The user's options (-dd_contact_pc_factor_*, ...) after the defaults they adjust;
+        # -dd_contact_mat_mumps_* are read by MUMPS's analysis in setUp, under the same
+        # prefix. The solver types are required: set again in case an option changed them.
+        self.ksp.setFromOptions()
+        self._set_types()
         pc = self.ksp.getPC()
-        pc.setType(PETSc.PC.Type.CHOLESKY)
-        pc.setFactorSolverType("mumps")
         pc.setFactorSetUpSolverType()
         factor = pc.getFactorMatrix()
-        # detect null pivots: singular fails loudly
-        factor.setMumpsIcntl(ICNTL_NULL_PIVOT_DETECTION, NULL_PIVOTS_DETECTED)
+        for icntl, value in REQUIRED_ICNTL.items():  # detect null pivots: singular fails loudly
+            factor.setMumpsIcntl(icntl, value)
         if schur:
             n = A.getSize()[0]
             self._schur_is = PETSc.IS().createStride(schur, n - schur, 1, comm=A.comm)
             _check(_libpetsc().MatFactorSetSchurIS(_ptr(factor), _ptr(self._schur_is)))
         self._factorise()
+
+    def _set_types(self) -> None:
+        self.ksp.setType(PETSc.KSP.Type.PREONLY)
+        pc = self.ksp.getPC()
+        pc.setType(PETSc.PC.Type.CHOLESKY)
+        pc.setFactorSolverType("mumps")
 
     def refactorise(self) -> None:
         """Numeric re-factorisation after the matrix values changed (same pattern)."""
@@ -244,8 +283,9 @@ def sparse_statistics(A: PETSc.Mat, schur: int = 0) -> SparseStatistics:
 
     For an SPD matrix MUMPS does not pivot, so the analysis gives the flops and factor size
     of the factorisation exactly. ``schur`` trailing rows form a Schur block, as in
-    :class:`SparseCholesky`.
+    :class:`SparseCholesky`; the options under :data:`OPTIONS_PREFIX` apply here too.
     """
+    _check_required_options()
     lib = _libpetsc()
     integer = ctypes.c_int64 if np.dtype(PETSc.IntType).itemsize == 8 else ctypes.c_int32
     F = ctypes.c_void_p()
@@ -254,6 +294,7 @@ def sparse_statistics(A: PETSc.Mat, schur: int = 0) -> SparseStatistics:
     _check(lib.MatGetFactor(_ptr(A), b"mumps", MAT_FACTOR_CHOLESKY, ctypes.byref(F)))
     try:
         schur_is = None
+        _check(lib.MatSetOptionsPrefix(F, OPTIONS_PREFIX.encode()))  # as SparseCholesky's
         if schur:
             n = A.getSize()[0]
             schur_is = PETSc.IS().createStride(schur, n - schur, 1, comm=A.comm)
