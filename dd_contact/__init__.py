@@ -2,13 +2,13 @@
 
 from mpi4py import MPI as _MPI  # noqa: F401  (loads libmpi before petsc4py)
 
-from dd_contact.contact import ContactSettings
 from dd_contact.errors import (
     ContactCycleWarning,
     ContactIterationError,
     InputError,
     SingularMatrixError,
 )
+from dd_contact.iteration import ContactSettings
 from dd_contact.obstacles import Cylinder, Plane, Sphere, UserObstacle
 from dd_contact.problem import StaticProblem, TransientProblem
 from dd_contact.scene import (

@@ -25,31 +25,36 @@ active points ``A``::
     P_C = (1/eps_C) G^T diag(a_A) G,      p_C2 = (1/eps_C) G^T (a_A s)      (A8, A9)
 
 where ``a`` are the points' area weights.
+
+At the start of a run, :func:`check_contact_geometry` refuses an obstacle that overlaps the
+body or whose normal points into it. The active-set iteration is in
+:mod:`dd_contact.iteration`.
 """
 
 from __future__ import annotations
 
-import hashlib
-import warnings
 from dataclasses import dataclass
 
 import basix
 import dolfinx.fem as fem
+import dolfinx.geometry
+import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from dd_contact.errors import ContactCycleWarning, ContactIterationError
+from dd_contact.coupling import newell_normal
+from dd_contact.errors import InputError
+from dd_contact.meshes import cyclic_vertices
 from dd_contact.obstacles import Obstacle
 
 __all__ = [
     "SCHEMES",
-    "ContactIteration",
     "ContactOperator",
     "ContactPoints",
-    "ContactSettings",
+    "check_contact_geometry",
     "contact_points",
-    "digest",
+    "outward_normals",
 ]
 
 #: Where the contact condition is checked.
@@ -193,155 +198,69 @@ class ContactOperator:
         return 0.5 * float(np.dot(self.points.weight, g * g)) / self.epsilon
 
 
-def digest(active: np.ndarray) -> str:
-    """A short fingerprint of an active set (to detect cycling)."""
-    return hashlib.blake2b(np.packbits(active).tobytes(), digest_size=12).hexdigest()
+# -- the start of a run: refuse geometry the contact term cannot handle -------------------
+def outward_normals(surface: dolfinx.mesh.Mesh, volume: dolfinx.mesh.Mesh) -> np.ndarray:
+    """Unit normal of every cell of a contact surface, oriented out of the body ``volume``.
 
-
-@dataclass
-class ContactSettings:
-    """How the contact iteration runs.
-
-    Attributes:
-        max_iterations: Largest number of solves in one step (or one static solve).
-        on_cycle: What to do when an active set repeats within a step: ``"union"`` (default:
-            make every point of the cycle active, solve once more and go on, with a
-            :class:`ContactCycleWarning` that says where; a few points may then carry a small
-            tension) or ``"raise"`` (stop with a :class:`ContactIterationError` that says
-            where).
-        penetration_tolerance: Largest initial overlap of body and obstacle accepted at the
-            start (default: 1e-3 of the mean contact-surface cell size).
+    Each cell's normal is checked by probing the body's mesh (a bounding-box tree) a little
+    behind the cell's centre: the probe lies inside the body if the normal points outward.
     """
+    poly = surface.geometry.x[cyclic_vertices(surface.geometry.dofmaps[0])]
+    normal = newell_normal(poly)
+    centre = poly.mean(axis=1)
+    size = np.linalg.norm(poly.max(axis=1) - poly.min(axis=1), axis=1)
+    tree = dolfinx.geometry.bb_tree(volume, volume.topology.dim)
+    probe = centre - 0.05 * size[:, None] * normal  # inside the body if the normal is outward
+    candidates = dolfinx.geometry.compute_collisions_points(tree, probe)
+    inside = dolfinx.geometry.compute_colliding_cells(volume, candidates, probe)
+    sign = np.array([1.0 if len(inside.links(i)) else -1.0 for i in range(len(probe))])
+    return normal * sign[:, None]
 
-    max_iterations: int = 50
-    on_cycle: str = "union"
-    penetration_tolerance: float | None = None
 
-    def __post_init__(self):
-        if self.max_iterations < 1:
-            raise ValueError("ContactSettings: max_iterations must be >= 1")
-        if self.on_cycle not in ("raise", "union"):
-            raise ValueError("ContactSettings: on_cycle must be 'raise' or 'union'")
-
-
-class ContactIteration:
-    """Active-set iteration: solve, update the active sets, repeat until none changes.
-
-    Works with any solver offering ``set_contact(name, matrix)``, ``solve(rhs)`` (which must
-    return at least the blocks of this rank's zones) and ``finish()`` (every block of the last
-    solution: a decomposition solver back-substitutes the rest only once the contact state has
-    settled), and with the zones of :class:`dd_contact.assembly.Model`. Every iteration in
-    which some active set changed is one *contact state change* (gamma); a change on zone k
-    also counts in alpha[k].
+def check_contact_geometry(
+    operator: ContactOperator,
+    surface: dolfinx.mesh.Mesh,
+    volume: dolfinx.mesh.Mesh,
+    name: str,
+    tolerance: float | None = None,
+    t: float = 0.0,
+) -> None:
+    """Refuse an obstacle that overlaps the body or whose normal points into it.
 
     Args:
-        comm: Communicator (the zones are spread over ranks).
-        zones: This rank's contact zones.
-        settings: Iteration settings.
+        operator: The contact region's operator (evaluated at ``t`` here).
+        surface: The contact surface mesh.
+        volume: The mesh of the body (subdomain) the surface bounds.
+        name: The contact region's name, for messages.
+        tolerance: Largest overlap accepted (default: 1e-3 of the mean surface cell size).
+        t: Time at which the obstacle is checked.
+
+    Raises:
+        InputError: The obstacle penetrates the body deeper than ``tolerance``, or its
+            normal points into the body.
     """
-
-    def __init__(self, comm, zones, settings: ContactSettings):
-        self.comm, self.zones, self.settings = comm, zones, settings
-        self.active: dict[str, np.ndarray] = {}
-        self.gamma = 0
-        self.alpha = {z.contact.name: 0 for z in zones}
-        self.cycles_resolved = 0
-
-    def start(self, t: float) -> None:
-        """Initial active sets: the points already touching the obstacle at ``t``."""
-        for z in self.zones:
-            z.operator.update(t)
-            self.active[z.contact.name] = z.operator.gap <= 0.0
-
-    def solve(self, solver, rhs: dict[str, np.ndarray], t: float, where: str):
-        """Solve at time ``t`` with the contact iteration; returns the solution blocks.
-
-        Args:
-            solver: The block solver.
-            rhs: Right-hand side without contact terms (this rank's contributions).
-            t: Time (obstacles may move).
-            where: Text for messages (e.g. "step 12 (t = 0.0012)").
-        """
-        for z in self.zones:
-            z.operator.update(t)
-        seen = {self._global_digest(): 0}
-        sets = [dict(self.active)]
-        changes_this_solve = 0
-        for iteration in range(1, self.settings.max_iterations + 1):
-            x = self._solve_once(solver, rhs)
-            new = {z.contact.name: z.operator.active_set(x[z.block][z.dofs]) for z in self.zones}
-            changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
-            if not self.comm.allreduce(len(changed)):
-                return solver.finish(), iteration, changes_this_solve
-            self._count_change(changed)
-            changes_this_solve += 1
-            previous = self.active
-            self.active = new
-            key = self._global_digest()
-            if key in seen:
-                message = self._cycle_message(previous, new, seen[key], iteration, where)
-                if self.settings.on_cycle == "raise":
-                    raise ContactIterationError(
-                        message + ". Remedies: a smaller time step or load increment, a softer "
-                        "contact penalty (contact_kappa), or ContactSettings(on_cycle='union')"
-                    )
-                warnings.warn(
-                    message + "; resolved by making every point of the cycle active",
-                    ContactCycleWarning,
-                    stacklevel=2,
-                )
-                before = dict(self.active)
-                for j in range(seen[key], len(sets)):
-                    for name in self.active:
-                        self.active[name] = self.active[name] | sets[j][name]
-                self.cycles_resolved += 1
-                # The union is one more contact state (counted like any other change).
-                grown = [n for n in self.active if not np.array_equal(before[n], self.active[n])]
-                if self.comm.allreduce(len(grown)):
-                    self._count_change(grown)
-                    changes_this_solve += 1
-                self._solve_once(solver, rhs)
-                return solver.finish(), iteration + 1, changes_this_solve
-            seen[key] = iteration
-            sets.append(dict(self.active))
-        raise ContactIterationError(
-            f"contact iteration did not settle in {self.settings.max_iterations} iterations at "
-            f"{where}; raise ContactSettings(max_iterations=...), or take a smaller time step or "
-            "load increment"
+    op = operator
+    op.update(t)
+    cells = surface.geometry.x[surface.geometry.dofmaps[0]]
+    size = float(np.mean(np.linalg.norm(cells.max(axis=1) - cells.min(axis=1), axis=1)))
+    tol = 1e-3 * size if tolerance is None else tolerance
+    worst = int(np.argmin(op.gap))
+    if op.gap[worst] < -tol:
+        raise InputError(
+            f"contact {name!r}: the obstacle penetrates the body at t = {t} by "
+            f"{-op.gap[worst]:.4g} at {np.round(op.points.x[worst], 6)} (tolerance "
+            f"{tol:.3g}); move the obstacle or the body so they at most touch at the start"
         )
-
-    def _count_change(self, zones: list[str]) -> None:
-        """One contact state change of the model (gamma), on each of ``zones`` (alpha)."""
-        self.gamma += 1
-        for name in zones:
-            self.alpha[name] += 1
-
-    def _solve_once(self, solver, rhs):
-        rhs = {name: vector.copy() for name, vector in rhs.items()}
-        for z in self.zones:
-            matrix, vector = z.contribution(self.active[z.contact.name])
-            solver.set_contact(z.contact.name, matrix)
-            if z.block not in rhs:
-                rhs[z.block] = np.zeros(solver.system.sizes[z.block])
-            np.add.at(rhs[z.block], z.dofs, vector)
-        return solver.solve(rhs)
-
-    def _global_digest(self) -> tuple:
-        local = tuple(digest(self.active[z.contact.name]) for z in self.zones)
-        return tuple(self.comm.allgather(local))
-
-    def _cycle_message(self, previous, new, first, iteration, where) -> str:
-        lines = []
-        for z in self.zones:
-            flips = np.flatnonzero(previous[z.contact.name] != new[z.contact.name])
-            if flips.size:
-                x = np.round(z.operator.points.x[flips[0]], 6)
-                lines.append(
-                    f"contact {z.contact.name!r}: {flips.size} point(s) flip in/out of contact, "
-                    f"e.g. at {x}"
-                )
-        lines = [line for part in self.comm.allgather(lines) for line in part]
-        return (
-            f"contact iteration cycles at {where}: iteration {iteration} returns to the active "
-            f"set of iteration {first}. " + "; ".join(lines)
+    outward = outward_normals(surface, volume)
+    centres = cells.mean(axis=1)
+    _, n = op.obstacle.gap_normal(centres, t)
+    cosine = np.einsum("cd,cd->c", n, outward)
+    bad = int(np.argmin(cosine))
+    if cosine[bad] < -0.1:
+        raise InputError(
+            f"contact {name!r}: the obstacle's normal points into the body (at "
+            f"{np.round(centres[bad], 6)} it makes {np.degrees(np.arccos(cosine[bad])):.0f}"
+            " degrees with the outward normal of the surface); for a Plane give the "
+            "normal pointing out of the wall towards the body, and check that the body "
+            "lies outside a Sphere or around a Cylinder"
         )

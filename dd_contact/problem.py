@@ -15,17 +15,15 @@ from pathlib import Path
 from mpi4py import MPI
 
 import dolfinx.fem as fem
-import dolfinx.geometry
 import numpy as np
 from tqdm import tqdm
 
 from dd_contact import forms, timing
 from dd_contact.assembly import BlockSystem, Model, assemble
-from dd_contact.contact import ContactIteration, ContactSettings
-from dd_contact.coupling import newell_normal
+from dd_contact.contact import check_contact_geometry
 from dd_contact.errors import InputError, SingularMatrixError
 from dd_contact.io import Checkpoint, ResultWriter
-from dd_contact.meshes import cyclic_vertices
+from dd_contact.iteration import ContactIteration, ContactSettings
 from dd_contact.parallel import collective, gathered
 from dd_contact.scene import ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, SparseCholesky, WorkLog
@@ -92,7 +90,7 @@ class _Analysis:
             self.solver = BlockEliminationSolver(
                 self.comm, system, contacts, self.work, algorithm, condensation
             )
-        self.iteration = ContactIteration(self.comm, self.zones, self.settings)
+        self.iteration = ContactIteration(self.comm, self.zones, self.settings, system.sizes)
         self._owned = [
             (k, s, f"u:{s.name}")
             for k, s in enumerate(scene.subdomains)
@@ -109,33 +107,14 @@ class _Analysis:
     def _check_contact_geometry(self, t: float = 0.0) -> None:
         """Refuse an obstacle that overlaps the body or whose normal points into it."""
         for z in self.zones:
-            op, name = z.operator, z.contact.name
-            op.update(t)
-            mesh = z.contact.mesh
-            cells = mesh.geometry.x[mesh.geometry.dofmaps[0]]
-            size = float(np.mean(np.linalg.norm(cells.max(axis=1) - cells.min(axis=1), axis=1)))
-            tol = self.settings.penetration_tolerance
-            tol = 1e-3 * size if tol is None else tol
-            worst = int(np.argmin(op.gap))
-            if op.gap[worst] < -tol:
-                raise InputError(
-                    f"contact {name!r}: the obstacle penetrates the body at t = {t} by "
-                    f"{-op.gap[worst]:.4g} at {np.round(op.points.x[worst], 6)} (tolerance "
-                    f"{tol:.3g}); move the obstacle or the body so they at most touch at the start"
-                )
-            outward = _outward_normals(z.contact)
-            centres = cells.mean(axis=1)
-            _, n = op.obstacle.gap_normal(centres, t)
-            cosine = np.einsum("cd,cd->c", n, outward)
-            bad = int(np.argmin(cosine))
-            if cosine[bad] < -0.1:
-                raise InputError(
-                    f"contact {name!r}: the obstacle's normal points into the body (at "
-                    f"{np.round(centres[bad], 6)} it makes {np.degrees(np.arccos(cosine[bad])):.0f}"
-                    " degrees with the outward normal of the surface); for a Plane give the "
-                    "normal pointing out of the wall towards the body, and check that the body "
-                    "lies outside a Sphere or around a Cylinder"
-                )
+            check_contact_geometry(
+                z.operator,
+                z.contact.mesh,
+                z.contact.subdomain.mesh,
+                z.contact.name,
+                self.settings.penetration_tolerance,
+                t,
+            )
 
     def _loads(self, t: float) -> dict[str, np.ndarray]:
         """Owned load vectors r_D(t) (cached when they do not depend on time)."""
@@ -252,22 +231,6 @@ class _Analysis:
         if self.scene.interface is not None:
             out.append(self.scene.interface.v)
         return out + [c.w for c in self.scene.contacts]
-
-
-def _outward_normals(contact) -> np.ndarray:
-    """Unit normal of every contact-surface cell, oriented out of its subdomain."""
-    mesh = contact.mesh
-    poly = mesh.geometry.x[cyclic_vertices(mesh.geometry.dofmaps[0])]
-    normal = newell_normal(poly)
-    centre = poly.mean(axis=1)
-    size = np.linalg.norm(poly.max(axis=1) - poly.min(axis=1), axis=1)
-    volume = contact.subdomain.mesh
-    tree = dolfinx.geometry.bb_tree(volume, volume.topology.dim)
-    probe = centre - 0.05 * size[:, None] * normal  # inside the body if the normal is outward
-    candidates = dolfinx.geometry.compute_collisions_points(tree, probe)
-    inside = dolfinx.geometry.compute_colliding_cells(volume, candidates, probe)
-    sign = np.array([1.0 if len(inside.links(i)) else -1.0 for i in range(len(probe))])
-    return normal * sign[:, None]
 
 
 class StaticProblem(_Analysis):

@@ -9,8 +9,8 @@ import pytest
 
 import dd_contact as dd
 from dd_contact import meshes, verify
-from dd_contact.contact import ContactIteration, ContactSettings
 from dd_contact.errors import ContactCycleWarning, ContactIterationError
+from dd_contact.iteration import ContactIteration, ContactSettings
 
 
 def _on(axis, value):

@@ -1,0 +1,206 @@
+"""The contact iteration: solve, update the active sets, repeat until none changes.
+
+:class:`ContactIteration` drives any solver of the block system that follows the
+:class:`ContactSolver` protocol (:class:`dd_contact.solvers.MonolithicSolver` and
+:class:`dd_contact.solvers.engine.BlockEliminationSolver`) with the contact zones of
+:class:`dd_contact.assembly.Model`; :class:`ContactSettings` says how it runs. The contact
+term itself (points, gap, matrices) is in :mod:`dd_contact.contact`.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import warnings
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+import scipy.sparse as sp
+
+from dd_contact.assembly import ContactZone
+from dd_contact.errors import ContactCycleWarning, ContactIterationError
+
+__all__ = ["ContactIteration", "ContactSettings", "ContactSolver", "digest"]
+
+
+class ContactSolver(Protocol):
+    """What the contact iteration needs of a block solver."""
+
+    def set_contact(self, key: str, matrix: sp.csr_array) -> None:
+        """Replace the contact matrix of contact region ``key`` (surface dof numbering)."""
+        ...
+
+    def solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Solve with this rank's right-hand side; at least the blocks of this rank's zones."""
+        ...
+
+    def finish(self) -> dict[str, np.ndarray]:
+        """Every block of the last solution (once the contact state has settled)."""
+        ...
+
+
+def digest(active: np.ndarray) -> str:
+    """A short fingerprint of an active set (to detect cycling)."""
+    return hashlib.blake2b(np.packbits(active).tobytes(), digest_size=12).hexdigest()
+
+
+@dataclass
+class ContactSettings:
+    """How the contact iteration runs.
+
+    Attributes:
+        max_iterations: Largest number of solves in one step (or one static solve).
+        on_cycle: What to do when an active set repeats within a step: ``"union"`` (default:
+            make every point of the cycle active, solve once more and go on, with a
+            :class:`ContactCycleWarning` that says where; a few points may then carry a small
+            tension) or ``"raise"`` (stop with a :class:`ContactIterationError` that says
+            where).
+        penetration_tolerance: Largest initial overlap of body and obstacle accepted at the
+            start (default: 1e-3 of the mean contact-surface cell size).
+    """
+
+    max_iterations: int = 50
+    on_cycle: str = "union"
+    penetration_tolerance: float | None = None
+
+    def __post_init__(self):
+        if self.max_iterations < 1:
+            raise ValueError("ContactSettings: max_iterations must be >= 1")
+        if self.on_cycle not in ("raise", "union"):
+            raise ValueError("ContactSettings: on_cycle must be 'raise' or 'union'")
+
+
+class ContactIteration:
+    """Active-set iteration: solve, update the active sets, repeat until none changes.
+
+    Works with any :class:`ContactSolver` (``solve`` must return at least the blocks of this
+    rank's zones; ``finish`` every block of the last solution: a decomposition solver
+    back-substitutes the rest only once the contact state has settled), and with the zones of
+    :class:`dd_contact.assembly.Model`. Every iteration in which some active set changed is
+    one *contact state change* (gamma); a change on zone k also counts in alpha[k].
+
+    Args:
+        comm: Communicator (the zones are spread over ranks).
+        zones: This rank's contact zones.
+        settings: Iteration settings.
+        sizes: Size of every block a zone lives in (the block system's ``sizes``): a zone's
+            contact right-hand side goes into a zero vector of that size when the given
+            right-hand side has no such block. Default: each zone's block holds exactly its
+            surface dofs (``len(zone.dofs)``, as a contact interface's w block does).
+    """
+
+    def __init__(
+        self,
+        comm,
+        zones: Sequence[ContactZone],
+        settings: ContactSettings,
+        sizes: Mapping[str, int] | None = None,
+    ):
+        self.comm, self.zones, self.settings = comm, zones, settings
+        if sizes is None:
+            sizes = {z.block: len(z.dofs) for z in zones}
+        self.sizes = {z.block: int(sizes[z.block]) for z in zones}
+        self.active: dict[str, np.ndarray] = {}
+        self.gamma = 0
+        self.alpha = {z.contact.name: 0 for z in zones}
+        self.cycles_resolved = 0
+
+    def start(self, t: float) -> None:
+        """Initial active sets: the points already touching the obstacle at ``t``."""
+        for z in self.zones:
+            z.operator.update(t)
+            self.active[z.contact.name] = z.operator.gap <= 0.0
+
+    def solve(self, solver: ContactSolver, rhs: dict[str, np.ndarray], t: float, where: str):
+        """Solve at time ``t`` with the contact iteration; returns the solution blocks.
+
+        Args:
+            solver: The block solver.
+            rhs: Right-hand side without contact terms (this rank's contributions).
+            t: Time (obstacles may move).
+            where: Text for messages (e.g. "step 12 (t = 0.0012)").
+        """
+        for z in self.zones:
+            z.operator.update(t)
+        seen = {self._global_digest(): 0}
+        sets = [dict(self.active)]
+        changes_this_solve = 0
+        for iteration in range(1, self.settings.max_iterations + 1):
+            x = self._solve_once(solver, rhs)
+            new = {z.contact.name: z.operator.active_set(x[z.block][z.dofs]) for z in self.zones}
+            changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
+            if not self.comm.allreduce(len(changed)):
+                return solver.finish(), iteration, changes_this_solve
+            self._count_change(changed)
+            changes_this_solve += 1
+            previous = self.active
+            self.active = new
+            key = self._global_digest()
+            if key in seen:
+                message = self._cycle_message(previous, new, seen[key], iteration, where)
+                if self.settings.on_cycle == "raise":
+                    raise ContactIterationError(
+                        message + ". Remedies: a smaller time step or load increment, a softer "
+                        "contact penalty (contact_kappa), or ContactSettings(on_cycle='union')"
+                    )
+                warnings.warn(
+                    message + "; resolved by making every point of the cycle active",
+                    ContactCycleWarning,
+                    stacklevel=2,
+                )
+                before = dict(self.active)
+                for j in range(seen[key], len(sets)):
+                    for name in self.active:
+                        self.active[name] = self.active[name] | sets[j][name]
+                self.cycles_resolved += 1
+                # The union is one more contact state (counted like any other change).
+                grown = [n for n in self.active if not np.array_equal(before[n], self.active[n])]
+                if self.comm.allreduce(len(grown)):
+                    self._count_change(grown)
+                    changes_this_solve += 1
+                self._solve_once(solver, rhs)
+                return solver.finish(), iteration + 1, changes_this_solve
+            seen[key] = iteration
+            sets.append(dict(self.active))
+        raise ContactIterationError(
+            f"contact iteration did not settle in {self.settings.max_iterations} iterations at "
+            f"{where}; raise ContactSettings(max_iterations=...), or take a smaller time step or "
+            "load increment"
+        )
+
+    def _count_change(self, zones: list[str]) -> None:
+        """One contact state change of the model (gamma), on each of ``zones`` (alpha)."""
+        self.gamma += 1
+        for name in zones:
+            self.alpha[name] += 1
+
+    def _solve_once(self, solver: ContactSolver, rhs: dict[str, np.ndarray]):
+        rhs = {name: vector.copy() for name, vector in rhs.items()}
+        for z in self.zones:
+            matrix, vector = z.contribution(self.active[z.contact.name])
+            solver.set_contact(z.contact.name, matrix)
+            if z.block not in rhs:
+                rhs[z.block] = np.zeros(self.sizes[z.block])
+            np.add.at(rhs[z.block], z.dofs, vector)
+        return solver.solve(rhs)
+
+    def _global_digest(self) -> tuple:
+        local = tuple(digest(self.active[z.contact.name]) for z in self.zones)
+        return tuple(self.comm.allgather(local))
+
+    def _cycle_message(self, previous, new, first, iteration, where) -> str:
+        lines = []
+        for z in self.zones:
+            flips = np.flatnonzero(previous[z.contact.name] != new[z.contact.name])
+            if flips.size:
+                x = np.round(z.operator.points.x[flips[0]], 6)
+                lines.append(
+                    f"contact {z.contact.name!r}: {flips.size} point(s) flip in/out of contact, "
+                    f"e.g. at {x}"
+                )
+        lines = [line for part in self.comm.allgather(lines) for line in part]
+        return (
+            f"contact iteration cycles at {where}: iteration {iteration} returns to the active "
+            f"set of iteration {first}. " + "; ".join(lines)
+        )
