@@ -1,16 +1,19 @@
-"""Post-processing: cell stresses, von Mises stress, boundary averages."""
+"""Post-processing: cell stresses, von Mises stress, boundary averages, energy."""
 
 from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
 
 import dolfinx.fem as fem
 import dolfinx.mesh
 import numpy as np
 import ufl
 
+from dd_contact.assembly import ContactZone, Model
 from dd_contact.forms import stress
 from dd_contact.scene import Subdomain, Where
 
-__all__ = ["boundary_average", "cell_stress", "von_mises"]
+__all__ = ["boundary_average", "cell_stress", "energy", "von_mises"]
 
 
 def cell_stress(sub: Subdomain) -> np.ndarray:
@@ -38,3 +41,35 @@ def boundary_average(sub: Subdomain, where: Where) -> np.ndarray:
     ds = ufl.Measure("ds", domain=sub.mesh, subdomain_data=tags)
     area = fem.assemble_scalar(fem.form(fem.Constant(sub.mesh, 1.0) * ds(1)))
     return np.array([fem.assemble_scalar(fem.form(sub.u[i] * ds(1))) / area for i in range(3)])
+
+
+def energy(
+    model: Model,
+    x: Mapping[str, np.ndarray],
+    velocities: Mapping[str, np.ndarray],
+    zones: Sequence[ContactZone],
+) -> dict[str, float]:
+    """This rank's part of the kinetic, elastic (with ties) and contact-penalty energy.
+
+    Sum the parts over the ranks for the model's energy
+    (:meth:`dd_contact.TransientProblem.energy` does).
+
+    Args:
+        model: This rank's assembled pieces (stiffness and tie blocks, mass matrices).
+        x: Every block's displacement (``u:``, ``v:`` and ``w:`` blocks).
+        velocities: Velocity of every owned subdomain block.
+        zones: This rank's contact zones (their surface displacement is read from the scene).
+
+    Returns:
+        ``"kinetic"``, ``"elastic"`` and ``"contact"``.
+    """
+    elastic = 0.0
+    for (rb, cb), A in model.system.matrices.items():
+        factor = 0.5 if rb == cb else 1.0
+        elastic += factor * float(x[rb] @ (A @ x[cb]))
+    kinetic = 0.0
+    for block, v in velocities.items():
+        if block in model.mass:
+            kinetic += 0.5 * float(v @ (model.mass[block] @ v))
+    contact = float(sum(z.operator.energy(z.contact.w.x.array) for z in zones))
+    return {"kinetic": kinetic, "elastic": elastic, "contact": contact}

@@ -12,23 +12,22 @@ import sys
 from collections.abc import Callable
 from pathlib import Path
 
-from mpi4py import MPI
-
 import dolfinx.fem as fem
 import numpy as np
 from tqdm import tqdm
 
 from dd_contact import forms, timing
-from dd_contact.assembly import BlockSystem, Model, assemble
+from dd_contact.assembly import Model, assemble
 from dd_contact.contact import check_contact_geometry
 from dd_contact.errors import InputError, SingularMatrixError
 from dd_contact.io import Checkpoint, ResultWriter
 from dd_contact.iteration import ContactIteration, ContactSettings
 from dd_contact.parallel import collective, gathered
+from dd_contact.post import energy
 from dd_contact.scene import ContactBoundary, Scene
-from dd_contact.solvers import MonolithicSolver, SparseCholesky, WorkLog
+from dd_contact.solvers import MonolithicSolver, WorkLog
+from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
 from dd_contact.solvers.engine import BlockEliminationSolver
-from dd_contact.solvers.linalg import coo_of, petsc_matrix
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
 from dd_contact.timestepping import Newmark
 
@@ -378,7 +377,7 @@ class TransientProblem(_Analysis):
         moved = self.comm.allreduce(any(np.any(u != 0) for u in u0.values()))
         x0 = {f"u:{s.name}": s.u.x.array.copy() for s in self.scene.subdomains}
         if moved:
-            x0.update(self._surfaces_at(u0))
+            x0.update(surfaces_in_equilibrium(self.comm, self.model.system, u0, self.work))
             self._publish_surfaces(x0)
         residual = {}
         for _, sub, block in self._owned:
@@ -394,30 +393,10 @@ class TransientProblem(_Analysis):
                 sub.acceleration.x.array[:] = 0.0
                 continue
             # M with the prescribed dofs eliminated, as in the effective matrix.
-            mass = BlockSystem(
-                {block: sub.num_dofs}, {block: 0}, {(block, block): self.model.mass[block]}
-            )
             fixed = np.flatnonzero(self.model.free(block) == 0)
-            mass.constrain(block, fixed, np.zeros(fixed.size))
-            row, col, val = coo_of(mass.matrices[(block, block)])
-            A = petsc_matrix(MPI.COMM_SELF, sub.num_dofs, sub.num_dofs, row, col, val)
-            factor = SparseCholesky(A, self.work, f"mass:{sub.name}")
-            b = A.createVecRight()
-            b.array[:] = residual[block]
-            a = factor.solve(b)
-            sub.acceleration.x.array[:] = a.array
-            for obj in (a, b, factor, A):
-                obj.destroy()
-
-    def _surfaces_at(self, u0: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Interface and contact-interface displacements in equilibrium with given u."""
-        system = self.model.system.copy()
-        for block, values in u0.items():
-            system.constrain(block, np.arange(len(values), dtype=np.int32), values)
-        solver = MonolithicSolver(self.comm, system, {}, self.work)
-        x = solver.solve(system.rhs)
-        solver.destroy()
-        return {k: v for k, v in x.items() if not k.startswith("u:")}
+            sub.acceleration.x.array[:] = solve_mass(
+                self.model.mass[block], fixed, residual[block], self.work, sub.name
+            )
 
     def energy(self) -> dict[str, float]:
         """Kinetic, elastic (with ties) and contact-penalty energy now (collective)."""
@@ -426,17 +405,11 @@ class TransientProblem(_Analysis):
             x[f"v:{self.scene.interface.name}"] = self.scene.interface.v.x.array
         for c in self.scene.contacts:
             x.setdefault(f"w:{c.name}", c.w.x.array)
-        elastic = 0.0
-        for (rb, cb), A in self.model.system.matrices.items():
-            factor = 0.5 if rb == cb else 1.0
-            elastic += factor * float(x[rb] @ (A @ x[cb]))
-        kinetic = 0.0
-        for _, sub, block in self._owned:
-            if block in self.model.mass:
-                v = sub.velocity.x.array
-                kinetic += 0.5 * float(v @ (self.model.mass[block] @ v))
-        contact = sum(z.operator.energy(z.contact.w.x.array) for z in self.zones)
-        parts = np.array(self.comm.allreduce(np.array([kinetic, elastic, contact])))
+        velocities = {block: sub.velocity.x.array for _, sub, block in self._owned}
+        local = energy(self.model, x, velocities, self.zones)
+        parts = np.array(
+            self.comm.allreduce(np.array([local["kinetic"], local["elastic"], local["contact"]]))
+        )
         return {
             "kinetic": parts[0],
             "elastic": parts[1],
