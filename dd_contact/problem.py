@@ -3,14 +3,22 @@
 Both share :class:`_Analysis`: assemble the scene once, eliminate the Dirichlet conditions,
 hand the block system to a solver (the elimination order), and solve with the contact
 iteration. Results land in the scene's dolfinx Functions (``Subdomain.u``, ``Interface.v``,
-``ContactInterface.w`` and ``.pressure``).
+``ContactInterface.w`` and ``.pressure``). A problem owns its solver's PETSc objects and
+frees them in ``close()`` (or on leaving a ``with`` block).
+
+This module only orchestrates: the contact term and the geometric checks are in
+:mod:`dd_contact.contact`, the contact iteration in :mod:`dd_contact.iteration`, the side
+solves of a transient start in :mod:`dd_contact.solvers.auxiliary` and the energy in
+:mod:`dd_contact.post`.
 """
 
 from __future__ import annotations
 
+import logging
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import Self
 
 import dolfinx.fem as fem
 import numpy as np
@@ -32,6 +40,14 @@ from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
 from dd_contact.timestepping import Newmark
 
 __all__ = ["StaticProblem", "TransientProblem"]
+
+logger = logging.getLogger(__name__)
+
+
+def _print_report(comm, text: str) -> None:
+    """Print a report the user asked for (``run(summary=True)``) on stdout, on rank 0."""
+    if comm.rank == 0:
+        print(text)
 
 
 class _Analysis:
@@ -90,6 +106,7 @@ class _Analysis:
                 self.comm, system, contacts, self.work, algorithm, condensation
             )
         self.iteration = ContactIteration(self.comm, self.zones, self.settings, system.sizes)
+        self._closed = False
         self._owned = [
             (k, s, f"u:{s.name}")
             for k, s in enumerate(scene.subdomains)
@@ -143,6 +160,11 @@ class _Analysis:
         return rhs
 
     def _solve(self, t: float, rhs: dict[str, np.ndarray], where: str):
+        if self._closed:
+            raise RuntimeError(
+                f"this {type(self).__name__} was closed (its factorisations are freed); "
+                "create a new problem to solve again"
+            )
         try:
             return self.iteration.solve(self.solver, rhs, t, where)
         except SingularMatrixError as error:
@@ -231,6 +253,25 @@ class _Analysis:
             out.append(self.scene.interface.v)
         return out + [c.w for c in self.scene.contacts]
 
+    # -- resources -------------------------------------------------------------------------
+    def close(self) -> None:
+        """Free the solver's PETSc factorisations and matrices (collective; idempotent).
+
+        The results stay in the scene's Functions, the history and the work log; the problem
+        cannot solve any more. ``with StaticProblem(scene) as problem:`` closes on leaving.
+        """
+        if self._closed:
+            return
+        self._closed = True
+        self.solver.destroy()
+        logger.debug("%s (%s): freed the solver", type(self).__name__, self.algorithm)
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
 
 class StaticProblem(_Analysis):
     """Static linear elasticity of a scene with contact (the static form of system (14)).
@@ -248,8 +289,8 @@ class StaticProblem(_Analysis):
             and cached; see :func:`dd_contact.timing.machine_rates`).
 
     Example:
-        >>> problem = StaticProblem(scene)
-        >>> u_left, u_right, v = problem.solve()
+        >>> with StaticProblem(scene) as problem:
+        ...     u_left, u_right, v = problem.solve()
     """
 
     def __init__(
@@ -397,6 +438,7 @@ class TransientProblem(_Analysis):
             sub.acceleration.x.array[:] = solve_mass(
                 self.model.mass[block], fixed, residual[block], self.work, sub.name
             )
+            logger.debug("initial acceleration of subdomain %r from its mass matrix", sub.name)
 
     def energy(self) -> dict[str, float]:
         """Kinetic, elastic (with ties) and contact-penalty energy now (collective)."""
@@ -497,6 +539,7 @@ class TransientProblem(_Analysis):
                     writer.write(self.t)
                 if checkpoint_every and self.step % checkpoint_every == 0:
                     checkpoint.save(self._state(), self.history)
+                    logger.info("checkpoint at step %d (t = %.6g)", self.step, self.t)
                 if bar is not None:
                     bar.update(1)
                     bar.set_postfix(t=f"{self.t:.4g}", changes=self.iteration.gamma)
@@ -509,13 +552,14 @@ class TransientProblem(_Analysis):
                 writer.close()
         if summary:
             table = self.work_table()
-            if self.comm.rank == 0:
-                if self.choice is not None:
-                    print(f"algorithm='auto' chose {self.algorithm}:\n{self.choice.table()}")
-                print(
-                    f"{self.algorithm}: {self.step} steps, {self.iteration.gamma} contact "
-                    f"state changes\n{table}"
-                )
+            report = []
+            if self.choice is not None:
+                report.append(f"algorithm='auto' chose {self.algorithm}:\n{self.choice.table()}")
+            report.append(
+                f"{self.algorithm}: {self.step} steps, {self.iteration.gamma} contact "
+                f"state changes\n{table}"
+            )
+            _print_report(self.comm, "\n".join(report))
         return self.history
 
     def _state(self) -> dict[str, np.ndarray]:
