@@ -86,8 +86,7 @@ class ContactIteration:
         settings: Iteration settings.
         sizes: Size of every block a zone lives in (the block system's ``sizes``): a zone's
             contact right-hand side goes into a zero vector of that size when the given
-            right-hand side has no such block. Default: each zone's block holds exactly its
-            surface dofs (``len(zone.dofs)``, as a contact interface's w block does).
+            right-hand side has no such block.
     """
 
     def __init__(
@@ -95,11 +94,9 @@ class ContactIteration:
         comm,
         zones: Sequence[ContactZone],
         settings: ContactSettings,
-        sizes: Mapping[str, int] | None = None,
+        sizes: Mapping[str, int],
     ):
         self.comm, self.zones, self.settings = comm, zones, settings
-        if sizes is None:
-            sizes = {z.block: len(z.dofs) for z in zones}
         self.sizes = {z.block: int(sizes[z.block]) for z in zones}
         self.active: dict[str, np.ndarray] = {}
         self.gamma = 0

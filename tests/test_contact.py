@@ -128,7 +128,7 @@ def test_cycling_is_detected_and_located():
     # Active sets: {} -> {0} -> {1} -> {0}: a cycle of length two.
     solver = _ScriptedSolver([[1, -1], [-1, 1], [1, -1], [-1, 1]])
     settings = ContactSettings(on_cycle="raise")
-    iteration = ContactIteration(MPI.COMM_SELF, [_ScriptedZone()], settings)
+    iteration = ContactIteration(MPI.COMM_SELF, [_ScriptedZone()], settings, {"w:zone": 2})
     iteration.start(0.0)
     iteration.active["zone"] = np.zeros(2, bool)
     with pytest.raises(ContactIterationError, match=r"cycles at step 3.*iteration 3 returns"):
@@ -137,7 +137,7 @@ def test_cycling_is_detected_and_located():
 
 def test_cycle_resolved_by_union():
     solver = _ScriptedSolver([[1, -1], [-1, 1], [1, -1], [1, 1]])
-    iteration = ContactIteration(MPI.COMM_SELF, [_ScriptedZone()], ContactSettings())
+    iteration = ContactIteration(MPI.COMM_SELF, [_ScriptedZone()], ContactSettings(), {"w:zone": 2})
     iteration.start(0.0)
     iteration.active["zone"] = np.zeros(2, bool)
     with pytest.warns(ContactCycleWarning, match=r"step 1: iteration 3 returns to .* 1\."):
@@ -155,7 +155,9 @@ def test_iteration_limit_is_a_setting():
     zone.dofs = np.arange(3)
     zone.operator.gap = np.zeros(3)
     solver = _ScriptedSolver(answers)
-    iteration = ContactIteration(MPI.COMM_SELF, [zone], ContactSettings(max_iterations=3))
+    iteration = ContactIteration(
+        MPI.COMM_SELF, [zone], ContactSettings(max_iterations=3), {"w:zone": 3}
+    )
     iteration.start(0.0)
     iteration.active["zone"] = np.zeros(3, bool)
     with pytest.raises(ContactIterationError, match="did not settle in 3 iterations"):
