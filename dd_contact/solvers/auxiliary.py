@@ -11,8 +11,6 @@ their PETSc objects before returning:
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from mpi4py import MPI
 
 import numpy as np
@@ -21,9 +19,7 @@ import scipy.sparse as sp
 from dd_contact.assembly import BlockSystem
 from dd_contact.solvers.full import MonolithicSolver
 from dd_contact.solvers.linalg import SparseCholesky, coo_of, petsc_matrix
-
-if TYPE_CHECKING:
-    from dd_contact.solvers import WorkLog
+from dd_contact.solvers.worklog import WorkLog
 
 __all__ = ["solve_mass", "surfaces_in_equilibrium"]
 
