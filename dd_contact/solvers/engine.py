@@ -40,7 +40,13 @@ from dd_contact.solvers.linalg import (
     coo_of,
     sparse_statistics,
 )
-from dd_contact.solvers.schedule import Group, Schedule, block_kind, condensation_chunks
+from dd_contact.solvers.schedule import (
+    CONDENSATIONS,
+    Group,
+    Schedule,
+    block_kind,
+    condensation_chunks,
+)
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
@@ -77,6 +83,7 @@ def order_schedule(
     contacts: dict,
     order: str,
     condensation: str,
+    layouts: dict[str, list],
 ) -> Schedule:
     """Collective: the schedule of ``order`` for this block system (same on every rank).
 
@@ -86,12 +93,8 @@ def order_schedule(
         contacts: This rank's contact regions ``key -> (block, dofs, pattern)``.
         order: One of the orders.
         condensation: How subdomains are condensed.
+        layouts: This rank's subdomain layouts (:func:`coupling_layout`).
     """
-    layouts = {
-        b: coupling_layout(b, system)[0]
-        for b, owner in system.owners.items()
-        if block_kind(b) == "u" and owner == comm.rank
-    }
     pairs, regions = surface_structure(comm, system, contacts)
     return Schedule(order, system.sizes, gathered(comm, layouts), pairs, regions, condensation)
 
@@ -127,6 +130,10 @@ class SubdomainCondensation:
     """
 
     def __init__(self, block, system: BlockSystem, contacts: dict, log: WorkLog, condensation: str):
+        if condensation not in CONDENSATIONS:
+            raise ValueError(
+                f"unknown condensation {condensation!r}; valid: {', '.join(CONDENSATIONS)}"
+            )
         self.block, self.log = block, log
         n = system.sizes[block]
         self.layout, self.C = coupling_layout(block, system)
@@ -278,7 +285,7 @@ class _Surface:
 
     def factorise(self) -> None:
         """Re-factorise the groups the schedule finds stale after what changed."""
-        if self.changed or self.new_pairs:
+        if self.changed:  # a new condensation also marks the blocks it touches
             self.stale |= self.schedule.stale_groups(self.changed)
         if not self.stale:
             return
@@ -414,7 +421,6 @@ class BlockEliminationSolver:
         condensation: str = "schur",
     ):
         self.comm, self.system, self.log, self.order = comm, system, log, order
-        self.schedule = order_schedule(comm, system, contacts, order, condensation)
         self._zone_block = {key: block for key, (block, _, _) in contacts.items()}
         self._zone_dofs = {key: dofs for key, (_, dofs, _) in contacts.items()}
         self.subdomains: dict[str, SubdomainCondensation] = {}
@@ -424,6 +430,8 @@ class BlockEliminationSolver:
                 self.subdomains[block] = SubdomainCondensation(
                     block, system, mine, log, condensation
                 )
+        layouts = {b: sub.layout for b, sub in self.subdomains.items()}
+        self.schedule = order_schedule(comm, system, contacts, order, condensation, layouts)
         self._needed_u = set(self.schedule.needed_u) & set(self.subdomains)
         pieces = [
             (r, c, A)
