@@ -53,7 +53,7 @@ def main() -> None:
     Z = {}
     for _ in range(args.repeats):
         for mode in seconds:
-            sub = SubdomainCondensation(block, system, {}, WorkLog(), mode)
+            sub = SubdomainCondensation(block, system, [], WorkLog(), mode)
             start = time.perf_counter()
             sub.factorise()
             seconds[mode].append(time.perf_counter() - start)

@@ -60,7 +60,7 @@ def plan_of(algorithm: str, elements: list[int], dt: float):
 
     scene = parallelepiped(algorithm, tuple(elements), comm=MPI.COMM_SELF)
     problem = dd.TransientProblem(scene, dt, algorithm=algorithm, track_energy=False)
-    contacts = problem._contact_patterns()
+    contacts = [z.region for z in problem.zones]
     full = algorithm == "FULL"
     structure = timing.scene_structure(
         MPI.COMM_SELF, problem.solver.system, contacts, full=full, orders=not full

@@ -1,6 +1,7 @@
 """From a scene to the block system (14): the blocks each rank owns, as scipy matrices.
 
-Block rows are named ``u:<subdomain>``, ``v:<interface>`` and ``w:<contact interface>``. A
+Block rows are :class:`~dd_contact.blocks.Block` s: ``u:<subdomain>``, ``v:<interface>`` and
+``w:<contact interface>``. A
 rank holds only the pieces it owns; contributions to another rank's rows (the interface
 mass P_DI4 and the lifted right-hand side) travel when the system is handed to PETSc.
 
@@ -19,9 +20,10 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact import coupling, forms
+from dd_contact.blocks import Block, ContactRegion
 from dd_contact.contact import ContactOperator, contact_points
 from dd_contact.errors import InputError
-from dd_contact.scene import ContactBoundary, Scene
+from dd_contact.scene import ContactBoundary, ContactInterface, Scene
 
 __all__ = ["BlockSystem", "ContactZone", "Model", "assemble"]
 
@@ -41,10 +43,10 @@ class BlockSystem:
             (ties, and ``(subdomain, "contact:<name>")`` for contact).
     """
 
-    sizes: dict[str, int]
-    owners: dict[str, int]
-    matrices: dict[tuple[str, str], sp.csr_array] = field(default_factory=dict)
-    rhs: dict[str, np.ndarray] = field(default_factory=dict)
+    sizes: dict[Block, int]
+    owners: dict[Block, int]
+    matrices: dict[tuple[Block, Block], sp.csr_array] = field(default_factory=dict)
+    rhs: dict[Block, np.ndarray] = field(default_factory=dict)
     penalties: dict[tuple[str, str], float] = field(default_factory=dict)
 
     def copy(self) -> BlockSystem:
@@ -57,17 +59,17 @@ class BlockSystem:
             dict(self.penalties),
         )
 
-    def add(self, row: str, col: str, matrix: sp.sparray) -> None:
+    def add(self, row: Block, col: Block, matrix: sp.sparray) -> None:
         """Add a matrix contribution to block (row, col)."""
         matrix = sp.csr_array(matrix)
         key = (row, col)
         self.matrices[key] = self.matrices[key] + matrix if key in self.matrices else matrix
 
-    def add_rhs(self, row: str, vector: np.ndarray) -> None:
+    def add_rhs(self, row: Block, vector: np.ndarray) -> None:
         """Add a right-hand-side contribution to block ``row``."""
         self.rhs[row] = self.rhs[row] + vector if row in self.rhs else np.array(vector)
 
-    def constrain(self, block: str, dofs: np.ndarray, values: np.ndarray) -> None:
+    def constrain(self, block: Block, dofs: np.ndarray, values: np.ndarray) -> None:
         """Eliminate prescribed dofs of ``block`` (symmetric: rows, columns and lifting).
 
         The owner of ``block`` must hold every contribution that touches it.
@@ -108,7 +110,7 @@ def _tie_operators(surface, sub, what: str) -> coupling.TieOperators:
     return ops
 
 
-def _add_tie(system: BlockSystem, u: str, s: str, ops: coupling.TieOperators, eps: float):
+def _add_tie(system: BlockSystem, u: Block, s: Block, ops: coupling.TieOperators, eps: float):
     """Penalty tie terms (9)-(11): P1 on u, -P2 between u and s, P4 on s, all over eps."""
     system.add(u, u, coupling.blocked(ops.P1) / eps)
     system.add(u, s, -coupling.blocked(ops.P2) / eps)
@@ -149,8 +151,8 @@ class ContactZone:
         prescribed: Prescribed value of every surface dof (zero where free).
     """
 
-    contact: object
-    block: str
+    contact: ContactInterface | ContactBoundary
+    block: Block
     dofs: np.ndarray
     operator: ContactOperator
     free: np.ndarray
@@ -162,6 +164,11 @@ class ContactZone:
         rhs = self.operator.rhs(active) - C @ self.prescribed
         mask = sp.diags_array(self.free.astype(float))
         return sp.csr_array(mask @ C @ mask), rhs * self.free
+
+    @property
+    def region(self) -> ContactRegion:
+        """What a solver reserves for this zone: its block, dofs and matrix pattern."""
+        return ContactRegion(self.contact.name, self.block, self.dofs, self.operator.pattern())
 
 
 @dataclass
@@ -176,8 +183,8 @@ class Model:
     """
 
     system: BlockSystem
-    mass: dict[str, sp.csr_array]
-    dirichlet: dict[str, tuple[np.ndarray, np.ndarray]]
+    mass: dict[Block, sp.csr_array]
+    dirichlet: dict[Block, tuple[np.ndarray, np.ndarray]]
     zones: list[ContactZone]
 
     def effective(self, mass_coefficient: float) -> BlockSystem:
@@ -190,7 +197,7 @@ class Model:
             system.constrain(block, dofs, values)
         return system
 
-    def free(self, block: str) -> np.ndarray:
+    def free(self, block: Block) -> np.ndarray:
         """1.0 on the free dofs of an owned block, 0.0 on prescribed ones."""
         mask = np.ones(self.system.sizes[block])
         if block in self.dirichlet:
@@ -198,10 +205,12 @@ class Model:
         return mask
 
 
-def _contact_zone(scene: Scene, system: BlockSystem, contact, k: int) -> tuple:
+def _contact_zone(
+    scene: Scene, system: BlockSystem, contact: ContactInterface | ContactBoundary, k: int
+) -> tuple[ContactZone, np.ndarray | None]:
     """Tie a contact interface (or map a contact boundary) into the system; its zone."""
     sub = scene.subdomains[k]
-    u = f"u:{sub.name}"
+    u = sub.block
     if isinstance(contact, ContactBoundary):
         height = coupling.facet_height(sub.mesh, contact.facets)
         block = u
@@ -209,7 +218,7 @@ def _contact_zone(scene: Scene, system: BlockSystem, contact, k: int) -> tuple:
         coverage = None
     else:
         ops = _tie_operators(contact, sub, "contact interface")
-        block = f"w:{contact.name}"
+        block = contact.block
         eps = contact.penalty.epsilon_for(ops.height, sub.material.E)
         _add_tie(system, u, block, ops, eps)
         system.penalties[(sub.name, contact.name)] = eps
@@ -232,15 +241,15 @@ def _contact_zone(scene: Scene, system: BlockSystem, contact, k: int) -> tuple:
 def assemble(scene: Scene) -> Model:
     """This rank's pieces of system (14) without time discretisation and contact terms."""
     rank = scene.comm.rank
-    sizes = {f"u:{s.name}": s.num_dofs for s in scene.subdomains}
-    owners = {f"u:{s.name}": scene.owner(k) for k, s in enumerate(scene.subdomains)}
+    sizes = {s.block: s.num_dofs for s in scene.subdomains}
+    owners = {s.block: scene.owner(k) for k, s in enumerate(scene.subdomains)}
     if scene.interface is not None:
-        sizes[f"v:{scene.interface.name}"] = scene.interface.num_dofs
-        owners[f"v:{scene.interface.name}"] = 0
+        sizes[scene.interface.block] = scene.interface.num_dofs
+        owners[scene.interface.block] = 0
     for c in scene.contacts:
         if not isinstance(c, ContactBoundary):
-            sizes[f"w:{c.name}"] = c.num_dofs
-            owners[f"w:{c.name}"] = scene.contact_owner(c)
+            sizes[c.block] = c.num_dofs
+            owners[c.block] = scene.contact_owner(c)
     system = BlockSystem(sizes, owners)
     model = Model(system, {}, {}, [])
     iface = scene.interface
@@ -249,7 +258,7 @@ def assemble(scene: Scene) -> Model:
     for k, sub in enumerate(scene.subdomains):
         if scene.owner(k) != rank:
             continue
-        u = f"u:{sub.name}"
+        u = sub.block
         system.add(u, u, forms.assemble_stiffness(sub))
         if sub.material.rho > 0:
             model.mass[u] = forms.assemble_mass(sub)
@@ -257,7 +266,7 @@ def assemble(scene: Scene) -> Model:
         if any(sub is t for t in tied):
             ops = _tie_operators(iface, sub, "interface")
             eps = iface.penalty.epsilon_for(ops.height, sub.material.E)
-            _add_tie(system, u, f"v:{iface.name}", ops, eps)
+            _add_tie(system, u, iface.block, ops, eps)
             system.penalties[(sub.name, iface.name)] = eps
             coverage = np.maximum(coverage, ops.covered_area / ops.cell_area)
     if tied:

@@ -88,7 +88,7 @@ class _Analysis:
         self.zones = self.model.zones
         self.settings = contact or ContactSettings()
         collective(self.comm, self._check_contact_geometry)
-        contacts = self._contact_patterns()
+        contacts = [z.region for z in self.zones]
         #: The prediction behind ``algorithm="auto"`` (``None`` for a named algorithm).
         self.choice: timing.Choice | None = None
         if algorithm == "auto":
@@ -108,7 +108,7 @@ class _Analysis:
         self.iteration = ContactIteration(self.comm, self.zones, self.settings, system.sizes)
         self._closed = False
         self._owned = [
-            (k, s, f"u:{s.name}")
+            (k, s, s.block)
             for k, s in enumerate(scene.subdomains)
             if scene.owner(k) == self.comm.rank
         ]
@@ -116,10 +116,6 @@ class _Analysis:
         self._constant_loads: dict[str, np.ndarray] = {}
 
     # -- pieces ----------------------------------------------------------------------------
-    def _contact_patterns(self) -> dict:
-        """Contact region -> (block, dofs, sparsity pattern): what the solvers reserve."""
-        return {z.contact.name: (z.block, z.dofs, z.operator.pattern()) for z in self.zones}
-
     def _check_contact_geometry(self, t: float = 0.0) -> None:
         """Refuse an obstacle that overlaps the body or whose normal points into it."""
         for z in self.zones:
@@ -187,9 +183,9 @@ class _Analysis:
     def _publish(self, x: dict[str, np.ndarray]) -> None:
         """Copy the solution into the scene's Functions (contact results on their owners)."""
         for sub in self.scene.subdomains:
-            sub.u.x.array[:] = x[f"u:{sub.name}"]
+            sub.u.x.array[:] = x[sub.block]
         if self.scene.interface is not None:
-            self.scene.interface.v.x.array[:] = x[f"v:{self.scene.interface.name}"]
+            self.scene.interface.v.x.array[:] = x[self.scene.interface.block]
         for z in self.zones:
             w = x[z.block][z.dofs]
             z.contact.w.x.array[:] = w
@@ -222,7 +218,7 @@ class _Analysis:
         (:mod:`dd_contact.timing`): set-up, one step, one contact change, and the total for
         ``steps`` steps with ``changes`` contact state changes.
         """
-        contacts = self._contact_patterns()
+        contacts = [z.region for z in self.zones]
         full = self.algorithm == "FULL"
         structure = timing.scene_structure(
             self.comm, self.solver.system, contacts, self.condensation, full=full, orders=not full
@@ -416,7 +412,7 @@ class TransientProblem(_Analysis):
         loads = collective(self.comm, lambda: self._loads(self.t0))
         u0 = {block: sub.u.x.array[: sub.num_dofs].copy() for _, sub, block in self._owned}
         moved = self.comm.allreduce(any(np.any(u != 0) for u in u0.values()))
-        x0 = {f"u:{s.name}": s.u.x.array.copy() for s in self.scene.subdomains}
+        x0 = {s.block: s.u.x.array.copy() for s in self.scene.subdomains}
         if moved:
             x0.update(surfaces_in_equilibrium(self.comm, self.model.system, u0, self.work))
             self._publish_surfaces(x0)
@@ -442,11 +438,11 @@ class TransientProblem(_Analysis):
 
     def energy(self) -> dict[str, float]:
         """Kinetic, elastic (with ties) and contact-penalty energy now (collective)."""
-        x = {f"u:{s.name}": s.u.x.array for s in self.scene.subdomains}
+        x = {s.block: s.u.x.array for s in self.scene.subdomains}
         if self.scene.interface is not None:
-            x[f"v:{self.scene.interface.name}"] = self.scene.interface.v.x.array
+            x[self.scene.interface.block] = self.scene.interface.v.x.array
         for c in self.scene.contacts:
-            x.setdefault(f"w:{c.name}", c.w.x.array)
+            x.setdefault(c.block, c.w.x.array)
         velocities = {block: sub.velocity.x.array for _, sub, block in self._owned}
         local = energy(self.model, x, velocities, self.zones)
         parts = np.array(
@@ -605,7 +601,7 @@ class TransientProblem(_Analysis):
 
     def _publish_surfaces(self, surfaces: dict[str, np.ndarray]) -> None:
         if self.scene.interface is not None:
-            self.scene.interface.v.x.array[:] = surfaces[f"v:{self.scene.interface.name}"]
+            self.scene.interface.v.x.array[:] = surfaces[self.scene.interface.block]
         for z in self.zones:
             if z.block in surfaces:
                 z.contact.w.x.array[:] = surfaces[z.block][z.dofs]

@@ -21,6 +21,7 @@ import ufl
 from scipy.spatial import cKDTree
 
 from dd_contact import meshes
+from dd_contact.blocks import Block
 from dd_contact.contact import SCHEMES
 from dd_contact.errors import InputError
 from dd_contact.obstacles import Obstacle
@@ -298,6 +299,11 @@ class Subdomain:
         """Number of displacement dofs (3 per node)."""
         return self.V.dofmap.index_map.size_local * 3
 
+    @property
+    def block(self) -> Block:
+        """This subdomain's block of unknowns u in system (14)."""
+        return Block("u", self.name)
+
 
 class Interface:
     """The interface Gamma_I: an independent surface mesh with displacement v.
@@ -373,6 +379,11 @@ class Interface:
     def num_dofs(self) -> int:
         """Number of displacement dofs (3 per node)."""
         return self.V.dofmap.index_map.size_local * 3
+
+    @property
+    def block(self) -> Block:
+        """The interface's block of unknowns v in system (14)."""
+        return Block("v", self.name)
 
 
 class _ContactBase:
@@ -461,6 +472,11 @@ class ContactInterface(_ContactBase):
         self.penalty = Penalty(kappa=kappa, epsilon=epsilon)
         self.tolerance = tolerance
 
+    @property
+    def block(self) -> Block:
+        """The contact interface's block of unknowns w in system (14)."""
+        return Block("w", self.name)
+
     @classmethod
     def from_boundary(
         cls,
@@ -534,6 +550,11 @@ class ContactBoundary(_ContactBase):
         surface_x = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local]
         distance, self.node_map = cKDTree(volume_x).query(surface_x)
         assert np.all(distance < 1e-10 * (1 + np.abs(volume_x).max()))
+
+    @property
+    def block(self) -> Block:
+        """The block holding the contact surface's displacement: the subdomain's own."""
+        return self.subdomain.block
 
 
 class Scene:

@@ -25,6 +25,7 @@ import os
 import platform
 import statistics
 import time
+from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -34,6 +35,7 @@ from mpi4py import MPI
 import numpy as np
 import scipy.linalg as sla
 
+from dd_contact.blocks import ContactRegion
 from dd_contact.parallel import ROOT, bcast_from_root
 from dd_contact.solvers.engine import subdomain_statistics, surface_structure
 from dd_contact.solvers.full import monolithic_statistics
@@ -314,7 +316,7 @@ class SceneStructure:
 def scene_structure(
     comm: MPI.Comm,
     system,
-    contacts: dict,
+    contacts: Sequence[ContactRegion],
     condensation: str = "schur",
     full: bool = True,
     orders: bool = True,
@@ -324,7 +326,7 @@ def scene_structure(
     Args:
         comm: Communicator of the problem.
         system: This rank's pieces of the constrained block system.
-        contacts: This rank's contact regions ``key -> (block, dofs, pattern)``.
+        contacts: This rank's contact regions.
         condensation: As for :class:`dd_contact.solvers.engine.BlockEliminationSolver`.
         full: Analyse FULL's matrix.
         orders: Analyse the subdomain matrices of the decomposition orders.

@@ -318,7 +318,7 @@ def bar_impact(
     duration = times[k - 1] + dt * g[k - 1] / (g[k - 1] - g[k])
     momentum, mass = 0.0, 0.0
     for part in parts:
-        M = problem.model.mass.get(f"u:{part.name}")
+        M = problem.model.mass.get(part.block)
         if M is not None:  # owned here
             ones = np.zeros(part.num_dofs)
             ones[0::3] = 1.0

@@ -134,7 +134,7 @@ def test_the_plan_is_what_the_solver_does(kind, algorithm, condensation):
     structure = timing.scene_structure(
         problem.comm,
         problem.solver.system,
-        problem._contact_patterns(),
+        [z.region for z in problem.zones],
         condensation,
         full=full,
         orders=not full,

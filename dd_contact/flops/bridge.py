@@ -58,11 +58,9 @@ def sizes_from_scene(
         if iface is not None and any(sub is t for t in iface.subdomains):
             P2 = tie_operators(sub.V, iface.V, tolerance=iface.tolerance).P2
             tied = 3 * len(np.unique(P2.tocsc().nonzero()[1]))
-        subdomains.append(
-            SubdomainCounts(f"u:{sub.name}", sub.num_dofs, half_bandwidth_of(sub), tied)
-        )
+        subdomains.append(SubdomainCounts(sub.block, sub.num_dofs, half_bandwidth_of(sub), tied))
     contacts = [
-        ContactCounts(f"w:{c.name}", c.num_dofs, scene.index(c.subdomain), changes.get(c.name, 0))
+        ContactCounts(c.block, c.num_dofs, scene.index(c.subdomain), changes.get(c.name, 0))
         for c in scene.contacts
     ]
     if whole is None:
@@ -79,5 +77,5 @@ def sizes_from_scene(
         n_steps=n_steps,
         gamma=changes.get("gamma", 0),
         whole=whole,
-        interface_name=f"v:{iface.name}" if iface is not None else "Gamma_I",
+        interface_name=iface.block if iface is not None else "Gamma_I",
     )

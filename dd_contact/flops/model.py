@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from dd_contact.blocks import Block
 from dd_contact.solvers.schedule import (
     ALGORITHMS,
     FullSchedule,
@@ -389,16 +390,16 @@ def _coupled_name(contacts: list[ContactCounts]) -> str:
 # engine would see, and its counts are those of the engine's own schedule
 # (dd_contact.solvers.schedule), with the paper's condensation: one substitution per
 # coupling column.
-def _u(k: int) -> str:
-    return f"u:{k}"
+def _u(k: int) -> Block:
+    return Block("u", str(k))
 
 
-def _w(k: int) -> str:
-    return f"w:{k}"
+def _w(k: int) -> Block:
+    return Block("w", str(k))
 
 
-_V = "v:interface"
-_WHOLE = "u:whole"
+_V = Block("v", "interface")
+_WHOLE = Block("u", "whole")
 
 
 def _variant(s: SceneSizes, algorithm: str) -> tuple[Schedule | FullSchedule, list]:
@@ -434,7 +435,7 @@ def _variant(s: SceneSizes, algorithm: str) -> tuple[Schedule | FullSchedule, li
                 layouts[_u(k)].append((_w(i), np.arange(c.dofs)))
             volumes.append((_u(k), sd.name, sd.dofs, sd.half_bandwidth))
     if algorithm == "v-u":  # contact on the subdomain's own boundary: no contact meshes
-        sizes = {b: n for b, n in sizes.items() if not b.startswith("w:")}
+        sizes = {b: n for b, n in sizes.items() if b.kind != "w"}
         pairs = {p for p in pairs if p[0] in sizes}
         regions = {c.name: _u(c.subdomain) for c in s.contacts}
     schedule = Schedule(algorithm, sizes, layouts, pairs, regions, "multi-rhs")

@@ -17,6 +17,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
+from dd_contact.blocks import Block
 from dd_contact.solvers.full import MonolithicSolver
 from dd_contact.solvers.linalg import SparseCholesky, coo_of, petsc_matrix
 from dd_contact.solvers.worklog import WorkLog
@@ -44,7 +45,7 @@ def solve_mass(
         name: The subdomain's name.
     """
     n = mass_matrix.shape[0]
-    block = f"u:{name}"
+    block = Block("u", name)
     mass = BlockSystem({block: n}, {block: 0}, {(block, block): mass_matrix})
     mass.constrain(block, fixed_dofs, np.zeros(fixed_dofs.size))
     row, col, val = coo_of(mass.matrices[(block, block)])
@@ -84,4 +85,4 @@ def surfaces_in_equilibrium(
         x = solver.solve(system.rhs)
     finally:
         solver.destroy()
-    return {k: v for k, v in x.items() if not k.startswith("u:")}
+    return {k: v for k, v in x.items() if Block.parse(k).kind != "u"}

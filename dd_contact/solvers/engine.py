@@ -23,6 +23,7 @@ back-substitutes it); the dense surface system, small by construction, is solved
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 from mpi4py import MPI
@@ -31,6 +32,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
+from dd_contact.blocks import Block, ContactRegion
 from dd_contact.parallel import ROOT, bcast_from_root, gather_to_root, gathered
 from dd_contact.solvers.linalg import (
     DenseCholesky,
@@ -44,7 +46,6 @@ from dd_contact.solvers.schedule import (
     CONDENSATIONS,
     Group,
     Schedule,
-    block_kind,
     condensation_chunks,
 )
 from dd_contact.solvers.worklog import WorkLog
@@ -80,7 +81,7 @@ def coupling_layout(block: str, system: BlockSystem) -> tuple[list, sp.csr_array
 def order_schedule(
     comm: MPI.Comm,
     system: BlockSystem,
-    contacts: dict,
+    contacts: Sequence[ContactRegion],
     order: str,
     condensation: str,
     layouts: dict[str, list],
@@ -90,7 +91,7 @@ def order_schedule(
     Args:
         comm: Communicator.
         system: This rank's pieces of the (constrained) block system.
-        contacts: This rank's contact regions ``key -> (block, dofs, pattern)``.
+        contacts: This rank's contact regions.
         order: One of the orders.
         condensation: How subdomains are condensed.
         layouts: This rank's subdomain layouts (:func:`coupling_layout`).
@@ -100,16 +101,16 @@ def order_schedule(
 
 
 def surface_structure(
-    comm: MPI.Comm, system: BlockSystem, contacts: dict
-) -> tuple[set[tuple[str, str]], dict[str, str]]:
+    comm: MPI.Comm, system: BlockSystem, contacts: Sequence[ContactRegion]
+) -> tuple[set[tuple[Block, Block]], dict[str, Block]]:
     """Collective: what every rank knows of the surface, gathered.
 
     Returns the surface block pairs with a matrix of their own (both orientations) and the
     block each contact region acts on.
     """
-    pairs = {(r, c) for r, c in system.matrices if block_kind(r) != "u" != block_kind(c)}
+    pairs = {(r, c) for r, c in system.matrices if r.kind != "u" != c.kind}
     pairs = {p for part in comm.allgather(pairs) for p in part}
-    regions = gathered(comm, {key: block for key, (block, _, _) in contacts.items()})
+    regions = gathered(comm, {region.name: region.block for region in contacts})
     return pairs | {(c, r) for r, c in pairs}, regions
 
 
@@ -120,7 +121,7 @@ class SubdomainCondensation:
     Args:
         block: The subdomain's block.
         system: The block system (this rank holds every piece of the block).
-        contacts: ``key -> (dofs, pattern)`` of contact regions on the subdomain's boundary.
+        contacts: The contact regions on the subdomain's own boundary (no contact interface).
         log: Where the work is recorded.
         condensation: ``"schur"`` or ``"multi-rhs"``.
 
@@ -129,7 +130,14 @@ class SubdomainCondensation:
         Z: ``C^T K^-1 C`` over the concatenated coupling columns (dense).
     """
 
-    def __init__(self, block, system: BlockSystem, contacts: dict, log: WorkLog, condensation: str):
+    def __init__(
+        self,
+        block: Block,
+        system: BlockSystem,
+        contacts: Sequence[ContactRegion],
+        log: WorkLog,
+        condensation: str,
+    ):
         if condensation not in CONDENSATIONS:
             raise ValueError(
                 f"unknown condensation {condensation!r}; valid: {', '.join(CONDENSATIONS)}"
@@ -206,8 +214,11 @@ class SubdomainCondensation:
 
 
 def subdomain_statistics(
-    comm: MPI.Comm, system: BlockSystem, contacts: dict, condensation: str = "schur"
-) -> dict[str, tuple[SparseStatistics, list]]:
+    comm: MPI.Comm,
+    system: BlockSystem,
+    contacts: Sequence[ContactRegion],
+    condensation: str = "schur",
+) -> dict[Block, tuple[SparseStatistics, list]]:
     """Collective: each subdomain's analysed matrix and coupling layout.
 
     The matrix is the one the engine factorises: with its Schur block if
@@ -215,9 +226,9 @@ def subdomain_statistics(
     """
     mine = {}
     for block, owner in system.owners.items():
-        if block_kind(block) == "u" and owner == comm.rank:
-            regions = {k: (d, p) for k, (b, d, p) in contacts.items() if b == block}
-            sub = SubdomainCondensation(block, system, regions, WorkLog(), condensation)
+        if block.kind == "u" and owner == comm.rank:
+            on_block = [region for region in contacts if region.block == block]
+            sub = SubdomainCondensation(block, system, on_block, WorkLog(), condensation)
             sub.matrix.push()
             mine[block] = (sparse_statistics(sub.matrix.A, sub.schur), sub.layout)
             sub.destroy()
@@ -402,7 +413,7 @@ class BlockEliminationSolver:
     Args:
         comm: Communicator; ranks own whole subdomains.
         system: This rank's pieces of the (constrained) block system.
-        contacts: ``key -> (block, dofs, pattern)`` of this rank's contact regions.
+        contacts: This rank's contact regions.
         log: Where factorisations and solves are recorded.
         order: One of :data:`~dd_contact.solvers.schedule.ORDERS`.
         condensation: How ``C^T K^-1 C`` is formed: ``"schur"`` (default: MUMPS computes the
@@ -415,29 +426,24 @@ class BlockEliminationSolver:
         self,
         comm: MPI.Comm,
         system: BlockSystem,
-        contacts: dict[str, tuple[str, np.ndarray, sp.csr_array]],
+        contacts: Sequence[ContactRegion],
         log: WorkLog,
         order: str,
         condensation: str = "schur",
     ):
         self.comm, self.system, self.log, self.order = comm, system, log, order
-        self._zone_block = {key: block for key, (block, _, _) in contacts.items()}
-        self._zone_dofs = {key: dofs for key, (_, dofs, _) in contacts.items()}
-        self.subdomains: dict[str, SubdomainCondensation] = {}
+        self._regions = {region.name: region for region in contacts}
+        self.subdomains: dict[Block, SubdomainCondensation] = {}
         for block, owner in system.owners.items():
-            if block_kind(block) == "u" and owner == comm.rank:
-                mine = {k: (d, p) for k, (b, d, p) in contacts.items() if b == block}
+            if block.kind == "u" and owner == comm.rank:
+                on_block = [region for region in contacts if region.block == block]
                 self.subdomains[block] = SubdomainCondensation(
-                    block, system, mine, log, condensation
+                    block, system, on_block, log, condensation
                 )
         layouts = {b: sub.layout for b, sub in self.subdomains.items()}
         self.schedule = order_schedule(comm, system, contacts, order, condensation, layouts)
         self._needed_u = set(self.schedule.needed_u) & set(self.subdomains)
-        pieces = [
-            (r, c, A)
-            for (r, c), A in system.matrices.items()
-            if block_kind(r) != "u" != block_kind(c)
-        ]
+        pieces = [(r, c, A) for (r, c), A in system.matrices.items() if r.kind != "u" != c.kind]
         pieces = gather_to_root(comm, pieces)
         self.surface: _Surface | None = None
         if comm.rank == ROOT:
@@ -452,7 +458,7 @@ class BlockEliminationSolver:
 
     def set_contact(self, key: str, matrix: sp.csr_array) -> None:
         """Replace the contact matrix of region ``key`` (surface dof numbering)."""
-        block, dofs = self._zone_block[key], self._zone_dofs[key]
+        block, dofs = self._regions[key].block, self._regions[key].dofs
         if block in self.subdomains:
             self.subdomains[block].matrix.set_contact(key, matrix)
             return
@@ -483,7 +489,7 @@ class BlockEliminationSolver:
                 payload["g"].append((s, J, g[start : start + len(J)]))
                 start += len(J)
         for block, vector in rhs.items():
-            if block_kind(block) != "u":
+            if Block.parse(block).kind != "u":
                 payload["g"].append((block, None, vector))
         received = gather_to_root(self.comm, payload)
         x = None

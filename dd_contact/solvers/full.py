@@ -7,6 +7,8 @@ reference for the orders' correctness: the monolithic solution.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -14,6 +16,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
+from dd_contact.blocks import ContactRegion
 from dd_contact.solvers.linalg import (
     PatternedMatrix,
     SparseCholesky,
@@ -41,8 +44,7 @@ class MonolithicSolver:
     Args:
         comm: Communicator.
         system: This rank's pieces of the (constrained) block system.
-        contacts: ``key -> (block, dofs, pattern)`` of this rank's contact regions: the block
-            dof of each surface dof and the surface-numbered sparsity pattern.
+        contacts: This rank's contact regions.
         log: Where factorisations and solves are recorded.
     """
 
@@ -50,7 +52,7 @@ class MonolithicSolver:
         self,
         comm,
         system: BlockSystem,
-        contacts: dict[str, tuple[str, np.ndarray, sp.csr_array]],
+        contacts: Sequence[ContactRegion],
         log: WorkLog,
     ):
         self.comm, self.system, self.log = comm, system, log
@@ -74,10 +76,7 @@ class MonolithicSolver:
             self.local_size,
             self.size,
             base,
-            {
-                key: (dofs + self.offsets[block], pattern)
-                for key, (block, dofs, pattern) in contacts.items()
-            },
+            [region.shifted(self.offsets[region.block]) for region in contacts],
         )
         self._factor: SparseCholesky | None = None
         self._last: dict[str, np.ndarray] = {}
@@ -126,7 +125,9 @@ class MonolithicSolver:
         self.matrix.A.destroy()
 
 
-def monolithic_statistics(comm, system: BlockSystem, contacts: dict) -> SparseStatistics:
+def monolithic_statistics(
+    comm, system: BlockSystem, contacts: Sequence[ContactRegion]
+) -> SparseStatistics:
     """Collective: MUMPS's analysis of the matrix FULL factorises (contact patterns included)."""
     solver = MonolithicSolver(comm, system, contacts, WorkLog())
     solver.matrix.push()

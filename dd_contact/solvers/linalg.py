@@ -15,6 +15,7 @@ from __future__ import annotations
 import ctypes
 import functools
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -25,6 +26,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 from dolfinx.fem.petsc import get_petsc_lib
 
+from dd_contact.blocks import ContactRegion
 from dd_contact.errors import InputError, SingularMatrixError
 from dd_contact.solvers.worklog import WorkLog
 
@@ -406,18 +408,17 @@ class PatternedMatrix:
         local_rows: Rows owned by this rank.
         size: Global size.
         base: Base (rows, cols, values), duplicates summed.
-        contacts: ``key -> (dofs, pattern)``: matrix dof of every contact-surface dof and
-            the surface-numbered sparsity pattern.
+        contacts: The contact regions, their ``dofs`` in this matrix's numbering.
     """
 
-    def __init__(self, comm, local_rows: int, size: int, base, contacts: dict):
+    def __init__(self, comm, local_rows: int, size: int, base, contacts: Sequence[ContactRegion]):
         rows, cols, vals = [base[0]], [base[1]], [base[2]]
         self._slices: dict[str, tuple[slice, np.ndarray, np.ndarray]] = {}
         position = len(base[2])
-        for key, (dofs, pattern) in contacts.items():
-            r, c, _ = coo_of(pattern)
-            rows.append(dofs[r]), cols.append(dofs[c]), vals.append(np.zeros(len(r)))
-            self._slices[key] = (slice(position, position + len(r)), r, c)
+        for region in contacts:
+            r, c, _ = coo_of(region.pattern)
+            rows.append(region.dofs[r]), cols.append(region.dofs[c]), vals.append(np.zeros(len(r)))
+            self._slices[region.name] = (slice(position, position + len(r)), r, c)
             position += len(r)
         self.values = np.concatenate(vals).astype(np.float64)
         self.A = petsc_matrix(

@@ -3,7 +3,7 @@
 This module is the one description of the algorithms (method.md section 5). The engine
 (:mod:`dd_contact.solvers.engine`) executes it, :mod:`dd_contact.timing` prices it with
 measured rates, and :mod:`dd_contact.flops` counts it with the paper's kernels. It knows
-sizes, block kinds and couplings only: numpy, no PETSc, no dolfinx.
+sizes, blocks (:class:`~dd_contact.blocks.Block`) and couplings only: no PETSc, no dolfinx.
 """
 
 from __future__ import annotations
@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+
+from dd_contact.blocks import Block
 
 __all__ = [
     "ALGORITHMS",
@@ -21,7 +23,6 @@ __all__ = [
     "Group",
     "Operation",
     "Schedule",
-    "block_kind",
     "condensation_chunks",
     "fitting_algorithms",
 ]
@@ -78,11 +79,6 @@ def condensation_chunks(m: int) -> list[tuple[int, int]]:
     return [(j0, min(m, j0 + CONDENSATION_CHUNK)) for j0 in range(0, m, CONDENSATION_CHUNK)]
 
 
-def block_kind(block: str) -> str:
-    """``"u"``, ``"v"`` or ``"w"``: the kind of unknowns of a block named ``kind:name``."""
-    return block.split(":", 1)[0]
-
-
 @dataclass(frozen=True)
 class Group:
     """Surface blocks eliminated together by one dense factorisation.
@@ -133,7 +129,7 @@ def _plan_groups(surface: dict[str, int], pairs: set, levels: tuple[str, ...]) -
     remaining = set(surface)
     all_groups = []
     for li, kind in enumerate(levels):
-        level = sorted(b for b in remaining if block_kind(b) == kind)
+        level = sorted(b for b in remaining if b.kind == kind)
         members: list[list[str]] = []
         for b in level:
             joined = [m for m in members if any(frozenset((b, a)) in coupled for a in m)]
@@ -192,15 +188,16 @@ class Schedule:
                 f"unknown condensation {condensation!r}; valid: {', '.join(CONDENSATIONS)}"
             )
         self.order, self.levels, self.condensation = order, ORDERS[order], condensation
-        self.surface = {b: n for b, n in sizes.items() if block_kind(b) != "u"}
-        self.subdomains = {b: n for b, n in sizes.items() if block_kind(b) == "u"}
-        self.layouts = layouts
-        self.regions = dict(regions)
+        blocks = {Block.parse(b): n for b, n in sizes.items()}
+        self.surface = {b: n for b, n in blocks.items() if b.kind != "u"}
+        self.subdomains = {b: n for b, n in blocks.items() if b.kind == "u"}
+        self.layouts = {Block.parse(b): layout for b, layout in layouts.items()}
+        self.regions = {key: Block.parse(b) for key, b in regions.items()}
         #: Per subdomain: surface block -> (offset in the condensed operator Z, tied dofs).
         self.where: dict[str, dict[str, tuple[int, np.ndarray]]] = {}
         pairs = {(a, b) for a, b in base_pairs} | {(b, a) for a, b in base_pairs}
         self.base_pairs = frozenset(pairs)
-        for block, layout in layouts.items():
+        for block, layout in self.layouts.items():
             offsets = np.cumsum([0] + [len(J) for _, J in layout])
             self.where[block] = {s: (int(offsets[i]), J) for i, (s, J) in enumerate(layout)}
             pairs |= {(a, b) for a, _ in layout for b, _ in layout}
@@ -212,9 +209,9 @@ class Schedule:
         needed = set(self.regions.values())
         #: Blocks the contact check reads that are not in the last level: every solve of the
         #: contact iteration must back-substitute the earlier levels too.
-        self.needs_all_surface = any(block_kind(b) != self.levels[-1] for b in needed)
+        self.needs_all_surface = any(b.kind != self.levels[-1] for b in needed)
         #: Subdomains with contact on their own boundary: back-substituted in every solve.
-        self.needed_u = sorted(b for b in needed if block_kind(b) == "u")
+        self.needed_u = sorted(b for b in needed if b.kind == "u")
 
     # -- the rules -------------------------------------------------------------------------
     def coupling_size(self, block: str) -> int:
@@ -227,7 +224,8 @@ class Schedule:
         A surface block itself; for a subdomain (re-condensed after its own contact changed),
         the surface blocks it is tied to.
         """
-        return set(self.where.get(block, {})) if block_kind(block) == "u" else {block}
+        block = Block.parse(block)
+        return set(self.where.get(block, {})) if block.kind == "u" else {block}
 
     def stale_groups(self, changed: set[str]) -> set[str]:
         """Names of the groups to re-factorise after the surface blocks ``changed`` changed.
@@ -320,7 +318,7 @@ class Schedule:
         """One more solve of the contact iteration after a change on ``region``."""
         block = self.regions[region]
         ops: list[Operation] = []
-        if block_kind(block) == "u":  # contact on the subdomain's own boundary: K changes
+        if block.kind == "u":  # contact on the subdomain's own boundary: K changes
             ops += self.factorise_subdomain(block, False)
             ops.append(self.substitute_subdomain(block, "u_hat"))
         stale = self.stale_groups(self.touched(block))
