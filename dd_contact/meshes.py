@@ -337,20 +337,29 @@ def _hemisphere_model(
     (volume_dimtag,), _ = occ.intersect([(3, sphere)], [(3, cut)])
     occ.synchronize()
 
+    # Faces are classified by their exact geometry, not by ``getBoundingBox``: OCC pads
+    # bounding boxes by its absolute shape tolerance (1e-7), so a flat face of a small
+    # hemisphere is not thinner than a tolerance relative to ``radius``. The tolerances here
+    # are relative: ``eps`` to the radius, ``cos_tol`` to unit normals.
     eps = 1e-6 * radius
+    cos_tol = 1e-6
+    planes = {HEMISPHERE_TOP: (2, radius)}  # tag: (axis of the normal, coordinate on it)
     groups: dict[int, list[int]] = {HEMISPHERE_CURVED: [], HEMISPHERE_TOP: []}
     if quarter:
+        planes |= {HEMISPHERE_SYMMETRY_X: (0, 0.0), HEMISPHERE_SYMMETRY_Y: (1, 0.0)}
         groups |= {HEMISPHERE_SYMMETRY_X: [], HEMISPHERE_SYMMETRY_Y: []}
     for _, surface in gmsh.model.getBoundary([volume_dimtag], oriented=False):
-        x0, y0, z0, x1, y1, z1 = gmsh.model.getBoundingBox(2, surface)
-        if z1 - z0 < eps and abs(z0 - radius) < eps:
-            groups[HEMISPHERE_TOP].append(surface)
-        elif quarter and x1 - x0 < eps and abs(x0) < eps:
-            groups[HEMISPHERE_SYMMETRY_X].append(surface)
-        elif quarter and y1 - y0 < eps and abs(y0) < eps:
-            groups[HEMISPHERE_SYMMETRY_Y].append(surface)
-        else:
-            groups[HEMISPHERE_CURVED].append(surface)
+        group = HEMISPHERE_CURVED
+        if gmsh.model.getType(2, surface) == "Plane":
+            lower, upper = gmsh.model.getParametrizationBounds(2, surface)
+            uv = 0.5 * (np.asarray(lower) + np.asarray(upper))
+            normal = gmsh.model.getNormal(surface, uv)
+            point = gmsh.model.getValue(2, surface, uv)  # On the face's plane.
+            for tag, (axis, value) in planes.items():
+                if abs(abs(normal[axis]) - 1.0) < cos_tol and abs(point[axis] - value) < eps:
+                    group = tag
+                    break
+        groups[group].append(surface)
     names = {
         HEMISPHERE_CURVED: "curved",
         HEMISPHERE_TOP: "top",
@@ -361,10 +370,15 @@ def _hemisphere_model(
         raise RuntimeError(f"hemisphere: unexpected faces in the Gmsh model: {groups}")
 
     # The pole is a vertex of the quarter; in the full hemisphere it is embedded in the curved
-    # face, so that it is always a mesh node.
-    poles = gmsh.model.getEntitiesInBoundingBox(-eps, -eps, -eps, eps, eps, eps, 0)
+    # face, so that it is always a mesh node. It is found from the exact vertex coordinates.
+    vertices = gmsh.model.getBoundary([volume_dimtag], combined=False, recursive=True)
+    poles = [
+        tag
+        for dim, tag in vertices
+        if dim == 0 and np.linalg.norm(gmsh.model.getValue(0, tag, [])) < eps
+    ]
     if poles:
-        pole = poles[0][1]
+        pole = poles[0]
     else:
         pole = occ.addPoint(0.0, 0.0, 0.0)
         occ.synchronize()
