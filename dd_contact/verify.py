@@ -6,8 +6,10 @@ The scene builders are public so tests, demos and benchmarks use the same models
 
 from __future__ import annotations
 
+import functools
 import itertools
-from collections.abc import Callable
+import warnings
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 
 from mpi4py import MPI
@@ -27,18 +29,31 @@ from dd_contact.scene import (
     Scene,
     Subdomain,
 )
+from dd_contact.solvers.schedule import fitting_algorithms
 
 __all__ = [
     "CASES",
+    "DISTORTION",
+    "EXTREME_CASES",
+    "EXTREME_CELLS",
+    "EXTREME_FAMILIES",
+    "EXTREME_KAPPAS",
+    "MODERATE_KAPPA",
     "ORDER_SCENES",
+    "PENALTY_FLOOR",
+    "ExtremeCase",
+    "PenaltyRecord",
     "Record",
     "bar_impact",
     "bent_bar",
+    "extremes",
     "free_vibration",
     "hertz",
     "order_scene",
     "orders_agreement",
     "patch_test",
+    "penalty_tolerance",
+    "pressed_scene",
     "run_cases",
 ]
 
@@ -99,9 +114,19 @@ def patch_test(
     )
     scene = Scene(comm, [left, right], interface)
     StaticProblem(scene).solve()
+    return _stress_error(scene, 0, traction)
+
+
+def _stress_error(scene: Scene, axis: int, traction: float) -> float:
+    """Largest deviation of any cell's stress from uniaxial ``traction`` along ``axis``.
+
+    Relative to the traction, over every cell of every subdomain.
+    """
     exact = np.zeros((3, 3))
-    exact[0, 0] = traction
-    return max(float(np.abs(cell_stress(s) - exact).max()) / traction for s in (left, right))
+    exact[axis, axis] = traction
+    return max(
+        float(np.abs(cell_stress(s) - exact).max()) / abs(traction) for s in scene.subdomains
+    )
 
 
 # -- bent bar against one conforming mesh --------------------------------------------------
@@ -387,6 +412,89 @@ ORDER_SCENES = {
 }
 
 
+def _blocks(kind: str, volume_cell: str = "hexahedron") -> list[Subdomain]:
+    """The blocks of :func:`_block_scene` (no loads, no supports).
+
+    A = [0,1]^3 (4x3x3 cells) and, unless ``kind`` is ``"single"``, the non-matching
+    B = [1,2]x[0,1]^2 (3x4x4 cells); E = 1000, nu = 0.3, rho = 1.
+    """
+    material = Material(1000.0, 0.3, 1.0)
+
+    def box(x0: float, n: list[int]) -> dolfinx.mesh.Mesh:
+        return meshes.box(MPI.COMM_SELF, [x0, 0, 0], [x0 + 1, 1, 1], n, volume_cell)
+
+    parts = [Subdomain(box(0.0, [4, 3, 3]), material, "A")]
+    if kind != "single":
+        parts.append(Subdomain(box(1.0, [3, 4, 4]), material, "B"))
+    return parts
+
+
+def _block_scene(
+    kind: str,
+    parts: list[Subdomain],
+    wall: Plane,
+    comm: MPI.Comm,
+    kappa: float | None = None,
+    contact_tie_kappa: float | None = None,
+    contact_kappa: float = 1.0,
+    surface_cell: str = "quadrilateral",
+    resolution: tuple[int, int] = (3, 3),
+    distortion: float = 0.0,
+) -> Scene:
+    """The scene of :func:`_blocks`: their surfaces and the rigid ``wall`` at A's end x = 0.
+
+    ``kind`` (:data:`ORDER_SCENES`) says which surfaces there are: ``"interface"`` an
+    interface on x = 1 and a contact interface on x = 0; ``"boundary"`` the interface and
+    contact on A's own boundary; ``"single"`` a contact interface only. The surface meshes
+    have ``resolution`` cells of ``surface_cell``; ``distortion`` moves their interior nodes
+    in-plane (:func:`_distort_in_plane`).
+    """
+    a = parts[0]
+
+    def surface(x: float):
+        mesh = meshes.surface_from_boundary(
+            a.mesh, _on(0, x), resolution, surface_cell, comm=MPI.COMM_SELF
+        )
+        return _distort_in_plane(mesh, distortion) if distortion else mesh
+
+    interface = None
+    if kind != "single":
+        interface = Interface(surface(1.0), parts, kappa=kappa)
+    if kind == "boundary":
+        zone = ContactBoundary(a, _on(0, 0.0), wall, contact_kappa=contact_kappa, name="end")
+    else:
+        zone = ContactInterface(
+            surface(0.0), a, wall, kappa=contact_tie_kappa, contact_kappa=contact_kappa, name="end"
+        )
+    return Scene(comm, parts, interface, contacts=[zone])
+
+
+def _distort_in_plane(mesh: dolfinx.mesh.Mesh, amount: float) -> dolfinx.mesh.Mesh:
+    """Move the interior nodes of a planar surface mesh within its plane (in place).
+
+    Each interior node moves by up to ``amount`` times the shortest cell edge along each of
+    two in-plane directions, in a fixed pseudo-random pattern of its position (the same on
+    every rank); boundary nodes stay, so the mesh still covers the same region.
+    """
+    topology = mesh.topology
+    topology.create_entities(1)
+    topology.create_connectivity(1, 2)
+    x = mesh.geometry.x
+    edges = dolfinx.mesh.entities_to_geometry(
+        mesh, 1, np.arange(topology.index_map(1).size_local, dtype=np.int32)
+    )
+    h = float(np.linalg.norm(x[edges[:, 1]] - x[edges[:, 0]], axis=1).min())
+    outer = dolfinx.mesh.entities_to_geometry(
+        mesh, 1, dolfinx.mesh.exterior_facet_indices(topology)
+    )
+    interior = np.setdiff1d(np.arange(len(x)), outer)
+    _, _, axes = np.linalg.svd(x - x.mean(axis=0))
+    phase = x[interior] @ np.array([12.9898, 78.233, 37.719])
+    shift = np.sin(phase)[:, None] * axes[0] + np.cos(1.7 * phase + 0.5)[:, None] * axes[1]
+    x[interior] += amount * h * shift
+    return mesh
+
+
 def order_scene(
     kind: str, dynamic: bool, kappa: float | None = None, comm: MPI.Comm = MPI.COMM_WORLD
 ) -> Scene:
@@ -403,13 +511,7 @@ def order_scene(
         kappa: Tie penalty of the interface and contact interface (default: the default).
         comm: Communicator.
     """
-    material = Material(1000.0, 0.3, 1.0)
-    a = Subdomain(meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [4, 3, 3]), material, "A")
-    parts = [a]
-    if kind != "single":
-        parts.append(
-            Subdomain(meshes.box(MPI.COMM_SELF, [1, 0, 0], [2, 1, 1], [3, 4, 4]), material, "B")
-        )
+    parts = _blocks(kind)
     far = parts[-1]
     if dynamic:
         for part in parts:
@@ -422,17 +524,8 @@ def order_scene(
             _on(0, end),
             value=lambda x: np.vstack([-0.004 - 0.02 * (x[1] - 0.5), 0 * x[0], 0 * x[0]]),
         )
-    interface = None
-    if kind != "single":
-        interface = Interface.from_boundary(a, _on(0, 1.0), parts, resolution=(3, 3), kappa=kappa)
     wall = Plane([-0.002, 0, 0], [1, 0, 0])
-    if kind == "boundary":
-        zone = ContactBoundary(a, _on(0, 0.0), wall, contact_kappa=1.0, name="end")
-    else:
-        zone = ContactInterface.from_boundary(
-            a, _on(0, 0.0), wall, resolution=(3, 3), kappa=kappa, contact_kappa=1.0, name="end"
-        )
-    return Scene(comm, parts, interface, contacts=[zone])
+    return _block_scene(kind, parts, wall, comm, kappa=kappa, contact_tie_kappa=kappa)
 
 
 def _displacements(scene: Scene) -> np.ndarray:
@@ -492,6 +585,214 @@ def orders_agreement(
                     }
                 )
     return out
+
+
+# -- penalty extremes: every algorithm against a penalty-free reference --------------------
+#: Tolerance of a penalty-sweep record: ``max(10 x the penalty's own modelling error, floor)``.
+PENALTY_FLOOR = 1e-8
+
+#: Dimensionless tie penalties of the sweep: every decade 1e0 ... 1e14.
+EXTREME_KAPPAS = tuple(10.0**k for k in range(15))
+
+#: Penalties that are not swept (the other tie, the contact penalty) in the sweep's scenes.
+MODERATE_KAPPA = 1e4
+
+#: Swept penalty -> scene kinds (:data:`ORDER_SCENES`) that carry it: ``"tie"`` sweeps the
+#: interface's kappa, ``"contact-tie"`` the contact interface's.
+EXTREME_FAMILIES = {"tie": ("interface", "boundary"), "contact-tie": ("interface", "single")}
+
+#: (volume cell, surface cell) of the sweep's meshes, as they appear in the case names.
+EXTREME_CELLS = {
+    "hex-quad": ("hexahedron", "quadrilateral"),
+    "hex-tri": ("hexahedron", "triangle"),
+    "tet-quad": ("tetrahedron", "quadrilateral"),
+    "tet-tri": ("tetrahedron", "triangle"),
+}
+
+#: In-plane move of the interior surface nodes of the ``-distorted`` cases (shortest edges).
+DISTORTION = 0.2
+
+
+def penalty_tolerance(modelling_error: float) -> float:
+    """Tolerance of a penalty-sweep quantity whose penalty modelling error is given.
+
+    Ten times the error the penalty itself makes in the quantity (relative), at least
+    :data:`PENALTY_FLOOR`: a solve may lose digits only where the penalty has already
+    spent them.
+    """
+    return max(10.0 * modelling_error, PENALTY_FLOOR)
+
+
+@dataclass
+class PenaltyRecord(Record):
+    """A :class:`Record` of the penalty sweep: one algorithm at one penalty.
+
+    ``rel_error`` is the larger of ``stress_error`` and ``force_error``; ``note`` says why a
+    solve failed (its error is then inf) and which warnings it gave.
+    """
+
+    family: str = ""
+    algorithm: str = ""
+    kappa: float = 0.0
+    stress_error: float = 0.0
+    force_error: float = 0.0
+    note: str = ""
+
+
+@dataclass(frozen=True)
+class ExtremeCase:
+    """One scene of the penalty sweep (:func:`extremes`)."""
+
+    family: str
+    kind: str
+    cells: str
+    distorted: bool
+
+    @property
+    def name(self) -> str:
+        """Case name, e.g. ``tie-interface-hex-quad-distorted``."""
+        return f"{self.family}-{self.kind}-{self.cells}" + ("-distorted" if self.distorted else "")
+
+
+#: Every case of the sweep, by name.
+EXTREME_CASES = {
+    c.name: c
+    for c in (
+        ExtremeCase(family, kind, cells, distorted)
+        for family, kinds in EXTREME_FAMILIES.items()
+        for kind in kinds
+        for cells in EXTREME_CELLS
+        for distorted in (False, True)
+    )
+}
+
+
+def pressed_scene(
+    kind: str,
+    kappa: float = MODERATE_KAPPA,
+    contact_tie_kappa: float = MODERATE_KAPPA,
+    cells: str = "hex-quad",
+    distorted: bool = False,
+    pressure: float = 1.0,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> Scene:
+    """The blocks of :func:`order_scene` pressed onto a rigid plane by a uniform pressure.
+
+    A pressure on the far end x = 1 (``"single"``) or x = 2 presses A's end x = 0 onto the
+    rigid plane x = 0 (contact penalty :data:`MODERATE_KAPPA`); symmetry planes y = 0 and
+    z = 0 hold the rest. The exact stress is uniform, sigma_xx = -pressure, the plane carries
+    the whole load, and every tie transmits a uniform traction (a tied patch test): the
+    penalties add only rigid offsets, so the result carries no penalty error at any penalty.
+
+    Args:
+        kind: ``"interface"`` (FULL, v-w-u, w-v-u), ``"boundary"`` (FULL, v-u) or
+            ``"single"`` (FULL, w-u).
+        kappa: Tie penalty of the interface.
+        contact_tie_kappa: Tie penalty of the contact interface.
+        cells: Key of :data:`EXTREME_CELLS`; the surface meshes have 4 x 5 cells.
+        distorted: Move the surface meshes' interior nodes in-plane (:data:`DISTORTION`).
+        pressure: The pressure on the far end.
+        comm: Communicator.
+    """
+    volume_cell, surface_cell = EXTREME_CELLS[cells]
+    parts = _blocks(kind, volume_cell)
+    for part in parts:
+        part.fix(_on(1, 0.0), components=[1])
+        part.fix(_on(2, 0.0), components=[2])
+    parts[-1].add_traction(_on(0, float(len(parts))), (-pressure, 0.0, 0.0))
+    return _block_scene(
+        kind,
+        parts,
+        Plane([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
+        comm,
+        kappa=kappa,
+        contact_tie_kappa=contact_tie_kappa,
+        contact_kappa=MODERATE_KAPPA,
+        surface_cell=surface_cell,
+        resolution=(4, 5),
+        distortion=DISTORTION if distorted else 0.0,
+    )
+
+
+def _penalty_record(case: ExtremeCase, algorithm: str, kappa: float, scene: Scene) -> PenaltyRecord:
+    """Solve a :func:`pressed_scene` (pressure 1 on a unit section) with ``algorithm``.
+
+    The error is the larger of the worst cell stress's deviation from the exact uniform
+    stress and the contact force's deviation from the load, both relative to the load; a
+    solve that raises has error inf and says why in ``note``, as do warnings it gave.
+    """
+    stress = force = np.inf
+    notes = []
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            with StaticProblem(scene, algorithm) as problem:
+                problem.solve()
+                reaction = problem.contact_forces()["end"]
+        stress = _stress_error(scene, 0, -1.0)
+        force = float(np.linalg.norm(reaction - [1.0, 0.0, 0.0]))
+        notes += sorted({f"{w.category.__name__}: {w.message}" for w in caught})
+    except (RuntimeError, FloatingPointError) as error:
+        notes.append(f"{type(error).__name__}: {error}")
+    note = "; ".join(notes)
+    error = max(stress, force)
+    # The exact solution is linear: the penalty models stress and force exactly.
+    tolerance = penalty_tolerance(0.0)
+    return PenaltyRecord(
+        case.name,
+        f"{algorithm}, kappa={kappa:.0e}: 1 + max(|sigma - sigma_exact|, |F - F_exact|) / p",
+        1.0 + error,
+        1.0,
+        error,
+        tolerance,
+        bool(error <= tolerance),
+        family=f"{case.family}-{case.kind}",
+        algorithm=algorithm,
+        kappa=kappa,
+        stress_error=stress,
+        force_error=force,
+        note=note,
+    )
+
+
+def extremes(
+    kappas: Sequence[float] = EXTREME_KAPPAS,
+    cases: Sequence[str] | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> list[Record]:
+    """Every fitting algorithm on :func:`pressed_scene` over a sweep of one tie penalty.
+
+    The reference is penalty-free and closed-form (uniform stress, contact force = load),
+    and the penalty adds no modelling error to either, so the tolerance is
+    ``max(10 x 0, PENALTY_FLOOR)``: what a record shows beyond round-off is the solver's
+    loss of digits at that penalty.
+
+    Args:
+        kappas: The swept penalty's values.
+        cases: Names in :data:`EXTREME_CASES` (default all).
+        comm: Communicator.
+
+    Returns:
+        One :class:`PenaltyRecord` per case, algorithm fitting its scene, and penalty.
+    """
+    names = list(EXTREME_CASES) if cases is None else list(cases)
+    unknown = [n for n in names if n not in EXTREME_CASES]
+    if unknown:
+        raise ValueError(f"unknown extremes case(s) {unknown}; valid: {', '.join(EXTREME_CASES)}")
+    records = []
+    for case in (EXTREME_CASES[n] for n in names):
+        make = functools.partial(
+            pressed_scene, case.kind, cells=case.cells, distorted=case.distorted, comm=comm
+        )
+        probe = make()
+        has_w = any(isinstance(c, ContactInterface) for c in probe.contacts)
+        algorithms = fitting_algorithms(probe.interface is not None, has_w)
+        swept = "kappa" if case.family == "tie" else "contact_tie_kappa"
+        for kappa in kappas:
+            for algorithm in algorithms:
+                scene = make(**{swept: kappa})
+                records.append(_penalty_record(case, algorithm, kappa, scene))
+    return records
 
 
 # -- cases ---------------------------------------------------------------------------------
@@ -570,6 +871,7 @@ CASES: dict[str, Callable[[], list[Record]]] = {
     "bar-impact": _case_bar_impact,
     "free-vibration": _case_free_vibration,
     "orders": _case_orders,
+    "extremes": extremes,
 }
 
 
