@@ -5,7 +5,9 @@ from mpi4py import MPI as _MPI  # noqa: F401  (loads libmpi before petsc4py)
 from dd_contact.errors import (
     ContactCycleWarning,
     ContactIterationError,
+    InaccurateSolutionError,
     InputError,
+    PenaltyRangeWarning,
     SingularMatrixError,
 )
 from dd_contact.iteration import ContactSettings
@@ -13,6 +15,7 @@ from dd_contact.obstacles import Cylinder, Plane, Sphere, UserObstacle
 from dd_contact.problem import StaticProblem, TransientProblem
 from dd_contact.scene import (
     DEFAULT_KAPPA,
+    KAPPA_VERIFIED,
     ContactBoundary,
     ContactInterface,
     Interface,
@@ -28,16 +31,19 @@ __version__ = "0.1.0"
 __all__ = [
     "ALGORITHMS",
     "DEFAULT_KAPPA",
+    "KAPPA_VERIFIED",
     "ContactBoundary",
     "ContactCycleWarning",
     "ContactInterface",
     "ContactIterationError",
     "ContactSettings",
     "Cylinder",
+    "InaccurateSolutionError",
     "InputError",
     "Interface",
     "Material",
     "Penalty",
+    "PenaltyRangeWarning",
     "Plane",
     "Scene",
     "SingularMatrixError",

@@ -12,6 +12,7 @@ surface displacement lives in, so every solver can add P_C where it belongs.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 
 from mpi4py import MPI
@@ -21,9 +22,9 @@ import scipy.sparse as sp
 
 from dd_contact import coupling, forms
 from dd_contact.blocks import Block, ContactRegion
-from dd_contact.contact import ContactOperator, contact_points
-from dd_contact.errors import InputError
-from dd_contact.scene import ContactBoundary, ContactInterface, Scene
+from dd_contact.contact import ContactOperator, contact_points, mean_cell_size
+from dd_contact.errors import InputError, PenaltyRangeWarning
+from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, ContactInterface, Scene
 
 __all__ = ["BlockSystem", "ContactZone", "Model", "assemble"]
 
@@ -41,6 +42,8 @@ class BlockSystem:
         rhs: ``block -> vector`` contributions, added like the matrices.
         penalties: ``(subdomain, surface) -> eps`` of every penalty this rank assembled
             (ties, and ``(subdomain, "contact:<name>")`` for contact).
+        kappas: ``(subdomain, surface) -> kappa = h / (E eps)`` of every tie this rank
+            assembled.
     """
 
     sizes: dict[Block, int]
@@ -48,6 +51,7 @@ class BlockSystem:
     matrices: dict[tuple[Block, Block], sp.csr_array] = field(default_factory=dict)
     rhs: dict[Block, np.ndarray] = field(default_factory=dict)
     penalties: dict[tuple[str, str], float] = field(default_factory=dict)
+    kappas: dict[tuple[str, str], float] = field(default_factory=dict)
 
     def copy(self) -> BlockSystem:
         """A copy whose matrices and vectors can be changed independently."""
@@ -57,6 +61,7 @@ class BlockSystem:
             {k: m.copy() for k, m in self.matrices.items()},
             {k: v.copy() for k, v in self.rhs.items()},
             dict(self.penalties),
+            dict(self.kappas),
         )
 
     def add(self, row: Block, col: Block, matrix: sp.sparray) -> None:
@@ -110,11 +115,29 @@ def _tie_operators(surface, sub, what: str) -> coupling.TieOperators:
     return ops
 
 
-def _add_tie(system: BlockSystem, u: Block, s: Block, ops: coupling.TieOperators, eps: float):
-    """Penalty tie terms (9)-(11): P1 on u, -P2 between u and s, P4 on s, all over eps."""
+def _add_tie(system: BlockSystem, sub, surface, ops: coupling.TieOperators) -> None:
+    """Penalty tie terms (9)-(11): P1 on u, -P2 between u and s, P4 on s, all over eps.
+
+    Records the tie's eps and kappa, and warns if kappa is outside the verified range.
+    """
+    eps = surface.penalty.epsilon_for(ops.height, sub.material.E)
+    u, s = sub.block, surface.block
     system.add(u, u, coupling.blocked(ops.P1) / eps)
     system.add(u, s, -coupling.blocked(ops.P2) / eps)
     system.add(s, s, coupling.blocked(ops.P4) / eps)
+    system.penalties[(sub.name, surface.name)] = eps
+    kappa = ops.height / (sub.material.E * eps)
+    system.kappas[(sub.name, surface.name)] = kappa
+    low, high = KAPPA_VERIFIED
+    if not low <= kappa <= high:
+        warnings.warn(
+            f"the tie of {surface.name!r} to subdomain {sub.name!r} has kappa = {kappa:.3g}, "
+            f"outside the verified range [{low:g}, {high:g}]: its results are not verified "
+            "(each solve's residual check still guards against a wrong solution); choose "
+            "kappa (or epsilon = h / (E kappa)) inside the range",
+            PenaltyRangeWarning,
+            stacklevel=4,
+        )
 
 
 def _check_covered(surface, what: str, coverage: np.ndarray, comm: MPI.Comm | None) -> None:
@@ -149,6 +172,7 @@ class ContactZone:
         operator: Gap, normals and the contact matrices.
         free: Surface dofs that are not prescribed (a prescribed dof takes no contact term).
         prescribed: Prescribed value of every surface dof (zero where free).
+        length: Mean cell size of the contact surface: the zone's length scale.
     """
 
     contact: ContactInterface | ContactBoundary
@@ -157,6 +181,7 @@ class ContactZone:
     operator: ContactOperator
     free: np.ndarray
     prescribed: np.ndarray
+    length: float
 
     def contribution(self, active: np.ndarray) -> tuple[sp.csr_array, np.ndarray]:
         """Contact matrix and right-hand side in surface dof numbering (prescribed dofs out)."""
@@ -219,9 +244,7 @@ def _contact_zone(
     else:
         ops = _tie_operators(contact, sub, "contact interface")
         block = contact.block
-        eps = contact.penalty.epsilon_for(ops.height, sub.material.E)
-        _add_tie(system, u, block, ops, eps)
-        system.penalties[(sub.name, contact.name)] = eps
+        _add_tie(system, sub, contact, ops)
         dofs = np.arange(contact.num_dofs)
         coverage = ops.covered_area / ops.cell_area
         height = ops.height
@@ -234,7 +257,8 @@ def _contact_zone(
         prescribed_full = np.zeros(sub.num_dofs)
         prescribed_full[fixed] = values
         free, prescribed = ~np.isin(dofs, fixed), prescribed_full[dofs]
-    zone = ContactZone(contact, block, dofs, operator, free, prescribed)
+    length = mean_cell_size(contact.mesh)
+    zone = ContactZone(contact, block, dofs, operator, free, prescribed, length)
     return zone, coverage
 
 
@@ -265,9 +289,7 @@ def assemble(scene: Scene) -> Model:
         model.dirichlet[u] = sub.dirichlet
         if any(sub is t for t in tied):
             ops = _tie_operators(iface, sub, "interface")
-            eps = iface.penalty.epsilon_for(ops.height, sub.material.E)
-            _add_tie(system, u, iface.block, ops, eps)
-            system.penalties[(sub.name, iface.name)] = eps
+            _add_tie(system, sub, iface, ops)
             coverage = np.maximum(coverage, ops.covered_area / ops.cell_area)
     if tied:
         _check_covered(iface, "interface", coverage, scene.comm)

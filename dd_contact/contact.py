@@ -54,6 +54,7 @@ __all__ = [
     "ContactPoints",
     "check_contact_geometry",
     "contact_points",
+    "mean_cell_size",
     "outward_normals",
 ]
 
@@ -199,6 +200,12 @@ class ContactOperator:
 
 
 # -- the start of a run: refuse geometry the contact term cannot handle -------------------
+def mean_cell_size(surface: dolfinx.mesh.Mesh) -> float:
+    """Mean bounding-box diagonal of the cells of a surface mesh: its length scale h."""
+    cells = surface.geometry.x[surface.geometry.dofmaps[0]]
+    return float(np.mean(np.linalg.norm(cells.max(axis=1) - cells.min(axis=1), axis=1)))
+
+
 def outward_normals(surface: dolfinx.mesh.Mesh, volume: dolfinx.mesh.Mesh) -> np.ndarray:
     """Unit normal of every cell of a contact surface, oriented out of the body ``volume``.
 
@@ -242,8 +249,7 @@ def check_contact_geometry(
     op = operator
     op.update(t)
     cells = surface.geometry.x[surface.geometry.dofmaps[0]]
-    size = float(np.mean(np.linalg.norm(cells.max(axis=1) - cells.min(axis=1), axis=1)))
-    tol = 1e-3 * size if tolerance is None else tolerance
+    tol = 1e-3 * mean_cell_size(surface) if tolerance is None else tolerance
     worst = int(np.argmin(op.gap))
     if op.gap[worst] < -tol:
         raise InputError(

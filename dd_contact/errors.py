@@ -9,7 +9,9 @@ from __future__ import annotations
 __all__ = [
     "ContactCycleWarning",
     "ContactIterationError",
+    "InaccurateSolutionError",
     "InputError",
+    "PenaltyRangeWarning",
     "SingularMatrixError",
 ]
 
@@ -22,8 +24,20 @@ class SingularMatrixError(RuntimeError):
     """A factorisation met a singular matrix: part of the model is not held."""
 
 
+class InaccurateSolutionError(SingularMatrixError):
+    """A solve returned a solution that does not satisfy its system (residual check).
+
+    A subclass of :class:`SingularMatrixError`: its usual causes are a singular matrix the
+    factorisation did not flag, or one too ill-conditioned for double precision.
+    """
+
+
 class ContactIterationError(RuntimeError):
     """The contact iteration did not settle: it cycles or hit its iteration limit."""
+
+
+class PenaltyRangeWarning(UserWarning):
+    """A tie penalty lies outside the range over which the results are verified."""
 
 
 class ContactCycleWarning(UserWarning):

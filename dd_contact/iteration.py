@@ -19,7 +19,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import ContactZone
-from dd_contact.errors import ContactCycleWarning, ContactIterationError
+from dd_contact.errors import ContactCycleWarning, ContactIterationError, InaccurateSolutionError
+from dd_contact.solvers.residual import (
+    DEFAULT_RESIDUAL_TOLERANCE,
+    FREE_ROW_TOLERANCE,
+    Residual,
+    ResidualCheck,
+)
 
 __all__ = ["ContactIteration", "ContactSettings", "ContactSolver", "digest"]
 
@@ -58,17 +64,33 @@ class ContactSettings:
             where).
         penetration_tolerance: Largest initial overlap of body and obstacle accepted at the
             start (default: 1e-3 of the mean contact-surface cell size).
+        touching_tolerance: Gap up to which a point counts as touching when a solve starts
+            from scratch, so it starts active (default: 1e-8 of the mean contact-surface cell
+            size): a body that just touches is held from the first solve, whatever the sign
+            of the round-off in its computed gap.
+        residual_tolerance: Largest accepted relative residual ``|b - A x| / |b|`` of the
+            whole system after each solve (:mod:`dd_contact.solvers.residual`): penalty
+            round-off grows like kappa, and above this the solve raises
+            :class:`InaccurateSolutionError`. The rows without tie or contact terms are
+            always checked (against 1e-8: a body that can move freely fails there). ``None``
+            switches both checks off.
     """
 
     max_iterations: int = 50
     on_cycle: str = "union"
     penetration_tolerance: float | None = None
+    touching_tolerance: float | None = None
+    residual_tolerance: float | None = DEFAULT_RESIDUAL_TOLERANCE
 
     def __post_init__(self):
         if self.max_iterations < 1:
             raise ValueError("ContactSettings: max_iterations must be >= 1")
         if self.on_cycle not in ("raise", "union"):
             raise ValueError("ContactSettings: on_cycle must be 'raise' or 'union'")
+        for name in ("touching_tolerance", "residual_tolerance"):
+            value = getattr(self, name)
+            if value is not None and not value >= 0:
+                raise ValueError(f"ContactSettings: {name} must be >= 0 or None, got {value}")
 
 
 class ContactIteration:
@@ -87,6 +109,7 @@ class ContactIteration:
         sizes: Size of every block a zone lives in (the block system's ``sizes``): a zone's
             contact right-hand side goes into a zero vector of that size when the given
             right-hand side has no such block.
+        check: The residual check of the solver's system (``None``: no check).
     """
 
     def __init__(
@@ -95,19 +118,32 @@ class ContactIteration:
         zones: Sequence[ContactZone],
         settings: ContactSettings,
         sizes: Mapping[str, int],
+        check: ResidualCheck | None = None,
     ):
         self.comm, self.zones, self.settings = comm, zones, settings
         self.sizes = {z.block: int(sizes[z.block]) for z in zones}
+        self.check = check if settings.residual_tolerance is not None else None
+        #: Estimated residuals of the last solve (``None`` before one, or unchecked).
+        self.residual: Residual | None = None
+        self._touching = {
+            z.contact.name: settings.touching_tolerance
+            if settings.touching_tolerance is not None
+            else 1e-8 * z.length
+            for z in zones
+        }
+        #: This rank's right-hand side (contact terms included) and contact matrices
+        #: ``(block, dofs, matrix)`` of the last solve: what its residual is checked against.
+        self.last_solve: tuple[dict, list] = ({}, [])
         self.active: dict[str, np.ndarray] = {}
         self.gamma = 0
         self.alpha = {z.contact.name: 0 for z in zones}
         self.cycles_resolved = 0
 
     def start(self, t: float) -> None:
-        """Initial active sets: the points already touching the obstacle at ``t``."""
+        """Initial active sets: the points touching the obstacle at ``t`` (within tolerance)."""
         for z in self.zones:
             z.operator.update(t)
-            self.active[z.contact.name] = z.operator.gap <= 0.0
+            self.active[z.contact.name] = z.operator.gap <= self._touching[z.contact.name]
 
     def solve(self, solver: ContactSolver, rhs: dict[str, np.ndarray], t: float, where: str):
         """Solve at time ``t`` with the contact iteration; returns the solution blocks.
@@ -128,7 +164,7 @@ class ContactIteration:
             new = {z.contact.name: z.operator.active_set(x[z.block][z.dofs]) for z in self.zones}
             changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
             if not self.comm.allreduce(len(changed)):
-                return solver.finish(), iteration, changes_this_solve
+                return self._checked(solver.finish(), where), iteration, changes_this_solve
             self._count_change(changed)
             changes_this_solve += 1
             previous = self.active
@@ -157,7 +193,7 @@ class ContactIteration:
                     self._count_change(grown)
                     changes_this_solve += 1
                 self._solve_once(solver, rhs)
-                return solver.finish(), iteration + 1, changes_this_solve
+                return self._checked(solver.finish(), where), iteration + 1, changes_this_solve
             seen[key] = iteration
             sets.append(dict(self.active))
         raise ContactIterationError(
@@ -174,13 +210,40 @@ class ContactIteration:
 
     def _solve_once(self, solver: ContactSolver, rhs: dict[str, np.ndarray]):
         rhs = {name: vector.copy() for name, vector in rhs.items()}
+        contact = []
         for z in self.zones:
             matrix, vector = z.contribution(self.active[z.contact.name])
             solver.set_contact(z.contact.name, matrix)
+            contact.append((z.block, z.dofs, matrix))
             if z.block not in rhs:
                 rhs[z.block] = np.zeros(self.sizes[z.block])
             np.add.at(rhs[z.block], z.dofs, vector)
+        self.last_solve = (rhs, contact)
         return solver.solve(rhs)
+
+    def _checked(self, x: dict[str, np.ndarray], where: str) -> dict[str, np.ndarray]:
+        """``x`` if it satisfies the system it was solved from (collective)."""
+        if self.check is None:
+            return x
+        rhs, contact = self.last_solve
+        residual = self.residual = self.check.estimate(rhs, x, contact)
+        tolerance = self.settings.residual_tolerance
+        if not np.isfinite(residual.whole):
+            raise InaccurateSolutionError(f"the solution at {where} contains NaN or inf")
+        if residual.free is not None and not residual.free <= FREE_ROW_TOLERANCE:
+            raise InaccurateSolutionError(
+                f"the solution at {where} does not satisfy the equilibrium of the elements: "
+                f"residual ~{residual.free:.1e} of the load on the dofs without tie or contact "
+                f"terms (tolerance {FREE_ROW_TOLERANCE:.0e}); the matrix is singular: part of "
+                "the model can move freely"
+            )
+        if not residual.whole <= tolerance:
+            raise InaccurateSolutionError(
+                f"the solution at {where} does not satisfy its system: relative residual "
+                f"~{residual.whole:.1e} (tolerance {tolerance:.0e}); the tie or contact "
+                "penalties are too stiff for double precision"
+            )
+        return x
 
     def _global_digest(self) -> tuple:
         local = tuple(digest(self.active[z.contact.name]) for z in self.zones)

@@ -32,10 +32,11 @@ from dd_contact.io import Checkpoint, ResultWriter
 from dd_contact.iteration import ContactIteration, ContactSettings
 from dd_contact.parallel import collective, gathered
 from dd_contact.post import energy
-from dd_contact.scene import ContactBoundary, Scene
+from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
 from dd_contact.solvers.engine import BlockEliminationSolver
+from dd_contact.solvers.residual import ResidualCheck
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
 from dd_contact.timestepping import Newmark
 
@@ -105,7 +106,13 @@ class _Analysis:
             self.solver = BlockEliminationSolver(
                 self.comm, system, contacts, self.work, algorithm, condensation
             )
-        self.iteration = ContactIteration(self.comm, self.zones, self.settings, system.sizes)
+        self.iteration = ContactIteration(
+            self.comm,
+            self.zones,
+            self.settings,
+            system.sizes,
+            ResidualCheck(self.comm, system, {z.block: z.dofs for z in self.zones}),
+        )
         self._closed = False
         self._owned = [
             (k, s, s.block)
@@ -164,10 +171,23 @@ class _Analysis:
         try:
             return self.iteration.solve(self.solver, rhs, t, where)
         except SingularMatrixError as error:
-            raise SingularMatrixError(
-                f"{error} (at {where}; {self._active_summary()}). A body held only by contact "
-                "needs some points in contact from the start, or Dirichlet conditions"
+            raise type(error)(
+                f"{error} (at {where}; {self._active_summary()}). Likely causes: a body held "
+                "only by contact, which needs some points in contact from the start (close the "
+                "clearance, or add Dirichlet conditions or a soft support); a penalty outside "
+                f"the verified range kappa in [{KAPPA_VERIFIED[0]:g}, {KAPPA_VERIFIED[1]:g}]"
+                f"{self._penalty_note()}"
             ) from None
+
+    def _penalty_note(self) -> str:
+        """The ties of this rank outside the verified penalty range, for an error message."""
+        low, high = KAPPA_VERIFIED
+        outside = [
+            f"{surface!r} on {sub!r} has kappa = {kappa:.3g}"
+            for (sub, surface), kappa in self.model.system.kappas.items()
+            if not low <= kappa <= high
+        ]
+        return f" ({'; '.join(outside)})" if outside else ""
 
     def _active_counts(self) -> dict[str, int]:
         """Number of active contact points per contact region (collective)."""

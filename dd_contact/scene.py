@@ -42,6 +42,10 @@ __all__ = [
 #: elements behind them, so the penalty gap costs about 1e-6 of the response.
 DEFAULT_KAPPA = 1.0e6
 
+#: Dimensionless tie penalties over which the results are verified to 1e-8 (``dd-contact
+#: verify --case extremes``, docs/accuracy.md); a tie outside gets a PenaltyRangeWarning.
+KAPPA_VERIFIED: tuple[float, float] = (1.0e0, 1.0e6)
+
 Locator = Callable[[np.ndarray], np.ndarray]
 Where = Locator | npt.NDArray[np.int32] | tuple[dolfinx.mesh.MeshTags, int]
 

@@ -101,6 +101,7 @@ class _ScriptedZone:
     def __init__(self):
         self.contact = type("C", (), {"name": "zone"})()
         self.block, self.dofs, self.operator = "w:zone", np.arange(2), self._Op()
+        self.length = 1.0
 
     def contribution(self, active):
         return None, np.zeros(len(self.dofs))

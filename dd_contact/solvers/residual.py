@@ -1,0 +1,170 @@
+"""Every solve checks what it returned: the residual of the whole system (14).
+
+A solver can return a wrong answer without failing. MUMPS's Cholesky does not flag a
+singular symmetric positive definite matrix (a body held only by contact, with a
+clearance), and a penalty far above the elements' stiffness loses digits to round-off. The
+residual ``r = b - A x`` of the whole system, contact terms included, shows both, measured
+two ways:
+
+* on the *free rows*: the subdomain dofs no tie or contact term acts on. There the matrix
+  holds the elements' stiffness only, so a sound solve leaves a residual near round-off
+  (1e-11 of the load) at every penalty, while a body that can move freely leaves one of
+  order the load it cannot carry (1e-4 to 1 of it). Checked against
+  :data:`FREE_ROW_TOLERANCE`.
+* on every row, relative to ``|b|``: penalty rows carry round-off that grows like kappa
+  (1e-11 at kappa 1e2, 1e-6 at 1e6, 1e-2 at 1e10 in a tied bar), so this one shows when the
+  penalties cost the answer its accuracy. Checked against the user's
+  ``ContactSettings.residual_tolerance``.
+
+An exact residual costs a sparse matrix-vector product per block: 6-12 % of a step of the
+orders at 49k dofs (benchmarks/residual_check.py). Both are estimated instead from a few
+fixed Gaussian probe vectors ``z``: ``E[(z . r)^2] = |r|^2``, and
+``z . r = z . b - (A z) . x``, where ``A z`` of the constant part of ``A`` is formed once.
+Per solve that is a few dot products; each estimate is within a factor of a few of the
+exact value, all a threshold needs.
+"""
+
+from __future__ import annotations
+
+import zlib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+from mpi4py import MPI
+
+import numpy as np
+import scipy.sparse as sp
+
+from dd_contact.assembly import BlockSystem
+
+__all__ = [
+    "DEFAULT_RESIDUAL_TOLERANCE",
+    "FREE_ROW_TOLERANCE",
+    "PROBES",
+    "Residual",
+    "ResidualCheck",
+]
+
+#: Largest accepted estimate of ``|b - A x| / |b|`` over all rows (the user's setting).
+DEFAULT_RESIDUAL_TOLERANCE = 1e-3
+
+#: Largest accepted estimate of the free rows' residual relative to ``|b|``.
+FREE_ROW_TOLERANCE = 1e-8
+
+#: Gaussian probe vectors of the estimates.
+PROBES = 3
+
+_SEED = 20261122
+
+
+@dataclass(frozen=True)
+class Residual:
+    """Estimated residuals of one solve, relative to ``|b|`` (``inf``: not finite).
+
+    Attributes:
+        whole: Over every row of system (14).
+        free: Over the free rows (no tie or contact term); ``None`` if there are none.
+    """
+
+    whole: float
+    free: float | None
+
+
+class ResidualCheck:
+    """The residual of system (14) after a solve, estimated with probe vectors.
+
+    Args:
+        comm: Communicator; each rank holds its pieces of the system and of the right-hand
+            side, and every rank holds the whole solution.
+        system: This rank's pieces of the constant (constrained) block system ``A``; the
+            contact terms come with each solve.
+        contact_dofs: Block -> dofs any contact term may act on (this rank's regions).
+        probes: Number of probe vectors.
+    """
+
+    def __init__(
+        self,
+        comm: MPI.Comm,
+        system: BlockSystem,
+        contact_dofs: Mapping[str, np.ndarray] | None = None,
+        probes: int = PROBES,
+    ):
+        self.comm, self.probes, self.sizes = comm, probes, dict(system.sizes)
+        self._z: dict[str, np.ndarray] = {}
+        # Free rows: subdomain dofs without a tie or contact term (known on their owner).
+        tied = {b: np.zeros(n, bool) for b, n in self.sizes.items() if b.kind == "u"}
+        for (row, col), A in system.matrices.items():
+            if row != col:
+                coo = sp.coo_array(A)
+                for block, index in ((row, coo.row), (col, coo.col)):
+                    if block in tied:
+                        tied[block][index] = True
+        for block, dofs in (contact_dofs or {}).items():
+            if block in tied:
+                tied[block][dofs] = True
+        owned = {b for (r, c) in system.matrices for b in (r, c) if b in tied}
+        self._free = {b: (~tied[b]).astype(float)[:, None] for b in owned}
+        count = sum(int(f.sum()) for f in self._free.values())
+        self.has_free_rows = comm.allreduce(count) > 0
+        #: ``A z`` and ``A z_free`` restricted to each block, from this rank's pieces.
+        self._az: dict[str, np.ndarray] = {}
+        self._az_free: dict[str, np.ndarray] = {}
+        for (row, col), A in system.matrices.items():
+            pairs = [(col, A.T, row)] + ([(row, A, col)] if row != col else [])
+            for target, M, source in pairs:  # an off-diagonal piece stands for its transpose
+                z = self.probe(source)
+                self._add(self._az, target, M @ z)
+                if source in self._free:
+                    self._add(self._az_free, target, M @ (z * self._free[source]))
+
+    @staticmethod
+    def _add(store: dict, block: str, value: np.ndarray) -> None:
+        store[block] = store[block] + value if block in store else value
+
+    def probe(self, block: str) -> np.ndarray:
+        """The probe vectors on ``block`` (``size x probes``), the same on every rank."""
+        if block not in self._z:
+            rng = np.random.default_rng([_SEED, zlib.crc32(str(block).encode())])
+            self._z[block] = rng.standard_normal((self.sizes[block], self.probes))
+        return self._z[block]
+
+    def estimate(
+        self,
+        rhs: Mapping[str, np.ndarray],
+        x: Mapping[str, np.ndarray],
+        contact: Sequence[tuple[str, np.ndarray, sp.sparray]] = (),
+    ) -> Residual:
+        """Collective: the estimated residuals of ``x``.
+
+        Args:
+            rhs: This rank's right-hand-side contributions, contact terms included.
+            x: The whole solution (every block, on every rank).
+            contact: This rank's contact matrices ``(block, dofs, matrix)`` (surface dof
+                numbering) that were added to ``A`` for this solve.
+        """
+        k = self.probes
+        finite = all(np.all(np.isfinite(v)) for v in x.values())
+        zb, zr, zr_free = np.zeros(k), np.zeros(k), np.zeros(k)
+        if finite:
+            for block, vector in rhs.items():
+                z = self.probe(block)
+                zb += z.T @ vector
+                if block in self._free:
+                    zr_free += (z * self._free[block]).T @ vector
+            zr += zb
+            for block, az in self._az.items():
+                zr -= az.T @ x[block]
+            for block, az in self._az_free.items():
+                zr_free -= az.T @ x[block]
+            for block, dofs, matrix in contact:  # free rows have no contact term
+                zr -= self.probe(block)[dofs].T @ (matrix @ x[block][dofs])
+        local = np.concatenate([zb, zr, zr_free, [0.0 if finite else 1.0]])
+        sums = np.array(self.comm.allreduce(local))
+        if sums[-1] > 0:
+            return Residual(np.inf, np.inf)
+        b2 = float(np.sum(sums[:k] ** 2))
+        whole, free = (float(np.sum(sums[i * k : (i + 1) * k] ** 2)) for i in (1, 2))
+        if b2 == 0.0:
+            return Residual(0.0 if whole == 0.0 else np.inf, 0.0 if free == 0.0 else np.inf)
+        ratio = lambda r2: float(np.sqrt(r2 / b2))  # noqa: E731
+        return Residual(ratio(whole), ratio(free) if self.has_free_rows else None)

@@ -1,0 +1,161 @@
+"""No silent wrong answer: every solve checks its residual; touching starts; penalty range."""
+
+from __future__ import annotations
+
+import warnings
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+import dd_contact as dd
+from dd_contact import meshes
+from dd_contact.solvers.residual import FREE_ROW_TOLERANCE, ResidualCheck
+
+STEEL = dd.Material(E=210e9, nu=0.3)
+
+
+def _on(axis, value):
+    return lambda x: np.isclose(x[axis], value)
+
+
+def _plate_on_wall(clearance: float, kind: str = "interface", z0: float = 0.0):
+    """A plate pulled onto a rigid wall, held in the pull direction by contact only."""
+    plate = dd.Subdomain(
+        meshes.box(MPI.COMM_SELF, [0, 0, z0], [0.1, 0.05, z0 + 0.01], [8, 4, 2]), STEEL, "plate"
+    )
+    plate.fix(_on(1, 0.0), components=[1]).fix(_on(2, z0), components=[2])
+    plate.add_traction(_on(0, 0.1), (-2500 / (0.05 * 0.01), 0, 0))  # 2.5 kN towards the wall
+    wall = dd.Plane([-clearance, 0, 0], [1, 0, 0])
+    if kind == "interface":
+        zone = dd.ContactInterface.from_boundary(plate, _on(0, 0.0), wall)
+    else:
+        zone = dd.ContactBoundary(plate, _on(0, 0.0), wall)
+    return dd.Scene(MPI.COMM_SELF, [plate], contacts=[zone])
+
+
+def _exact_residual(problem) -> tuple[float, float]:
+    """|b - A x| / |b| of the last solve, over all rows and over the free rows."""
+    x = problem.solver.finish()
+    rhs, contact = problem.iteration.last_solve
+    system = problem.solver.system
+    r = {b: np.zeros(n) for b, n in system.sizes.items()}
+    tied = {b: np.zeros(n, bool) for b, n in system.sizes.items()}
+    for block, vector in rhs.items():
+        r[block] += vector
+    for (row, col), A in system.matrices.items():
+        r[row] -= A @ x[col]
+        if row != col:
+            r[col] -= A.T @ x[row]
+            coo = sp.coo_array(A)
+            tied[row][coo.row], tied[col][coo.col] = True, True
+    for block, dofs, matrix in contact:
+        r[block][dofs] -= matrix @ x[block][dofs]
+        tied[block][dofs] = True
+    b = np.linalg.norm(np.concatenate([rhs.get(k, np.zeros(n)) for k, n in system.sizes.items()]))
+    free = np.concatenate([~tied[k] & (k.kind == "u") for k in system.sizes])
+    residual = np.concatenate(list(r.values()))
+    return np.linalg.norm(residual) / b, np.linalg.norm(residual[free]) / b
+
+
+@pytest.mark.parametrize("algorithm", ["FULL", "w-u"])
+def test_the_estimated_residual_is_the_residual(algorithm):
+    scene = _plate_on_wall(0.0)
+    problem = dd.StaticProblem(scene, algorithm=algorithm)
+    problem.solve()
+    whole, free = _exact_residual(problem)
+    estimate = problem.iteration.residual
+    # A sound solve: round-off only. Three Gaussian probes: within a factor 10 (chi-square).
+    assert estimate.whole < 1e-6 and estimate.free < 1e-12
+    assert 0.1 < estimate.whole / whole < 10 and 0.1 < estimate.free / free < 10
+    assert problem.contact_forces()["contact"][0] == pytest.approx(2500.0, rel=1e-6)
+
+
+def test_a_body_held_only_by_contact_with_a_clearance_is_refused_by_full():
+    # Before: FULL returned a contact force of 0 for 2.5 kN applied, with no error.
+    problem = dd.TransientProblem(_plate_on_wall(1e-5), 1.0, algorithm="FULL", inertia=False)
+    with pytest.raises(dd.SingularMatrixError, match="held only by contact") as caught:
+        problem.run(1, progress=False, summary=False)
+    assert isinstance(caught.value, dd.InaccurateSolutionError)
+    assert "part of the model can move freely" in str(caught.value)
+    assert problem.iteration.residual.free > 1e3 * FREE_ROW_TOLERANCE
+
+
+@pytest.mark.parametrize("kind", ["interface", "boundary"])
+def test_a_touching_start_holds_the_body_from_the_first_solve(kind):
+    # The face lies a round-off distance (1e-15 m) off the wall: a touching start, so the
+    # body is held from the first solve (before: no point started active).
+    scene = _plate_on_wall(-1e-15, kind)
+    problem = dd.StaticProblem(scene, algorithm="FULL")
+    problem.solve()
+    assert problem.contact_forces()["contact"][0] == pytest.approx(2500.0, rel=1e-6)
+    assert problem.iteration.residual.free < FREE_ROW_TOLERANCE
+
+
+def test_the_touching_tolerance_is_a_setting():
+    settings = dd.ContactSettings(touching_tolerance=0.0)  # the sign of the gap decides
+    problem = dd.StaticProblem(_plate_on_wall(1e-9), algorithm="FULL", contact=settings)
+    with pytest.raises(dd.SingularMatrixError, match="held only by contact"):
+        problem.solve()
+    relaxed = dd.ContactSettings(touching_tolerance=1e-8)
+    problem = dd.StaticProblem(_plate_on_wall(1e-9), algorithm="FULL", contact=relaxed)
+    problem.solve()
+    assert problem.contact_forces()["contact"][0] == pytest.approx(2500.0, rel=1e-6)
+
+
+@pytest.mark.parametrize("name", ["touching_tolerance", "residual_tolerance"])
+def test_tolerances_must_not_be_negative(name):
+    with pytest.raises(ValueError, match=name):
+        dd.ContactSettings(**{name: -1.0})
+
+
+def _tied_bar(kappa: float) -> dd.Scene:
+    left = dd.Subdomain(meshes.box(MPI.COMM_SELF, [0, 0, 0], [5, 1, 1], [10, 2, 2]), STEEL, "left")
+    right = dd.Subdomain(
+        meshes.box(MPI.COMM_SELF, [5, 0, 0], [10, 1, 1], [7, 3, 3]), STEEL, "right"
+    )
+    left.fix(_on(0, 0.0))
+    right.add_traction(_on(0, 10.0), (0.0, 0.0, -1e5))
+    interface = dd.Interface.from_boundary(
+        left, _on(0, 5.0), [left, right], resolution=(5, 5), cell_type="triangle", kappa=kappa
+    )
+    return dd.Scene(MPI.COMM_SELF, [left, right], interface)
+
+
+def test_a_penalty_too_stiff_for_double_precision_is_an_error_not_a_wrong_answer():
+    # Before: at kappa 1e14 the tip deflection came out 4x too small, with no error.
+    with pytest.warns(dd.PenaltyRangeWarning, match="outside the verified range"):
+        problem = dd.StaticProblem(_tied_bar(1e14))
+    with pytest.raises(dd.InaccurateSolutionError, match="too stiff for double precision"):
+        problem.solve()
+    assert problem.iteration.residual.whole > 1.0
+
+
+def test_a_penalty_in_the_verified_range_neither_warns_nor_fails():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", dd.PenaltyRangeWarning)
+        problem = dd.StaticProblem(_tied_bar(dd.DEFAULT_KAPPA))
+    problem.solve()
+    whole, _ = _exact_residual(problem)
+    assert problem.iteration.residual.whole < 1e-5 and whole < 1e-5
+
+
+def test_the_check_can_be_switched_off():
+    settings = dd.ContactSettings(residual_tolerance=None)
+    with pytest.warns(dd.PenaltyRangeWarning):
+        problem = dd.StaticProblem(_tied_bar(1e14), contact=settings)
+    problem.solve()  # the user's choice: no check, no error
+    assert problem.iteration.residual is None
+
+
+@pytest.mark.mpi
+def test_the_probes_are_the_same_on_every_rank():
+    comm = MPI.COMM_WORLD
+    problem = dd.StaticProblem(_tied_bar(1e4))
+    check = ResidualCheck(comm, problem.solver.system)
+    for block in problem.solver.system.sizes:
+        probe = check.probe(block)
+        assert probe.shape == (problem.solver.system.sizes[block], 3)
+        assert all(np.array_equal(probe, other) for other in comm.allgather(probe))
