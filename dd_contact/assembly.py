@@ -24,9 +24,48 @@ from dd_contact import coupling, forms
 from dd_contact.blocks import Block, ContactRegion
 from dd_contact.contact import ContactOperator, contact_points, mean_cell_size
 from dd_contact.errors import InputError, PenaltyRangeWarning
-from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, ContactInterface, Scene
+from dd_contact.scene import (
+    KAPPA_ASSEMBLED,
+    KAPPA_SPLIT,
+    KAPPA_VERIFIED,
+    ContactBoundary,
+    ContactInterface,
+    Scene,
+)
 
-__all__ = ["BlockSystem", "ContactZone", "Model", "assemble"]
+__all__ = ["BlockSystem", "ContactZone", "Model", "StiffTie", "assemble"]
+
+
+@dataclass
+class StiffTie:
+    """The part of a stiff tie's penalty kept out of the matrices (kappa > KAPPA_SPLIT).
+
+    The tie's penalty 1/eps is split as ``rho + sigma``: ``rho`` (kappa = KAPPA_ASSEMBLED)
+    is assembled like any tie, ``sigma`` is carried by the augmented-Lagrangian iteration of
+    :mod:`dd_contact.solvers.stiff_ties` as a force on the right-hand side.
+
+    Attributes:
+        name: ``"<surface> on <subdomain>"``, for messages.
+        u: The subdomain's block.
+        s: The surface's block (``v`` or ``w``).
+        P1, P2, P4: The tie operators (9)-(11), blocked, without the 1/eps factor.
+        rho: The assembled part of 1/eps.
+        sigma: The remainder of 1/eps.
+    """
+
+    name: str
+    u: Block
+    s: Block
+    P1: sp.csr_array
+    P2: sp.csr_array
+    P4: sp.csr_array
+    rho: float
+    sigma: float
+
+    def jump(self, x: dict[str, np.ndarray]) -> dict[Block, np.ndarray]:
+        """``R x``: the tie's unscaled force on u and s, ``(P1 u - P2 s, P4 s - P2^T u)``."""
+        u, s = x[self.u], x[self.s]
+        return {self.u: self.P1 @ u - self.P2 @ s, self.s: self.P4 @ s - self.P2.T @ u}
 
 
 @dataclass
@@ -44,6 +83,8 @@ class BlockSystem:
             (ties, and ``(subdomain, "contact:<name>")`` for contact).
         kappas: ``(subdomain, surface) -> kappa = h / (E eps)`` of every tie this rank
             assembled.
+        stiff_ties: The ties of this rank stiffer than KAPPA_SPLIT: their matrices hold
+            kappa = KAPPA_ASSEMBLED, the remainder is here.
     """
 
     sizes: dict[Block, int]
@@ -52,6 +93,7 @@ class BlockSystem:
     rhs: dict[Block, np.ndarray] = field(default_factory=dict)
     penalties: dict[tuple[str, str], float] = field(default_factory=dict)
     kappas: dict[tuple[str, str], float] = field(default_factory=dict)
+    stiff_ties: list[StiffTie] = field(default_factory=list)
 
     def copy(self) -> BlockSystem:
         """A copy whose matrices and vectors can be changed independently."""
@@ -62,6 +104,7 @@ class BlockSystem:
             {k: v.copy() for k, v in self.rhs.items()},
             dict(self.penalties),
             dict(self.kappas),
+            list(self.stiff_ties),
         )
 
     def add(self, row: Block, col: Block, matrix: sp.sparray) -> None:
@@ -118,15 +161,24 @@ def _tie_operators(surface, sub, what: str) -> coupling.TieOperators:
 def _add_tie(system: BlockSystem, sub, surface, ops: coupling.TieOperators) -> None:
     """Penalty tie terms (9)-(11): P1 on u, -P2 between u and s, P4 on s, all over eps.
 
-    Records the tie's eps and kappa, and warns if kappa is outside the verified range.
+    A tie stiffer than KAPPA_SPLIT is assembled at KAPPA_ASSEMBLED and its remainder
+    recorded as a :class:`StiffTie`. Records the tie's eps and kappa, and warns if kappa is outside
+    the verified range.
     """
-    eps = surface.penalty.epsilon_for(ops.height, sub.material.E)
+    E = sub.material.E
+    eps = surface.penalty.epsilon_for(ops.height, E)
+    kappa = ops.height / (E * eps)
+    assembled = eps if kappa <= KAPPA_SPLIT else ops.height / (E * KAPPA_ASSEMBLED)
     u, s = sub.block, surface.block
-    system.add(u, u, coupling.blocked(ops.P1) / eps)
-    system.add(u, s, -coupling.blocked(ops.P2) / eps)
-    system.add(s, s, coupling.blocked(ops.P4) / eps)
+    P1, P2, P4 = (coupling.blocked(P) for P in (ops.P1, ops.P2, ops.P4))
+    system.add(u, u, P1 / assembled)
+    system.add(u, s, -P2 / assembled)
+    system.add(s, s, P4 / assembled)
+    if assembled > eps:
+        name = f"{surface.name!r} on {sub.name!r}"
+        rho, sigma = 1.0 / assembled, 1.0 / eps - 1.0 / assembled
+        system.stiff_ties.append(StiffTie(name, u, s, P1, P2, P4, rho, sigma))
     system.penalties[(sub.name, surface.name)] = eps
-    kappa = ops.height / (sub.material.E * eps)
     system.kappas[(sub.name, surface.name)] = kappa
     low, high = KAPPA_VERIFIED
     if not low <= kappa <= high:

@@ -45,6 +45,14 @@ class ContactSolver(Protocol):
         """Every block of the last solution (once the contact state has settled)."""
         ...
 
+    @property
+    def rhs_offset(self) -> dict[str, np.ndarray]:
+        """This rank's vector subtracted from the right-hand side of the last solve.
+
+        The stiff ties' forces (:mod:`dd_contact.solvers.stiff_ties`); empty for others.
+        """
+        ...
+
 
 def digest(active: np.ndarray) -> str:
     """A short fingerprint of an active set (to detect cycling)."""
@@ -164,7 +172,8 @@ class ContactIteration:
             new = {z.contact.name: z.operator.active_set(x[z.block][z.dofs]) for z in self.zones}
             changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
             if not self.comm.allreduce(len(changed)):
-                return self._checked(solver.finish(), where), iteration, changes_this_solve
+                x = self._checked(solver, solver.finish(), where)
+                return x, iteration, changes_this_solve
             self._count_change(changed)
             changes_this_solve += 1
             previous = self.active
@@ -193,7 +202,8 @@ class ContactIteration:
                     self._count_change(grown)
                     changes_this_solve += 1
                 self._solve_once(solver, rhs)
-                return self._checked(solver.finish(), where), iteration + 1, changes_this_solve
+                x = self._checked(solver, solver.finish(), where)
+                return x, iteration + 1, changes_this_solve
             seen[key] = iteration
             sets.append(dict(self.active))
         raise ContactIterationError(
@@ -221,11 +231,15 @@ class ContactIteration:
         self.last_solve = (rhs, contact)
         return solver.solve(rhs)
 
-    def _checked(self, x: dict[str, np.ndarray], where: str) -> dict[str, np.ndarray]:
+    def _checked(self, solver: ContactSolver, x: dict, where: str) -> dict[str, np.ndarray]:
         """``x`` if it satisfies the system it was solved from (collective)."""
         if self.check is None:
             return x
         rhs, contact = self.last_solve
+        offset = solver.rhs_offset
+        if offset:
+            rhs = {b: v - offset[b] if b in offset else v for b, v in rhs.items()}
+            rhs.update({b: -v for b, v in offset.items() if b not in rhs})
         residual = self.residual = self.check.estimate(rhs, x, contact)
         tolerance = self.settings.residual_tolerance
         if not np.isfinite(residual.whole):

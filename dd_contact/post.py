@@ -67,6 +67,8 @@ def energy(
     for (rb, cb), A in model.system.matrices.items():
         factor = 0.5 if rb == cb else 1.0
         elastic += factor * float(x[rb] @ (A @ x[cb]))
+    for tie in model.system.stiff_ties:  # the ties' penalty above KAPPA_SPLIT
+        elastic += 0.5 * tie.sigma * sum(float(x[b] @ f) for b, f in tie.jump(x).items())
     kinetic = 0.0
     for block, v in velocities.items():
         if block in model.mass:

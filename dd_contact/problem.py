@@ -38,6 +38,7 @@ from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
 from dd_contact.solvers.engine import BlockEliminationSolver
 from dd_contact.solvers.residual import ResidualCheck
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
+from dd_contact.solvers.stiff_ties import AugmentedTies
 from dd_contact.timestepping import Newmark
 
 __all__ = ["StaticProblem", "TransientProblem"]
@@ -106,6 +107,12 @@ class _Analysis:
             self.solver = BlockEliminationSolver(
                 self.comm, system, contacts, self.work, algorithm, condensation
             )
+        #: The solver the contact iteration drives: ``solver``, or around it the iteration
+        #: that carries ties stiffer than KAPPA_SPLIT.
+        self.tie_solver = self.solver
+        if self.comm.allreduce(len(system.stiff_ties)):
+            free = {tie.u: self.model.free(tie.u) for tie in system.stiff_ties}
+            self.tie_solver = AugmentedTies(self.comm, self.solver, system.stiff_ties, free)
         self.iteration = ContactIteration(
             self.comm,
             self.zones,
@@ -169,7 +176,7 @@ class _Analysis:
                 "create a new problem to solve again"
             )
         try:
-            return self.iteration.solve(self.solver, rhs, t, where)
+            return self.iteration.solve(self.tie_solver, rhs, t, where)
         except SingularMatrixError as error:
             raise type(error)(
                 f"{error} (at {where}; {self._active_summary()}). Likely causes: a body held "

@@ -42,9 +42,16 @@ __all__ = [
 #: elements behind them, so the penalty gap costs about 1e-6 of the response.
 DEFAULT_KAPPA = 1.0e6
 
+#: Ties stiffer than KAPPA_SPLIT are assembled at KAPPA_ASSEMBLED; the remainder of their
+#: penalty is carried by an augmented-Lagrangian iteration (dd_contact.solvers.stiff_ties),
+#: so no factorisation holds a penalty stiffer than KAPPA_SPLIT. Ties up to KAPPA_SPLIT (the
+#: default kappa included) are assembled whole and solved in one go.
+KAPPA_SPLIT = 1.0e6
+KAPPA_ASSEMBLED = 1.0e5
+
 #: Dimensionless tie penalties over which the results are verified to 1e-8 (``dd-contact
 #: verify --case extremes``, docs/accuracy.md); a tie outside gets a PenaltyRangeWarning.
-KAPPA_VERIFIED: tuple[float, float] = (1.0e0, 1.0e6)
+KAPPA_VERIFIED: tuple[float, float] = (1.0e0, 1.0e14)
 
 Locator = Callable[[np.ndarray], np.ndarray]
 Where = Locator | npt.NDArray[np.int32] | tuple[dolfinx.mesh.MeshTags, int]

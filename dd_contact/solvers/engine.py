@@ -525,6 +525,11 @@ class BlockEliminationSolver:
         u = {b: s.back_substitute(self._x) for b, s in self.subdomains.items()}
         return {**self._x, **gathered(self.comm, u)}
 
+    @property
+    def rhs_offset(self) -> dict[str, np.ndarray]:
+        """Nothing is subtracted from the right-hand side."""
+        return {}
+
     def destroy(self) -> None:
         """Free the PETSc objects."""
         for sub in self.subdomains.values():

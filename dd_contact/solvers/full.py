@@ -118,6 +118,11 @@ class MonolithicSolver:
         """Every block of the last solution (nothing is left to back-substitute)."""
         return self._last
 
+    @property
+    def rhs_offset(self) -> dict[str, np.ndarray]:
+        """Nothing is subtracted from the right-hand side."""
+        return {}
+
     def destroy(self) -> None:
         """Free PETSc objects."""
         if self._factor is not None:

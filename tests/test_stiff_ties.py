@@ -1,0 +1,54 @@
+"""Ties stiffer than KAPPA_SPLIT: assembled softer, the rest carried by iteration."""
+
+from __future__ import annotations
+
+from mpi4py import MPI
+
+import pytest
+
+import dd_contact as dd
+from dd_contact import verify
+from dd_contact.scene import KAPPA_ASSEMBLED, KAPPA_SPLIT
+from dd_contact.solvers.stiff_ties import AugmentedTies
+
+
+@pytest.mark.parametrize("kappa", [1e8, 1e14])
+def test_a_stiff_matching_tie_reproduces_one_mesh(kappa):
+    # Matching meshes: the tie's own error is 0.22 / kappa (measured at 1e4-1e6), nothing at
+    # these penalties; what is left is round-off (measured 8.4e-9 at 1e14; before the
+    # split: 2.3e-3 at 1e12 and a wrong answer at 1e14).
+    tied, single = verify.bent_bar(1, kappa, matching=True)
+    assert tied == pytest.approx(single, rel=2e-8)
+
+
+@pytest.mark.parametrize("order", ["v-w-u", "w-v-u"])
+def test_a_stiff_tie_adds_substitutions_not_factorisations(order):
+    def work(kappa):
+        scene = verify.pressed_scene("interface", kappa=kappa, comm=MPI.COMM_SELF)
+        with dd.StaticProblem(scene, algorithm=order) as problem:
+            problem.solve()
+            return problem.work, problem.tie_solver
+
+    moderate, plain = work(KAPPA_SPLIT)
+    stiff, augmented = work(1e14)
+    assert plain is not None and not isinstance(plain, AugmentedTies)
+    assert isinstance(augmented, AugmentedTies) and len(augmented.ties) == 2
+    for kind in ("sparse_factor", "dense_factor"):
+        assert stiff.count(kind) == moderate.count(kind), kind
+    # Each extra solve of the iteration substitutes every subdomain once more (u_hat, u).
+    extra = augmented.solves - 1
+    assert 1 <= extra <= 10
+    assert stiff.count("sparse_solve") == moderate.count("sparse_solve") + 4 * extra
+
+
+def test_the_assembled_part_of_a_stiff_tie_is_kappa_assembled():
+    scene = verify.pressed_scene("interface", kappa=1e12, comm=MPI.COMM_SELF)
+    problem = dd.StaticProblem(scene)
+    ties = problem.model.system.stiff_ties
+    assert {t.name for t in ties} == {"'interface' on 'A'", "'interface' on 'B'"}
+    for tie in ties:
+        # rho + sigma = 1 / eps of the tie; rho = KAPPA_ASSEMBLED's share.
+        eps = problem.penalties[(tie.u.name, tie.s.name)]
+        assert tie.rho + tie.sigma == pytest.approx(1.0 / eps, rel=1e-12)
+        assert tie.rho / (tie.rho + tie.sigma) == pytest.approx(KAPPA_ASSEMBLED / 1e12)
+    problem.close()
