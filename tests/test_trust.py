@@ -6,9 +6,11 @@ import warnings
 
 from mpi4py import MPI
 
+import dolfinx.fem as fem
 import numpy as np
 import pytest
 import scipy.sparse as sp
+import ufl
 
 import dd_contact as dd
 from dd_contact import assembly, meshes
@@ -165,3 +167,34 @@ def test_the_probes_are_the_same_on_every_rank():
         probe = check.probe(block)
         assert probe.shape == (problem.solver.system.sizes[block], 3)
         assert all(np.array_equal(probe, other) for other in comm.allgather(probe))
+
+
+def _hemisphere_on_plane(gap: float):
+    """A 50 mm steel ball held along z only by the plane, pressed by 1 MPa on its flat face."""
+    R = 0.05
+    mesh, tags = meshes.hemisphere(MPI.COMM_SELF, R, 0.2 * R, 0.05 * R, 0.2 * R)
+    ball = dd.Subdomain(mesh, STEEL, "ball")
+    ball.fix((tags, meshes.HEMISPHERE_SYMMETRY_X), components=[0])
+    ball.fix((tags, meshes.HEMISPHERE_SYMMETRY_Y), components=[1])
+    ball.add_traction((tags, meshes.HEMISPHERE_TOP), (0.0, 0.0, -1.0e6))
+    ds = ufl.Measure("ds", domain=mesh, subdomain_data=tags)
+    force = 1.0e6 * fem.assemble_scalar(fem.form(1.0 * ds(meshes.HEMISPHERE_TOP)))
+    plane = dd.Plane([0, 0, -gap], [0, 0, 1])  # the pole is a node at the origin
+    cap = dd.ContactBoundary(ball, (tags, meshes.HEMISPHERE_CURVED), plane)
+    return dd.Scene(MPI.COMM_SELF, [ball], contacts=[cap]), force
+
+
+@pytest.mark.parametrize("gap", [0.0, 1e-15])
+def test_a_hemisphere_whose_pole_touches_carries_a_prescribed_force(gap):
+    # Before: with the pole's computed gap at +6e-22 no point started active, the first solve
+    # was singular and returned u_z = +7.6e10 m and a contact force of 0, with no error.
+    scene, force = _hemisphere_on_plane(gap)
+    problem = dd.StaticProblem(scene)
+    problem.solve()
+    assert problem.contact_forces()["contact"][2] == pytest.approx(force, rel=1e-6)
+    assert problem.iteration.residual.free < FREE_ROW_TOLERANCE
+    if gap > 0:  # the sign test alone leaves the ball free: now an error, not F = 0
+        scene, _ = _hemisphere_on_plane(gap)
+        signed = dd.ContactSettings(touching_tolerance=0.0)
+        with pytest.raises(dd.SingularMatrixError, match="move freely"):
+            dd.StaticProblem(scene, contact=signed).solve()
