@@ -168,13 +168,14 @@ def _add_tie(system: BlockSystem, sub, surface, ops: coupling.TieOperators) -> N
     E = sub.material.E
     eps = surface.penalty.epsilon_for(ops.height, E)
     kappa = ops.height / (E * eps)
-    assembled = eps if kappa <= KAPPA_SPLIT else ops.height / (E * KAPPA_ASSEMBLED)
+    stiff = kappa > KAPPA_SPLIT * (1.0 + 1e-9)  # kappa = 1e6 may come back as 1e6 + ulp
+    assembled = ops.height / (E * KAPPA_ASSEMBLED) if stiff else eps
     u, s = sub.block, surface.block
     P1, P2, P4 = (coupling.blocked(P) for P in (ops.P1, ops.P2, ops.P4))
     system.add(u, u, P1 / assembled)
     system.add(u, s, -P2 / assembled)
     system.add(s, s, P4 / assembled)
-    if assembled > eps:
+    if stiff:
         name = f"{surface.name!r} on {sub.name!r}"
         rho, sigma = 1.0 / assembled, 1.0 / eps - 1.0 / assembled
         system.stiff_ties.append(StiffTie(name, u, s, P1, P2, P4, rho, sigma))

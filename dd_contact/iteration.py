@@ -19,7 +19,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import ContactZone
-from dd_contact.errors import ContactCycleWarning, ContactIterationError, InaccurateSolutionError
+from dd_contact.errors import (
+    ContactCycleWarning,
+    ContactIterationError,
+    InaccurateSolutionError,
+    SingularMatrixError,
+)
+from dd_contact.scene import Body, rigid_motion_rows
 from dd_contact.solvers.residual import (
     DEFAULT_RESIDUAL_TOLERANCE,
     FREE_ROW_TOLERANCE,
@@ -118,6 +124,9 @@ class ContactIteration:
             contact right-hand side goes into a zero vector of that size when the given
             right-hand side has no such block.
         check: The residual check of the solver's system (``None``: no check).
+        held: Bodies that only contact can hold (quasi-static problems): before every solve
+            their active contact points must resist each of their free rigid motions, or
+            the matrix is singular and the solve raises :class:`SingularMatrixError`.
     """
 
     def __init__(
@@ -127,10 +136,12 @@ class ContactIteration:
         settings: ContactSettings,
         sizes: Mapping[str, int],
         check: ResidualCheck | None = None,
+        held: Sequence[Body] = (),
     ):
         self.comm, self.zones, self.settings = comm, zones, settings
         self.sizes = {z.block: int(sizes[z.block]) for z in zones}
         self.check = check if settings.residual_tolerance is not None else None
+        self.held = [body for body in held if body.free.shape[1]]
         #: Estimated residuals of the last solve (``None`` before one, or unchecked).
         self.residual: Residual | None = None
         self._touching = {
@@ -168,7 +179,7 @@ class ContactIteration:
         sets = [dict(self.active)]
         changes_this_solve = 0
         for iteration in range(1, self.settings.max_iterations + 1):
-            x = self._solve_once(solver, rhs)
+            x = self._solve_once(solver, rhs, where)
             new = {z.contact.name: z.operator.active_set(x[z.block][z.dofs]) for z in self.zones}
             changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
             if not self.comm.allreduce(len(changed)):
@@ -201,7 +212,7 @@ class ContactIteration:
                 if self.comm.allreduce(len(grown)):
                     self._count_change(grown)
                     changes_this_solve += 1
-                self._solve_once(solver, rhs)
+                self._solve_once(solver, rhs, where)
                 x = self._checked(solver, solver.finish(), where)
                 return x, iteration + 1, changes_this_solve
             seen[key] = iteration
@@ -218,7 +229,31 @@ class ContactIteration:
         for name in zones:
             self.alpha[name] += 1
 
-    def _solve_once(self, solver: ContactSolver, rhs: dict[str, np.ndarray]):
+    def _check_held(self, where: str) -> None:
+        """Collective: refuse an active set that leaves a body free to move (singular)."""
+        for body in self.held:
+            local = []
+            for z in self.zones:
+                if any(z.contact.subdomain is s for s in body.subdomains):
+                    active = self.active[z.contact.name]
+                    r = (z.operator.points.x[active] - body.centre) / body.size
+                    local.append(rigid_motion_rows(r, z.operator.normal[active]) @ body.free)
+            rows = [p for part in self.comm.allgather(local) for p in part]
+            m = body.free.shape[1]
+            rows = np.concatenate(rows) if rows else np.zeros((0, m))
+            s = np.linalg.svd(rows, compute_uv=False) if len(rows) else np.zeros(0)
+            resisted = int(np.sum(s > 1e-8 * max(1.0, s.max(initial=0.0))))
+            if resisted < m:
+                names = ", ".join(repr(s.name) for s in body.subdomains)
+                raise SingularMatrixError(
+                    f"at {where} subdomain(s) {names} are held only by contact "
+                    f"({body.describe()} without Dirichlet conditions against it), and the "
+                    f"{len(rows)} active contact point(s) resist only {resisted} of them: "
+                    "the matrix is singular, there is no equilibrium"
+                )
+
+    def _solve_once(self, solver: ContactSolver, rhs: dict[str, np.ndarray], where: str):
+        self._check_held(where)
         rhs = {name: vector.copy() for name, vector in rhs.items()}
         contact = []
         for z in self.zones:
@@ -231,15 +266,24 @@ class ContactIteration:
         self.last_solve = (rhs, contact)
         return solver.solve(rhs)
 
-    def _checked(self, solver: ContactSolver, x: dict, where: str) -> dict[str, np.ndarray]:
-        """``x`` if it satisfies the system it was solved from (collective)."""
-        if self.check is None:
-            return x
+    def solved_system(self, solver: ContactSolver) -> tuple[dict, list]:
+        """This rank's right-hand side and contact matrices of the solver's last solve.
+
+        The right-hand side is the one the solver solved with: the stiff ties' forces it
+        subtracted (:attr:`ContactSolver.rhs_offset`) are subtracted here too.
+        """
         rhs, contact = self.last_solve
         offset = solver.rhs_offset
         if offset:
             rhs = {b: v - offset[b] if b in offset else v for b, v in rhs.items()}
             rhs.update({b: -v for b, v in offset.items() if b not in rhs})
+        return rhs, contact
+
+    def _checked(self, solver: ContactSolver, x: dict, where: str) -> dict[str, np.ndarray]:
+        """``x`` if it satisfies the system it was solved from (collective)."""
+        if self.check is None:
+            return x
+        rhs, contact = self.solved_system(solver)
         residual = self.residual = self.check.estimate(rhs, x, contact)
         tolerance = self.settings.residual_tolerance
         if not np.isfinite(residual.whole):

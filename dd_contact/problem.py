@@ -119,6 +119,7 @@ class _Analysis:
             self.settings,
             system.sizes,
             ResidualCheck(self.comm, system, {z.block: z.dofs for z in self.zones}),
+            held=[] if mass_coefficient else scene.bodies(),
         )
         self._closed = False
         self._owned = [

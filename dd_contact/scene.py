@@ -638,42 +638,96 @@ class Scene:
         """Rank that owns subdomain ``k``."""
         return owner_of(k, self.comm)
 
+    def bodies(self) -> list[Body]:
+        """The bodies: the subdomains tied through the interface, and each other subdomain."""
+        tied = list(self.interface.subdomains) if self.interface is not None else []
+        groups = [tied] if tied else []
+        groups += [[s] for s in self.subdomains if all(s is not t for t in tied)]
+        return [Body.of(group) for group in groups]
+
     def check_static_supports(self) -> None:
         """Raise if some part of the body can move rigidly (a singular static problem).
 
         Subdomains tied through the interface form one body; each body's Dirichlet conditions
-        must stop all six rigid-body motions.
+        must stop all six rigid-body motions, or contact must (checked at every solve, see
+        :class:`Body`).
         """
-        tied = self.interface.subdomains if self.interface is not None else []
-        groups = [tied] if tied else []
-        groups += [[s] for s in self.subdomains if all(s is not t for t in tied)]
-        for group in groups:
-            if any(c.subdomain is s for c in self.contacts for s in group):
-                continue  # contact may support it; a singular factorisation will say if not
-            rows = []
-            for sub in group:
-                dofs, _ = sub.dirichlet
-                x = sub.V.tabulate_dof_coordinates()[dofs // 3]
-                rows.append(_rigid_modes(x, dofs % 3))
-            modes = np.concatenate(rows) if rows else np.zeros((0, 6))
-            scale = max(1.0, float(np.abs(modes).max(initial=0.0)))
-            rank = np.linalg.matrix_rank(modes, tol=1e-10 * scale) if len(modes) else 0
-            if rank < 6:
-                names = ", ".join(repr(s.name) for s in group)
+        for body in self.bodies():
+            if any(c.subdomain is s for c in self.contacts for s in body.subdomains):
+                continue  # contact may hold it: the contact iteration checks each active set
+            if body.free.shape[1]:
+                names = ", ".join(repr(s.name) for s in body.subdomains)
                 raise InputError(
-                    f"static scene: subdomain(s) {names} can move as a rigid body ({6 - rank} "
-                    "free rigid motions): they have too few Dirichlet conditions and are not "
+                    f"static scene: subdomain(s) {names} can move as a rigid body "
+                    f"({body.describe()}): they have too few Dirichlet conditions and are not "
                     "tied to a supported subdomain; add Subdomain.fix(...) or tie them through "
                     "the interface, or solve a dynamic problem"
                 )
 
 
-def _rigid_modes(x: np.ndarray, component: np.ndarray) -> np.ndarray:
-    """Rows of the six rigid-body modes at dofs (node x, component c)."""
-    modes = np.zeros((len(x), 6))
-    modes[np.arange(len(x)), component] = 1.0
-    centred = x - x.mean(axis=0) if len(x) else x
-    for axis in range(3):
-        rotation = np.cross(np.eye(3)[axis], centred)  # (n, 3)
-        modes[:, 3 + axis] = rotation[np.arange(len(x)), component]
-    return modes
+#: Names of the six rigid-body motions, in the order of :func:`rigid_motion_rows`.
+RIGID_MOTIONS = (
+    "translation x",
+    "translation y",
+    "translation z",
+    "rotation about x",
+    "rotation about y",
+    "rotation about z",
+)
+
+
+def rigid_motion_rows(r: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """How the six rigid motions move points at ``r`` (from the centre) along ``direction``.
+
+    Row i is ``[d, r x d]``: the motion ``(t, theta)`` moves the point by
+    ``t + theta x r``, whose component along d is ``d . t + theta . (r x d)``.
+    """
+    return np.hstack([direction, np.cross(r, direction)])
+
+
+@dataclass(frozen=True)
+class Body:
+    """Subdomains that move together, and the rigid motions no Dirichlet condition stops.
+
+    Attributes:
+        subdomains: The subdomains.
+        centre: Centre of the rotations (mean of the nodes).
+        size: Length scale of the body (its bounding-box diagonal): rotations are scaled by
+            it so that all six motions are measured alike.
+        free: Basis of the free rigid motions (6 x m, orthonormal columns; m = 0: held).
+    """
+
+    subdomains: tuple
+    centre: np.ndarray
+    size: float
+    free: np.ndarray
+
+    @classmethod
+    def of(cls, group: Sequence[Subdomain]) -> Body:
+        x = np.concatenate([s.mesh.geometry.x for s in group])
+        centre = x.mean(axis=0)
+        size = max(float(np.linalg.norm(x.max(axis=0) - x.min(axis=0))), 1e-300)
+        rows = []
+        for sub in group:
+            dofs, _ = sub.dirichlet
+            r = (sub.V.tabulate_dof_coordinates()[dofs // 3] - centre) / size
+            rows.append(rigid_motion_rows(r, np.eye(3)[dofs % 3]))
+        return cls(tuple(group), centre, size, _null_space(np.concatenate(rows)))
+
+    def describe(self) -> str:
+        """The free motions in words, e.g. ``"1 free rigid motion: translation x"``."""
+        m = self.free.shape[1]
+        if m == 0:
+            return "no free rigid motion"
+        named = [RIGID_MOTIONS[i] for i in range(6) if np.abs(self.free[i]).max() > 0.5]
+        what = ", ".join(named) if len(named) == m else "combined translations and rotations"
+        return f"{m} free rigid motion{'s' if m > 1 else ''}: {what}"
+
+
+def _null_space(rows: np.ndarray) -> np.ndarray:
+    """Orthonormal basis of the motions that ``rows`` do not constrain (6 x m)."""
+    if len(rows) == 0:
+        return np.eye(6)
+    _, s, vt = np.linalg.svd(rows, full_matrices=True)
+    rank = int(np.sum(s > 1e-10 * s.max())) if s.size else 0
+    return vt[rank:].T

@@ -8,6 +8,7 @@ import pytest
 
 import dd_contact as dd
 from dd_contact import verify
+from dd_contact.examples import parallelepiped
 from dd_contact.scene import KAPPA_ASSEMBLED, KAPPA_SPLIT
 from dd_contact.solvers.stiff_ties import AugmentedTies
 
@@ -51,4 +52,14 @@ def test_the_assembled_part_of_a_stiff_tie_is_kappa_assembled():
         eps = problem.penalties[(tie.u.name, tie.s.name)]
         assert tie.rho + tie.sigma == pytest.approx(1.0 / eps, rel=1e-12)
         assert tie.rho / (tie.rho + tie.sigma) == pytest.approx(KAPPA_ASSEMBLED / 1e12)
+    problem.close()
+
+
+@pytest.mark.parametrize("algorithm", ["w-v-u", "w-u", "v-u"])
+def test_a_tie_at_the_default_kappa_is_assembled_whole(algorithm):
+    # h / (E eps) can come back as 1e6 + 1 ulp: that is still the default, not a stiff tie.
+    scene = parallelepiped(algorithm, (12, 4, 2), comm=MPI.COMM_SELF)
+    problem = dd.TransientProblem(scene, 1e-6, algorithm=algorithm, track_energy=False)
+    assert problem.model.system.kappas and not problem.model.system.stiff_ties
+    assert problem.tie_solver is problem.solver
     problem.close()
