@@ -7,6 +7,7 @@ from dd_contact.errors import (
     ContactIterationError,
     InaccurateSolutionError,
     InputError,
+    NonMatchingContactWarning,
     PenaltyRangeWarning,
     SingularMatrixError,
 )
@@ -42,6 +43,7 @@ __all__ = [
     "InputError",
     "Interface",
     "Material",
+    "NonMatchingContactWarning",
     "Penalty",
     "PenaltyRangeWarning",
     "Plane",

@@ -194,3 +194,21 @@ def test_a_hemisphere_whose_pole_touches_carries_a_prescribed_force(gap):
         signed = dd.ContactSettings(touching_tolerance=0.0)
         with pytest.raises(dd.SingularMatrixError, match="held only by contact"):
             dd.StaticProblem(scene, contact=signed).solve()
+
+
+@pytest.mark.parametrize(("resolution", "warns"), [(None, False), ((8, 4), False), ((5, 3), True)])
+def test_a_contact_interface_that_is_not_a_facet_copy_warns(resolution, warns):
+    # A gmsh pin-hole surface or a coarser/finer grid locks the wall (measured: 2.9-3.6x the
+    # force of a block pressed on a pin): say so instead of returning such pressures quietly.
+    plate = dd.Subdomain(
+        meshes.box(MPI.COMM_SELF, [0, 0, 0], [0.1, 0.05, 0.01], [8, 4, 2]), STEEL, "plate"
+    )
+    wall = dd.Plane([0, 0, 0], [0, 0, 1])
+    zone = dd.ContactInterface.from_boundary(plate, _on(2, 0.0), wall, resolution=resolution)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        dd.StaticProblem(dd.Scene(MPI.COMM_SELF, [plate], contacts=[zone])).close()
+    flagged = [w for w in caught if issubclass(w.category, dd.NonMatchingContactWarning)]
+    assert len(flagged) == int(warns)
+    if warns:
+        assert "15 cells and 24 nodes against 32 facets and 45 nodes" in str(flagged[0].message)
