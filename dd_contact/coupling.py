@@ -158,6 +158,18 @@ def _is_parallelogram(maps: npt.NDArray[np.float64]) -> npt.NDArray[np.bool_]:
     return np.linalg.norm(maps[:, 3], axis=1) <= 1e-13 * size
 
 
+def _solve_2x2(jx: np.ndarray, jy: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Solve ``[jx jy] d = r`` for many 2x2 systems at once (Cramer's rule; last axis 2)."""
+    det = jx[..., 0] * jy[..., 1] - jx[..., 1] * jy[..., 0]
+    return np.stack(
+        [
+            (r[..., 0] * jy[..., 1] - r[..., 1] * jy[..., 0]) / det,
+            (jx[..., 0] * r[..., 1] - jx[..., 1] * r[..., 0]) / det,
+        ],
+        axis=-1,
+    )
+
+
 def bilinear_distortion(
     maps: npt.NDArray[np.float64], triangles: npt.NDArray[np.float64]
 ) -> npt.NDArray[np.float64]:
@@ -184,28 +196,12 @@ def bilinear_distortion(
     with np.errstate(divide="ignore", invalid="ignore"):
         for _ in range(50):  # Newton; converges in a few steps for a convex cell.
             r = triangles - (c0 + c1 * X[..., :1] + c2 * X[..., 1:] + c3 * X[..., :1] * X[..., 1:])
-            jx, jy = c1 + c3 * X[..., 1:], c2 + c3 * X[..., :1]
-            det = jx[..., 0] * jy[..., 1] - jx[..., 1] * jy[..., 0]
-            dX = np.stack(
-                [
-                    (r[..., 0] * jy[..., 1] - r[..., 1] * jy[..., 0]) / det,
-                    (jx[..., 0] * r[..., 1] - jx[..., 1] * r[..., 0]) / det,
-                ],
-                axis=-1,
-            )
+            dX = _solve_2x2(c1 + c3 * X[..., 1:], c2 + c3 * X[..., :1], r)
             X = X + dX
             step = np.abs(dX[np.isfinite(dX)])
             if step.size == 0 or step.max() <= 1e-12:
                 break
-        jx, jy = c1 + c3 * X[..., 1:], c2 + c3 * X[..., :1]
-        det = jx[..., 0] * jy[..., 1] - jx[..., 1] * jy[..., 0]
-        g = np.stack(
-            [
-                (c3[..., 0] * jy[..., 1] - c3[..., 1] * jy[..., 0]) / det,
-                (jx[..., 0] * c3[..., 1] - jx[..., 1] * c3[..., 0]) / det,
-            ],
-            axis=-1,
-        )
+        g = _solve_2x2(c1 + c3 * X[..., 1:], c2 + c3 * X[..., :1], c3)
         reach = np.linalg.norm(g, axis=-1).max(axis=1)
         size = np.linalg.norm(X[:, [0, 1, 2]] - X[:, [1, 2, 0]], axis=-1).max(axis=1)
         distortion = reach * size
