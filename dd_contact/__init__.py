@@ -7,7 +7,6 @@ from dd_contact.errors import (
     ContactIterationError,
     InaccurateSolutionError,
     InputError,
-    NonMatchingContactWarning,
     PenaltyRangeWarning,
     SingularMatrixError,
 )
@@ -43,7 +42,6 @@ __all__ = [
     "InputError",
     "Interface",
     "Material",
-    "NonMatchingContactWarning",
     "Penalty",
     "PenaltyRangeWarning",
     "Plane",

@@ -12,6 +12,7 @@ surface displacement lives in, so every solver can add P_C where it belongs.
 
 from __future__ import annotations
 
+import dataclasses
 import warnings
 from dataclasses import dataclass, field
 
@@ -20,12 +21,13 @@ from mpi4py import MPI
 import dolfinx.mesh
 import numpy as np
 import scipy.sparse as sp
+from scipy.sparse.linalg import splu
 from scipy.spatial import cKDTree
 
 from dd_contact import coupling, forms
 from dd_contact.blocks import Block, ContactRegion
 from dd_contact.contact import ContactOperator, contact_points, mean_cell_size
-from dd_contact.errors import InputError, NonMatchingContactWarning, PenaltyRangeWarning
+from dd_contact.errors import InputError, PenaltyRangeWarning
 from dd_contact.scene import (
     KAPPA_ASSEMBLED,
     KAPPA_SPLIT,
@@ -195,32 +197,34 @@ def _add_tie(system: BlockSystem, sub, surface, ops: coupling.TieOperators) -> N
         )
 
 
-def _warn_unless_facet_copy(contact: ContactInterface, sub, ops: coupling.TieOperators) -> None:
-    """Warn if a contact interface's mesh is not the tied facets' (same nodes and cells).
-
-    The penalty tie holds w to the subdomain's wall displacement pointwise: on a mesh that
-    does not match the wall it locks what w cannot represent, and a non-uniform contact
-    pressure comes out wrong (measured: 2.9-3.6x the force of a block pressed on a pin,
-    peaks of 4-200x on a gmsh mesh of a pin hole). Uniform pressure is unaffected.
-    """
+def _is_facet_copy(contact: ContactInterface, sub, ops: coupling.TieOperators) -> bool:
+    """Whether a contact interface's mesh is the tied facets' (same cells, nodes, positions)."""
     surface_x = contact.mesh.geometry.x
     cells = contact.mesh.topology.index_map(2).size_local
     wall = np.unique(dolfinx.mesh.entities_to_geometry(sub.mesh, 2, ops.facets))
-    same = len(ops.facets) == cells and len(wall) == len(surface_x)
-    if same:
-        distance, _ = cKDTree(sub.mesh.geometry.x[wall]).query(surface_x)
-        same = bool(np.all(distance <= 1e-9 * ops.height))
-    if not same:
-        warnings.warn(
-            f"contact interface {contact.name!r} is not a copy of the facets of subdomain "
-            f"{sub.name!r} it lies on ({cells} cells and {len(surface_x)} nodes against "
-            f"{len(ops.facets)} facets and {len(wall)} nodes): the penalty tie locks the "
-            "wall to what its mesh can represent, so a non-uniform contact pressure can be "
-            "wrong by large factors (uniform pressure is not affected); build it with "
-            "ContactInterface.from_boundary(..., resolution=None)",
-            NonMatchingContactWarning,
-            stacklevel=4,
-        )
+    if len(ops.facets) != cells or len(wall) != len(surface_x):
+        return False
+    distance, _ = cKDTree(sub.mesh.geometry.x[wall]).query(surface_x)
+    return bool(np.all(distance <= 1e-9 * ops.height))
+
+
+def _projected(ops: coupling.TieOperators) -> coupling.TieOperators:
+    """The tie with P1 = P2 P4^-1 P2^T: w is tied to the wall's projection on its mesh.
+
+    The penalty tie holds w to the wall displacement u pointwise; on a mesh that does not
+    match the wall it also penalises what w cannot represent, which locks the wall (a block
+    pressed on a pin carried 2.9-3.6x the force, a gmsh pin hole gave 4-200x the peak
+    pressure). The projected tie penalises ``|w - Pi u|`` with ``Pi = P4^-1 P2^T`` instead:
+    rigid and linear fields stay exact, nothing locks. P1 is dense over the tied wall nodes.
+    """
+    wall = np.unique(sp.coo_array(ops.P2).row)
+    P2 = sp.csr_array(ops.P2)[wall]
+    X = splu(sp.csc_array(ops.P4)).solve(P2.T.toarray())
+    block = P2 @ X
+    rows, cols = np.meshgrid(wall, wall, indexing="ij")
+    n = ops.P1.shape[0]
+    P1 = sp.csr_array((block.ravel(), (rows.ravel(), cols.ravel())), shape=(n, n))
+    return dataclasses.replace(ops, P1=P1)
 
 
 def _check_covered(surface, what: str, coverage: np.ndarray, comm: MPI.Comm | None) -> None:
@@ -326,9 +330,10 @@ def _contact_zone(
         coverage = None
     else:
         ops = _tie_operators(contact, sub, "contact interface")
+        if not _is_facet_copy(contact, sub, ops):
+            ops = _projected(ops)
         block = contact.block
         _add_tie(system, sub, contact, ops)
-        _warn_unless_facet_copy(contact, sub, ops)
         dofs = np.arange(contact.num_dofs)
         coverage = ops.covered_area / ops.cell_area
         height = ops.height

@@ -487,14 +487,13 @@ def tie_operators(
     phi_s = S.element.basix_element.tabulate(0, X_s)[0, :, :, 0]
     dofs_s = S.dofmap.list[q_s]
 
-    # Volume basis: move each point onto its facet's plane along the surface normal, then
-    # pull it back into the cell behind the facet.
-    ns, nf = s_normal[q_s], f_normal[q_f]
-    shift = np.einsum("nd,nd->n", x - f_centre[q_f], nf) / np.einsum("nd,nd->n", ns, nf)
-    x_vol = x - shift[:, None] * ns
+    # Volume basis at the same point, pulled back into the cell behind the facet: on a
+    # curved wall the point lies a little off the facet's plane, and u is extended from the
+    # cell, so u and the surface field are compared where they are (a uniform strain is then
+    # tied exactly; moving the point onto the facet first was not).
     cells = facet_cell[q_f]
     v_elem = _coordinate_element(vol)
-    X_v = pull_back(v_elem, vol.geometry.x[vol.geometry.dofmaps[0][cells]], x_vol)
+    X_v = pull_back(v_elem, vol.geometry.x[vol.geometry.dofmaps[0][cells]], x)
     phi_v = V.element.basix_element.tabulate(0, X_v)[0, :, :, 0]
     dofs_v = V.dofmap.list[cells]
 

@@ -11,7 +11,6 @@ __all__ = [
     "ContactIterationError",
     "InaccurateSolutionError",
     "InputError",
-    "NonMatchingContactWarning",
     "PenaltyRangeWarning",
     "SingularMatrixError",
 ]
@@ -35,10 +34,6 @@ class InaccurateSolutionError(SingularMatrixError):
 
 class ContactIterationError(RuntimeError):
     """The contact iteration did not settle: it cycles or hit its iteration limit."""
-
-
-class NonMatchingContactWarning(UserWarning):
-    """A contact interface is not a copy of the facets it ties to: its pressure may be wrong."""
 
 
 class PenaltyRangeWarning(UserWarning):
