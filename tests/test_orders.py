@@ -114,7 +114,7 @@ def test_ranks_own_whole_subdomains_and_match_serial(kind, order):
         scene = verify.order_scene(kind, True, 1e4, c)
         problem = dd.TransientProblem(scene, 0.01, algorithm=order)
         problem.run(15, progress=False, summary=False)
-        results[name] = (verify._displacements(scene), problem.changes["gamma"])
+        results[name] = (verify.displacements(scene), problem.changes["gamma"])
         owned = {b for b in problem.solver.subdomains}
         # Subdomain k lives on rank k % size, and nowhere else.
         expected = {f"u:{s.name}" for k, s in enumerate(scene.subdomains) if k % c.size == c.rank}

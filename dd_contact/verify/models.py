@@ -1,16 +1,13 @@
-"""Verification cases with closed-form or independent references (``dd-contact verify``).
+"""The verification models: closed-form cases and the scenes tests, demos and benchmarks share.
 
 Each case returns records ``{case, quantity, value, reference, rel_error, tolerance, passed}``.
-The scene builders are public so tests, demos and benchmarks use the same models.
 """
 
 from __future__ import annotations
 
-import functools
 import itertools
-import warnings
-from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from collections.abc import Callable
+from dataclasses import dataclass
 
 from mpi4py import MPI
 
@@ -29,32 +26,27 @@ from dd_contact.scene import (
     Scene,
     Subdomain,
 )
-from dd_contact.solvers.schedule import fitting_algorithms
 
 __all__ = [
-    "CASES",
-    "DISTORTION",
-    "EXTREME_CASES",
-    "EXTREME_CELLS",
-    "EXTREME_FAMILIES",
-    "EXTREME_KAPPAS",
-    "MODERATE_KAPPA",
+    "BAR",
+    "BAR_IMPACT",
+    "HERTZ",
     "ORDER_SCENES",
-    "PENALTY_FLOOR",
-    "ExtremeCase",
-    "PenaltyRecord",
     "Record",
     "bar_impact",
     "bent_bar",
-    "extremes",
+    "block_scene",
+    "blocks",
+    "displacements",
+    "distort_in_plane",
     "free_vibration",
     "hertz",
+    "locator",
     "order_scene",
     "orders_agreement",
     "patch_test",
-    "penalty_tolerance",
-    "pressed_scene",
-    "run_cases",
+    "record",
+    "stress_error",
 ]
 
 
@@ -71,12 +63,14 @@ class Record:
     passed: bool
 
 
-def _record(case: str, quantity: str, value: float, reference: float, tol: float) -> Record:
+def record(case: str, quantity: str, value: float, reference: float, tol: float) -> Record:
+    """A record of ``value`` against ``reference`` with relative tolerance ``tol``."""
     rel = abs(value - reference) / abs(reference)
     return Record(case, quantity, float(value), float(reference), float(rel), tol, bool(rel <= tol))
 
 
-def _on(axis: int, coordinate: float) -> Callable[[np.ndarray], np.ndarray]:
+def locator(axis: int, coordinate: float) -> Callable[[np.ndarray], np.ndarray]:
+    """The points on the plane ``x[axis] = coordinate``."""
     return lambda x: np.isclose(x[axis], coordinate)
 
 
@@ -107,17 +101,17 @@ def patch_test(
     for axis in range(3):
         for sub in (left, right):
             if not (sub is right and axis == 0):
-                sub.fix(_on(axis, 0.0), components=[axis])
-    right.add_traction(_on(0, 2.0), (traction, 0.0, 0.0))
+                sub.fix(locator(axis, 0.0), components=[axis])
+    right.add_traction(locator(0, 2.0), (traction, 0.0, 0.0))
     interface = Interface.from_boundary(
-        left, _on(0, 1.0), [left, right], resolution=(4, 6), cell_type=surface_cell, kappa=kappa
+        left, locator(0, 1.0), [left, right], resolution=(4, 6), cell_type=surface_cell, kappa=kappa
     )
     scene = Scene(comm, [left, right], interface)
     StaticProblem(scene).solve()
-    return _stress_error(scene, 0, traction)
+    return stress_error(scene, 0, traction)
 
 
-def _stress_error(scene: Scene, axis: int, traction: float) -> float:
+def stress_error(scene: Scene, axis: int, traction: float) -> float:
     """Largest deviation of any cell's stress from uniaxial ``traction`` along ``axis``.
 
     Relative to the traction, over every cell of every subdomain.
@@ -142,9 +136,9 @@ def _bar_subdomain(x0: float, x1: float, cells: tuple[int, int, int], name: str)
 
 
 def _load_bar(clamped: Subdomain, tip: Subdomain) -> None:
-    clamped.fix(_on(0, 0.0))
+    clamped.fix(locator(0, 0.0))
     area = BAR["width"] * BAR["height"]
-    tip.add_traction(_on(0, BAR["length"]), (0.0, 0.0, -BAR["force"] / area))
+    tip.add_traction(locator(0, BAR["length"]), (0.0, 0.0, -BAR["force"] / area))
 
 
 def bent_bar(
@@ -168,7 +162,7 @@ def bent_bar(
     single = _bar_subdomain(0.0, L, (10 * r, 2 * r, 2 * r), "bar")
     _load_bar(single, single)
     StaticProblem(Scene(comm, [single])).solve()
-    reference = boundary_average(single, _on(0, L))[2]
+    reference = boundary_average(single, locator(0, L))[2]
 
     left = _bar_subdomain(0.0, L / 2, (5 * r, 2 * r, 2 * r), "left")
     right_cells = (5 * r, 2 * r, 2 * r) if matching else (4 * r, 3 * r, 3 * r)
@@ -176,14 +170,14 @@ def bent_bar(
     _load_bar(left, right)
     interface = Interface.from_boundary(
         left,
-        _on(0, L / 2),
+        locator(0, L / 2),
         [left, right],
         resolution=(2 * r, 2 * r) if matching else (3 * r, 4 * r),
         cell_type="quadrilateral" if matching else "triangle",
         kappa=kappa,
     )
     StaticProblem(Scene(comm, [left, right], interface)).solve()
-    return float(boundary_average(right, _on(0, L))[2]), float(reference)
+    return float(boundary_average(right, locator(0, L))[2]), float(reference)
 
 
 # -- Hertz ---------------------------------------------------------------------------------
@@ -314,10 +308,10 @@ def bar_impact(
         )
     bar = parts[0]
     interface = (
-        Interface.from_boundary(bar, _on(0, L / 2), parts, resolution=(1, 1)) if split else None
+        Interface.from_boundary(bar, locator(0, L / 2), parts, resolution=(1, 1)) if split else None
     )
     wall = Plane([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
-    end = _on(0, 0.0)
+    end = locator(0, 0.0)
     if contact == "boundary":
         zone = ContactBoundary(bar, end, wall, contact_kappa=contact_kappa, name="end")
     else:
@@ -383,9 +377,9 @@ def free_vibration(
     material = Material(1000.0, 0.3, 1.0)
     left = Subdomain(meshes.box(MPI.COMM_SELF, [0, 0, 0], [2, 1, 1], [6, 3, 3]), material, "left")
     right = Subdomain(meshes.box(MPI.COMM_SELF, [2, 0, 0], [4, 1, 1], [5, 2, 2]), material, "right")
-    left.fix(_on(0, 0.0))
+    left.fix(locator(0, 0.0))
     interface = Interface.from_boundary(
-        left, _on(0, 2.0), [left, right], resolution=(3, 3), kappa=kappa
+        left, locator(0, 2.0), [left, right], resolution=(3, 3), kappa=kappa
     )
     for sub in (left, right):
         sub.u.interpolate(lambda x: np.vstack([0 * x[0], 0 * x[0], 1e-3 * x[0] ** 2]))
@@ -412,8 +406,8 @@ ORDER_SCENES = {
 }
 
 
-def _blocks(kind: str, volume_cell: str = "hexahedron") -> list[Subdomain]:
-    """The blocks of :func:`_block_scene` (no loads, no supports).
+def blocks(kind: str, volume_cell: str = "hexahedron") -> list[Subdomain]:
+    """The blocks of :func:`block_scene` (no loads, no supports).
 
     A = [0,1]^3 (4x3x3 cells) and, unless ``kind`` is ``"single"``, the non-matching
     B = [1,2]x[0,1]^2 (3x4x4 cells); E = 1000, nu = 0.3, rho = 1.
@@ -429,7 +423,7 @@ def _blocks(kind: str, volume_cell: str = "hexahedron") -> list[Subdomain]:
     return parts
 
 
-def _block_scene(
+def block_scene(
     kind: str,
     parts: list[Subdomain],
     wall: Plane,
@@ -441,27 +435,27 @@ def _block_scene(
     resolution: tuple[int, int] = (3, 3),
     distortion: float = 0.0,
 ) -> Scene:
-    """The scene of :func:`_blocks`: their surfaces and the rigid ``wall`` at A's end x = 0.
+    """The scene of :func:`blocks`: their surfaces and the rigid ``wall`` at A's end x = 0.
 
     ``kind`` (:data:`ORDER_SCENES`) says which surfaces there are: ``"interface"`` an
     interface on x = 1 and a contact interface on x = 0; ``"boundary"`` the interface and
     contact on A's own boundary; ``"single"`` a contact interface only. The surface meshes
     have ``resolution`` cells of ``surface_cell``; ``distortion`` moves their interior nodes
-    in-plane (:func:`_distort_in_plane`).
+    in-plane (:func:`distort_in_plane`).
     """
     a = parts[0]
 
     def surface(x: float):
         mesh = meshes.surface_from_boundary(
-            a.mesh, _on(0, x), resolution, surface_cell, comm=MPI.COMM_SELF
+            a.mesh, locator(0, x), resolution, surface_cell, comm=MPI.COMM_SELF
         )
-        return _distort_in_plane(mesh, distortion) if distortion else mesh
+        return distort_in_plane(mesh, distortion) if distortion else mesh
 
     interface = None
     if kind != "single":
         interface = Interface(surface(1.0), parts, kappa=kappa)
     if kind == "boundary":
-        zone = ContactBoundary(a, _on(0, 0.0), wall, contact_kappa=contact_kappa, name="end")
+        zone = ContactBoundary(a, locator(0, 0.0), wall, contact_kappa=contact_kappa, name="end")
     else:
         zone = ContactInterface(
             surface(0.0), a, wall, kappa=contact_tie_kappa, contact_kappa=contact_kappa, name="end"
@@ -469,7 +463,7 @@ def _block_scene(
     return Scene(comm, parts, interface, contacts=[zone])
 
 
-def _distort_in_plane(mesh: dolfinx.mesh.Mesh, amount: float) -> dolfinx.mesh.Mesh:
+def distort_in_plane(mesh: dolfinx.mesh.Mesh, amount: float) -> dolfinx.mesh.Mesh:
     """Move the interior nodes of a planar surface mesh within its plane (in place).
 
     Each interior node moves by up to ``amount`` times the shortest cell edge along each of
@@ -511,7 +505,7 @@ def order_scene(
         kappa: Tie penalty of the interface and contact interface (default: the default).
         comm: Communicator.
     """
-    parts = _blocks(kind)
+    parts = blocks(kind)
     far = parts[-1]
     if dynamic:
         for part in parts:
@@ -521,14 +515,15 @@ def order_scene(
     else:
         end = float(len(parts))
         far.fix(
-            _on(0, end),
+            locator(0, end),
             value=lambda x: np.vstack([-0.004 - 0.02 * (x[1] - 0.5), 0 * x[0], 0 * x[0]]),
         )
     wall = Plane([-0.002, 0, 0], [1, 0, 0])
-    return _block_scene(kind, parts, wall, comm, kappa=kappa, contact_tie_kappa=kappa)
+    return block_scene(kind, parts, wall, comm, kappa=kappa, contact_tie_kappa=kappa)
 
 
-def _displacements(scene: Scene) -> np.ndarray:
+def displacements(scene: Scene) -> np.ndarray:
+    """Every displacement of a scene (subdomains, interface, contacts) in one vector."""
     parts = [s.u.x.array for s in scene.subdomains]
     if scene.interface is not None:
         parts.append(scene.interface.v.x.array)
@@ -544,13 +539,13 @@ def _run_order(kind, dynamic, kappa, order, comm, steps, dt):
             steps,
             progress=False,
             summary=False,
-            callback=lambda _: states.append(_displacements(scene)),
+            callback=lambda _: states.append(displacements(scene)),
         )
         path = [r["changes"] for r in problem.history]
     else:
         problem = StaticProblem(scene, algorithm=order)
         problem.solve()
-        states, path = [_displacements(scene)], [problem.changes["gamma"]]
+        states, path = [displacements(scene)], [problem.changes["gamma"]]
     return np.array(states), path, problem
 
 
@@ -585,300 +580,3 @@ def orders_agreement(
                     }
                 )
     return out
-
-
-# -- penalty extremes: every algorithm against a penalty-free reference --------------------
-#: Tolerance of a penalty-sweep record: ``max(10 x the penalty's own modelling error, floor)``.
-PENALTY_FLOOR = 1e-8
-
-#: Dimensionless tie penalties of the sweep: every decade 1e0 ... 1e14.
-EXTREME_KAPPAS = tuple(10.0**k for k in range(15))
-
-#: Penalties that are not swept (the other tie, the contact penalty) in the sweep's scenes.
-MODERATE_KAPPA = 1e4
-
-#: Swept penalty -> scene kinds (:data:`ORDER_SCENES`) that carry it: ``"tie"`` sweeps the
-#: interface's kappa, ``"contact-tie"`` the contact interface's.
-EXTREME_FAMILIES = {"tie": ("interface", "boundary"), "contact-tie": ("interface", "single")}
-
-#: (volume cell, surface cell) of the sweep's meshes, as they appear in the case names.
-EXTREME_CELLS = {
-    "hex-quad": ("hexahedron", "quadrilateral"),
-    "hex-tri": ("hexahedron", "triangle"),
-    "tet-quad": ("tetrahedron", "quadrilateral"),
-    "tet-tri": ("tetrahedron", "triangle"),
-}
-
-#: In-plane move of the interior surface nodes of the ``-distorted`` cases (shortest edges).
-DISTORTION = 0.2
-
-
-def penalty_tolerance(modelling_error: float) -> float:
-    """Tolerance of a penalty-sweep quantity whose penalty modelling error is given.
-
-    Ten times the error the penalty itself makes in the quantity (relative), at least
-    :data:`PENALTY_FLOOR`: a solve may lose digits only where the penalty has already
-    spent them.
-    """
-    return max(10.0 * modelling_error, PENALTY_FLOOR)
-
-
-@dataclass
-class PenaltyRecord(Record):
-    """A :class:`Record` of the penalty sweep: one algorithm at one penalty.
-
-    ``rel_error`` is the larger of ``stress_error`` and ``force_error``; ``note`` says why a
-    solve failed (its error is then inf) and which warnings it gave.
-    """
-
-    family: str = ""
-    algorithm: str = ""
-    kappa: float = 0.0
-    stress_error: float = 0.0
-    force_error: float = 0.0
-    note: str = ""
-
-
-@dataclass(frozen=True)
-class ExtremeCase:
-    """One scene of the penalty sweep (:func:`extremes`)."""
-
-    family: str
-    kind: str
-    cells: str
-    distorted: bool
-
-    @property
-    def name(self) -> str:
-        """Case name, e.g. ``tie-interface-hex-quad-distorted``."""
-        return f"{self.family}-{self.kind}-{self.cells}" + ("-distorted" if self.distorted else "")
-
-
-#: Every case of the sweep, by name.
-EXTREME_CASES = {
-    c.name: c
-    for c in (
-        ExtremeCase(family, kind, cells, distorted)
-        for family, kinds in EXTREME_FAMILIES.items()
-        for kind in kinds
-        for cells in EXTREME_CELLS
-        for distorted in (False, True)
-    )
-}
-
-
-def pressed_scene(
-    kind: str,
-    kappa: float = MODERATE_KAPPA,
-    contact_tie_kappa: float = MODERATE_KAPPA,
-    cells: str = "hex-quad",
-    distorted: bool = False,
-    pressure: float = 1.0,
-    comm: MPI.Comm = MPI.COMM_WORLD,
-) -> Scene:
-    """The blocks of :func:`order_scene` pressed onto a rigid plane by a uniform pressure.
-
-    A pressure on the far end x = 1 (``"single"``) or x = 2 presses A's end x = 0 onto the
-    rigid plane x = 0 (contact penalty :data:`MODERATE_KAPPA`); symmetry planes y = 0 and
-    z = 0 hold the rest. The exact stress is uniform, sigma_xx = -pressure, the plane carries
-    the whole load, and every tie transmits a uniform traction (a tied patch test): the
-    penalties add only rigid offsets, so the result carries no penalty error at any penalty.
-
-    Args:
-        kind: ``"interface"`` (FULL, v-w-u, w-v-u), ``"boundary"`` (FULL, v-u) or
-            ``"single"`` (FULL, w-u).
-        kappa: Tie penalty of the interface.
-        contact_tie_kappa: Tie penalty of the contact interface.
-        cells: Key of :data:`EXTREME_CELLS`; the surface meshes have 4 x 5 cells.
-        distorted: Move the surface meshes' interior nodes in-plane (:data:`DISTORTION`).
-        pressure: The pressure on the far end.
-        comm: Communicator.
-    """
-    volume_cell, surface_cell = EXTREME_CELLS[cells]
-    parts = _blocks(kind, volume_cell)
-    for part in parts:
-        part.fix(_on(1, 0.0), components=[1])
-        part.fix(_on(2, 0.0), components=[2])
-    parts[-1].add_traction(_on(0, float(len(parts))), (-pressure, 0.0, 0.0))
-    return _block_scene(
-        kind,
-        parts,
-        Plane([0.0, 0.0, 0.0], [1.0, 0.0, 0.0]),
-        comm,
-        kappa=kappa,
-        contact_tie_kappa=contact_tie_kappa,
-        contact_kappa=MODERATE_KAPPA,
-        surface_cell=surface_cell,
-        resolution=(4, 5),
-        distortion=DISTORTION if distorted else 0.0,
-    )
-
-
-def _penalty_record(case: ExtremeCase, algorithm: str, kappa: float, scene: Scene) -> PenaltyRecord:
-    """Solve a :func:`pressed_scene` (pressure 1 on a unit section) with ``algorithm``.
-
-    The error is the larger of the worst cell stress's deviation from the exact uniform
-    stress and the contact force's deviation from the load, both relative to the load; a
-    solve that raises has error inf and says why in ``note``, as do warnings it gave.
-    """
-    stress = force = np.inf
-    notes = []
-    try:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always")
-            with StaticProblem(scene, algorithm) as problem:
-                problem.solve()
-                reaction = problem.contact_forces()["end"]
-        stress = _stress_error(scene, 0, -1.0)
-        force = float(np.linalg.norm(reaction - [1.0, 0.0, 0.0]))
-        notes += sorted({f"{w.category.__name__}: {w.message}" for w in caught})
-    except (RuntimeError, FloatingPointError) as error:
-        notes.append(f"{type(error).__name__}: {error}")
-    note = "; ".join(notes)
-    error = max(stress, force)
-    # The exact solution is linear: the penalty models stress and force exactly.
-    tolerance = penalty_tolerance(0.0)
-    return PenaltyRecord(
-        case.name,
-        f"{algorithm}, kappa={kappa:.0e}: 1 + max(|sigma - sigma_exact|, |F - F_exact|) / p",
-        1.0 + error,
-        1.0,
-        error,
-        tolerance,
-        bool(error <= tolerance),
-        family=f"{case.family}-{case.kind}",
-        algorithm=algorithm,
-        kappa=kappa,
-        stress_error=stress,
-        force_error=force,
-        note=note,
-    )
-
-
-def extremes(
-    kappas: Sequence[float] = EXTREME_KAPPAS,
-    cases: Sequence[str] | None = None,
-    comm: MPI.Comm = MPI.COMM_WORLD,
-) -> list[Record]:
-    """Every fitting algorithm on :func:`pressed_scene` over a sweep of one tie penalty.
-
-    The reference is penalty-free and closed-form (uniform stress, contact force = load),
-    and the penalty adds no modelling error to either, so the tolerance is
-    ``max(10 x 0, PENALTY_FLOOR)``: what a record shows beyond round-off is the solver's
-    loss of digits at that penalty.
-
-    Args:
-        kappas: The swept penalty's values.
-        cases: Names in :data:`EXTREME_CASES` (default all).
-        comm: Communicator.
-
-    Returns:
-        One :class:`PenaltyRecord` per case, algorithm fitting its scene, and penalty.
-    """
-    names = list(EXTREME_CASES) if cases is None else list(cases)
-    unknown = [n for n in names if n not in EXTREME_CASES]
-    if unknown:
-        raise ValueError(f"unknown extremes case(s) {unknown}; valid: {', '.join(EXTREME_CASES)}")
-    records = []
-    for case in (EXTREME_CASES[n] for n in names):
-        make = functools.partial(
-            pressed_scene, case.kind, cells=case.cells, distorted=case.distorted, comm=comm
-        )
-        probe = make()
-        has_w = any(isinstance(c, ContactInterface) for c in probe.contacts)
-        algorithms = fitting_algorithms(probe.interface is not None, has_w)
-        swept = "kappa" if case.family == "tie" else "contact_tie_kappa"
-        for kappa in kappas:
-            for algorithm in algorithms:
-                scene = make(**{swept: kappa})
-                records.append(_penalty_record(case, algorithm, kappa, scene))
-    return records
-
-
-# -- cases ---------------------------------------------------------------------------------
-def _case_patch(name: str, surface_cell: str, volume_cell: str) -> Callable[[], list[Record]]:
-    def run() -> list[Record]:
-        error = patch_test(1e6, surface_cell, volume_cell)
-        # value: the worst stress relative to the traction; reference: the exact 1.
-        return [_record(name, "1 + max |sigma - sigma_exact| / t", 1.0 + error, 1.0, 1e-6)]
-
-    return run
-
-
-def _case_bent_bar() -> list[Record]:
-    records = []
-    for kappa in (1e4, 1e6):
-        tied, single = bent_bar(1, kappa, matching=True)
-        # The tie adds a compliance of order 1/kappa (measured: 0.22/kappa for this bar).
-        quantity = f"tip deflection, kappa={kappa:g}"
-        records.append(_record("bent-bar", quantity, tied, single, 1.0 / kappa))
-    tied, single = bent_bar(1, 1e6, matching=False)
-    records.append(_record("bent-bar", "tip deflection, non-matching", tied, single, 0.05))
-    return records
-
-
-def _case_hertz() -> list[Record]:
-    r = hertz(0.015)
-    return [
-        _record("hertz", "contact radius a", r["a"], r["a_ref"], 0.05),
-        _record("hertz", "peak pressure p0", r["p_max"], r["p0_ref"], 0.10),
-    ]
-
-
-def _case_bar_impact() -> list[Record]:
-    r = bar_impact()
-    return [
-        _record("bar-impact", "contact duration", r["duration"], r["duration_ref"], 0.03),
-        _record("bar-impact", "rebound velocity / -v0", r["rebound"], 1.0, 0.03),
-        _record("bar-impact", "energy after / before", r["energy_ratio"], 1.0, 0.03),
-    ]
-
-
-def _case_free_vibration() -> list[Record]:
-    r = free_vibration(1000)
-    quantity = "1 + max energy drift over 1000 steps"
-    return [_record("free-vibration", quantity, 1.0 + r["drift"], 1.0, 1e-8)]
-
-
-def _case_orders() -> list[Record]:
-    records = []
-    for r in orders_agreement():
-        what = f"{r['order']}, {r['scene']}, {'dynamic' if r['dynamic'] else 'static'}"
-        records.append(
-            _record(
-                "orders", f"1 + |u - u_FULL| / |u_FULL|, {what}", 1.0 + r["difference"], 1.0, 1e-9
-            )
-        )
-        changes = r["changes"] if r["same_path"] else -1
-        records.append(
-            _record(
-                "orders",
-                f"contact changes on FULL's path, {what}",
-                1 + changes,
-                1 + r["changes"],
-                0.0,
-            )
-        )
-    return records
-
-
-CASES: dict[str, Callable[[], list[Record]]] = {
-    "patch-hex-quad": _case_patch("patch-hex-quad", "quadrilateral", "hexahedron"),
-    "patch-hex-tri": _case_patch("patch-hex-tri", "triangle", "hexahedron"),
-    "patch-tet-tri": _case_patch("patch-tet-tri", "triangle", "tetrahedron"),
-    "bent-bar": _case_bent_bar,
-    "hertz": _case_hertz,
-    "bar-impact": _case_bar_impact,
-    "free-vibration": _case_free_vibration,
-    "orders": _case_orders,
-    "extremes": extremes,
-}
-
-
-def run_cases(names: list[str] | None = None) -> list[dict]:
-    """Run the named cases (default all) and return their records as dicts."""
-    names = list(CASES) if not names else names
-    unknown = [n for n in names if n not in CASES]
-    if unknown:
-        raise ValueError(f"unknown case(s) {unknown}; valid: {', '.join(CASES)}")
-    return [asdict(r) for name in names for r in CASES[name]()]

@@ -1,0 +1,63 @@
+"""Verification cases with closed-form or independent references (``dd-contact verify``).
+
+Each case returns records ``{case, quantity, value, reference, rel_error, tolerance, passed}``.
+The scene builders are public so tests, demos and benchmarks use the same models:
+:mod:`~dd_contact.verify.models` (the closed-form cases and shared scenes),
+:mod:`~dd_contact.verify.extremes` (the penalty sweep), :mod:`~dd_contact.verify.cases`
+(the registry of ``dd-contact verify``).
+"""
+
+from dd_contact.verify.cases import CASES, run_cases
+from dd_contact.verify.extremes import (
+    DISTORTION,
+    EXTREME_CASES,
+    EXTREME_CELLS,
+    EXTREME_FAMILIES,
+    EXTREME_KAPPAS,
+    MODERATE_KAPPA,
+    PENALTY_FLOOR,
+    ExtremeCase,
+    PenaltyRecord,
+    extremes,
+    penalty_tolerance,
+    pressed_scene,
+)
+from dd_contact.verify.models import (
+    ORDER_SCENES,
+    Record,
+    bar_impact,
+    bent_bar,
+    displacements,
+    free_vibration,
+    hertz,
+    order_scene,
+    orders_agreement,
+    patch_test,
+)
+
+__all__ = [
+    "CASES",
+    "DISTORTION",
+    "EXTREME_CASES",
+    "EXTREME_CELLS",
+    "EXTREME_FAMILIES",
+    "EXTREME_KAPPAS",
+    "MODERATE_KAPPA",
+    "ORDER_SCENES",
+    "PENALTY_FLOOR",
+    "ExtremeCase",
+    "PenaltyRecord",
+    "Record",
+    "bar_impact",
+    "bent_bar",
+    "displacements",
+    "extremes",
+    "free_vibration",
+    "hertz",
+    "order_scene",
+    "orders_agreement",
+    "patch_test",
+    "penalty_tolerance",
+    "pressed_scene",
+    "run_cases",
+]

@@ -1,0 +1,109 @@
+"""The cases of ``dd-contact verify``: each a list of records against its reference."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict
+
+from dd_contact.verify.extremes import extremes
+from dd_contact.verify.models import (
+    Record,
+    bar_impact,
+    bent_bar,
+    free_vibration,
+    hertz,
+    orders_agreement,
+    patch_test,
+    record,
+)
+
+__all__ = ["CASES", "run_cases"]
+
+
+# -- cases ---------------------------------------------------------------------------------
+def _case_patch(name: str, surface_cell: str, volume_cell: str) -> Callable[[], list[Record]]:
+    def run() -> list[Record]:
+        error = patch_test(1e6, surface_cell, volume_cell)
+        # value: the worst stress relative to the traction; reference: the exact 1.
+        return [record(name, "1 + max |sigma - sigma_exact| / t", 1.0 + error, 1.0, 1e-6)]
+
+    return run
+
+
+def _case_bent_bar() -> list[Record]:
+    records = []
+    for kappa in (1e4, 1e6):
+        tied, single = bent_bar(1, kappa, matching=True)
+        # The tie adds a compliance of order 1/kappa (measured: 0.22/kappa for this bar).
+        quantity = f"tip deflection, kappa={kappa:g}"
+        records.append(record("bent-bar", quantity, tied, single, 1.0 / kappa))
+    tied, single = bent_bar(1, 1e6, matching=False)
+    records.append(record("bent-bar", "tip deflection, non-matching", tied, single, 0.05))
+    return records
+
+
+def _case_hertz() -> list[Record]:
+    r = hertz(0.015)
+    return [
+        record("hertz", "contact radius a", r["a"], r["a_ref"], 0.05),
+        record("hertz", "peak pressure p0", r["p_max"], r["p0_ref"], 0.10),
+    ]
+
+
+def _case_bar_impact() -> list[Record]:
+    r = bar_impact()
+    return [
+        record("bar-impact", "contact duration", r["duration"], r["duration_ref"], 0.03),
+        record("bar-impact", "rebound velocity / -v0", r["rebound"], 1.0, 0.03),
+        record("bar-impact", "energy after / before", r["energy_ratio"], 1.0, 0.03),
+    ]
+
+
+def _case_free_vibration() -> list[Record]:
+    r = free_vibration(1000)
+    quantity = "1 + max energy drift over 1000 steps"
+    return [record("free-vibration", quantity, 1.0 + r["drift"], 1.0, 1e-8)]
+
+
+def _case_orders() -> list[Record]:
+    records = []
+    for r in orders_agreement():
+        what = f"{r['order']}, {r['scene']}, {'dynamic' if r['dynamic'] else 'static'}"
+        records.append(
+            record(
+                "orders", f"1 + |u - u_FULL| / |u_FULL|, {what}", 1.0 + r["difference"], 1.0, 1e-9
+            )
+        )
+        changes = r["changes"] if r["same_path"] else -1
+        records.append(
+            record(
+                "orders",
+                f"contact changes on FULL's path, {what}",
+                1 + changes,
+                1 + r["changes"],
+                0.0,
+            )
+        )
+    return records
+
+
+CASES: dict[str, Callable[[], list[Record]]] = {
+    "patch-hex-quad": _case_patch("patch-hex-quad", "quadrilateral", "hexahedron"),
+    "patch-hex-tri": _case_patch("patch-hex-tri", "triangle", "hexahedron"),
+    "patch-tet-tri": _case_patch("patch-tet-tri", "triangle", "tetrahedron"),
+    "bent-bar": _case_bent_bar,
+    "hertz": _case_hertz,
+    "bar-impact": _case_bar_impact,
+    "free-vibration": _case_free_vibration,
+    "orders": _case_orders,
+    "extremes": extremes,
+}
+
+
+def run_cases(names: list[str] | None = None) -> list[dict]:
+    """Run the named cases (default all) and return their records as dicts."""
+    names = list(CASES) if not names else names
+    unknown = [n for n in names if n not in CASES]
+    if unknown:
+        raise ValueError(f"unknown case(s) {unknown}; valid: {', '.join(CASES)}")
+    return [asdict(r) for name in names for r in CASES[name]()]
