@@ -19,13 +19,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import ContactZone
+from dd_contact.bodies import Body, rigid_motion_rows
 from dd_contact.errors import (
     ContactCycleWarning,
     ContactIterationError,
     InaccurateSolutionError,
     SingularMatrixError,
 )
-from dd_contact.scene import Body, rigid_motion_rows
 from dd_contact.solvers.residual import (
     DEFAULT_RESIDUAL_TOLERANCE,
     FREE_ROW_TOLERANCE,
