@@ -168,13 +168,13 @@ def _add_tie(system: BlockSystem, sub, surface, ops: coupling.TieOperators) -> N
     """Penalty tie terms (9)-(11): P1 on u, -P2 between u and s, P4 on s, all over eps.
 
     A tie stiffer than KAPPA_SPLIT is assembled at KAPPA_ASSEMBLED and its remainder
-    recorded as a :class:`StiffTie`. Records the tie's eps and kappa, and warns if kappa is outside
-    the verified range.
+    recorded as a :class:`StiffTie`. Records the tie's eps and kappa, and warns if kappa is
+    outside the verified range.
     """
     E = sub.material.E
     eps = surface.penalty.epsilon_for(ops.height, E)
-    kappa = ops.height / (E * eps)
-    stiff = kappa > KAPPA_SPLIT * (1.0 + 1e-9)  # kappa = 1e6 may come back as 1e6 + ulp
+    kappa = surface.penalty.kappa_for(ops.height, E)
+    stiff = kappa > KAPPA_SPLIT
     assembled = ops.height / (E * KAPPA_ASSEMBLED) if stiff else eps
     u, s = sub.block, surface.block
     P1, P2, P4 = (coupling.blocked(P) for P in (ops.P1, ops.P2, ops.P4))

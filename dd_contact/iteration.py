@@ -241,8 +241,8 @@ class ContactIteration:
             rows = [p for part in self.comm.allgather(local) for p in part]
             m = body.free.shape[1]
             rows = np.concatenate(rows) if rows else np.zeros((0, m))
-            s = np.linalg.svd(rows, compute_uv=False) if len(rows) else np.zeros(0)
-            resisted = int(np.sum(s > 1e-8 * max(1.0, s.max(initial=0.0))))
+            singular = np.linalg.svd(rows, compute_uv=False) if len(rows) else np.zeros(0)
+            resisted = int(np.sum(singular > 1e-8 * max(1.0, singular.max(initial=0.0))))
             if resisted < m:
                 names = ", ".join(repr(s.name) for s in body.subdomains)
                 raise SingularMatrixError(

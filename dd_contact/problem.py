@@ -118,7 +118,9 @@ class _Analysis:
             self.zones,
             self.settings,
             system.sizes,
-            ResidualCheck(self.comm, system, {z.block: z.dofs for z in self.zones}),
+            None
+            if self.settings.residual_tolerance is None
+            else ResidualCheck(self.comm, system, {z.block: z.dofs for z in self.zones}),
             held=[] if mass_coefficient else scene.bodies(),
         )
         self._closed = False

@@ -114,6 +114,12 @@ class Penalty:
                     f"a stiffer tie needs a larger kappa or a smaller epsilon"
                 )
 
+    def kappa_for(self, h: float, E: float) -> float:
+        """The dimensionless kappa for element height ``h`` and Young's modulus ``E``."""
+        if self.epsilon is not None:
+            return h / (E * self.epsilon)
+        return DEFAULT_KAPPA if self.kappa is None else self.kappa
+
     def epsilon_for(self, h: float, E: float) -> float:
         """The absolute eps for element height ``h`` and Young's modulus ``E``."""
         if self.epsilon is not None:
