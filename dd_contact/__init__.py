@@ -9,6 +9,7 @@ from dd_contact.errors import (
     InputError,
     PenaltyRangeWarning,
     SingularMatrixError,
+    SurfaceResolutionWarning,
 )
 from dd_contact.iteration import ContactSettings
 from dd_contact.obstacles import Cylinder, Plane, Sphere, UserObstacle
@@ -50,6 +51,7 @@ __all__ = [
     "Sphere",
     "StaticProblem",
     "Subdomain",
+    "SurfaceResolutionWarning",
     "TransientProblem",
     "UserObstacle",
     "__version__",

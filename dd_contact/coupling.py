@@ -235,6 +235,8 @@ class TieOperators:
         height: Mean height of the volume cells behind the tied facets (the ``h`` of the
             dimensionless penalty ``kappa = h / (E * eps)``).
         facets: The volume mesh's tied boundary facets.
+        projected: Whether P1 is the projected tie ``P2 P4^-1 P2^T`` (a surface that does not
+            copy the tied facets) rather than the pointwise one.
     """
 
     P1: sp.csr_array
@@ -244,6 +246,7 @@ class TieOperators:
     cell_area: npt.NDArray[np.float64]
     height: float
     facets: npt.NDArray[np.int32]
+    projected: bool = False
 
     @property
     def area(self) -> float:

@@ -13,6 +13,7 @@ __all__ = [
     "InputError",
     "PenaltyRangeWarning",
     "SingularMatrixError",
+    "SurfaceResolutionWarning",
 ]
 
 
@@ -42,3 +43,7 @@ class PenaltyRangeWarning(UserWarning):
 
 class ContactCycleWarning(UserWarning):
     """The contact iteration cycled and the cycle was resolved (``on_cycle="union"``)."""
+
+
+class SurfaceResolutionWarning(UserWarning):
+    """A contact surface is finer than the wall it is tied to: its nodal pressure may oscillate."""

@@ -219,7 +219,7 @@ class _Analysis:
         for z in self.zones:
             w = x[z.block][z.dofs]
             z.contact.w.x.array[:] = w
-            z.contact.pressure.x.array[:] = z.operator.nodal_pressure(w)
+            z.contact.pressure.x.array[:] = z.pressure(w)
         if any(not np.all(np.isfinite(v)) for v in x.values()):
             raise FloatingPointError(
                 "the solution contains NaN or inf: the system is too ill-conditioned (extreme "

@@ -220,5 +220,11 @@ def test_a_contact_interface_that_is_not_a_facet_copy_carries_the_facet_copy_for
     # (P1 = P2 P4^-1 P2^T) measured +1.5 % and -3.0 %: the discretisation of the contact.
     reference = _block_on_pin(None)
     assert _block_on_pin((24, 3)) == pytest.approx(reference, rel=1e-12)  # a facet copy too
-    for resolution in ((37, 5), (17, 3)):
-        assert _block_on_pin(resolution) == pytest.approx(reference, rel=0.05), resolution
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", dd.SurfaceResolutionWarning)
+        for resolution in ((37, 5), (17, 3)):
+            assert _block_on_pin(resolution) == pytest.approx(reference, rel=0.05), resolution
+    # 48 cells along the pin's curvature on the wall's 24: the surface over-constrains the
+    # wall (force +5.6 %, nodal peak +45 %), and that is reported.
+    with pytest.warns(dd.SurfaceResolutionWarning, match="'contact'"):
+        assert _block_on_pin((48, 6)) == pytest.approx(reference, rel=0.1)
