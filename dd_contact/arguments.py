@@ -128,7 +128,7 @@ def instance(value: Any, cls: type | tuple[type, ...], argument: str) -> None:
     """``value`` is a ``cls`` (or one of a tuple of classes)."""
     if not isinstance(value, cls):
         names = " or ".join(c.__name__ for c in (cls if isinstance(cls, tuple) else (cls,)))
-        raise InputError(f"{argument} must be a {names}, got {type(value).__name__}")
+        raise InputError(f"{argument}: expected {names}, got {type(value).__name__}")
 
 
 def name(value: Any, what: str) -> None:
