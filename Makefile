@@ -8,11 +8,12 @@ LINTED := dd_contact tests demos benchmarks
 
 venv: $(VENV)/.installed
 
-$(VENV)/.installed: pyproject.toml
+$(VENV)/.installed: pyproject.toml tools/libmpi_first.py
 	tools/system_deps.sh
 	$(PY) -c pass 2>/dev/null || { py="$$(tools/find_python.sh)" && "$$py" -m venv --clear $(VENV); }
 	$(PY) -m pip install -q --upgrade pip
 	$(PY) -m pip install -q -e '.[$(EXTRAS)]'
+	$(PY) tools/libmpi_first.py  # dolfinx/petsc4py importable before mpi4py
 	touch $@
 
 # Headless pictures: pyvista offscreen; EGL directly (skips VTK's failing X probe and its warning).

@@ -13,13 +13,17 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import re
 import sys
 from typing import Any
 
 from mpi4py import MPI
 
-from dd_contact import flops, timing
-from dd_contact.verify import run_cases
+from tqdm import tqdm
+
+from dd_contact import __version__, flops, timing
+from dd_contact.verify import CASES, run_cases
 
 __all__ = ["main"]
 
@@ -43,7 +47,33 @@ def _format_records(records: list[dict]) -> str:
     return "\n".join([line(header), line(["-" * w for w in widths]), *map(line, rows)])
 
 
+def _plain(text: str) -> str:
+    """Help text without reST markup: ``x`` and :role:`x` become x."""
+    return re.sub(r":\w+:`([^`]*)`|``([^`]*)``", lambda m: m.group(1) or m.group(2), text)
+
+
+def _verify_usage_error(args: argparse.Namespace) -> str | None:
+    """What is wrong with the arguments, found before any case runs (None: nothing)."""
+    unknown = [name for name in args.case or [] if name not in CASES]
+    if unknown:
+        return f"unknown case {', '.join(map(repr, unknown))}; valid: {', '.join(CASES)}"
+    if args.json:
+        directory = os.path.dirname(os.path.abspath(args.json))
+        if os.path.isdir(args.json):
+            return f"--json {args.json} is a directory; give a file name"
+        if not os.path.isdir(directory):
+            return f"--json {args.json}: directory {directory} does not exist"
+        if not os.access(directory, os.W_OK):
+            return f"--json {args.json}: directory {directory} is not writable"
+    return None
+
+
 def _verify(args: argparse.Namespace) -> int:
+    problem = _verify_usage_error(args)
+    if problem is not None:
+        if args.comm.rank == 0:
+            print(f"dd-contact verify: error: {problem}", file=sys.stderr)
+        return 2
     records = run_cases(args.case)
     if args.comm.rank == 0:
         print(_format_records(records))
@@ -315,7 +345,22 @@ def _add_flops(sub: Any) -> None:
 
 
 def _calibrate(args: argparse.Namespace) -> int:
-    rates = timing.machine_rates(recalibrate=not args.show, quick=args.quick, comm=args.comm)
+    bar = None
+
+    def progress(done: int, total: int) -> None:  # called on the root rank, as it measures
+        nonlocal bar
+        if bar is None:
+            seconds = "about 3 s" if args.quick else "about 30 s"
+            message = f"dd-contact calibrate: measuring this machine's rates ({seconds})"
+            print(message, file=sys.stderr)
+            bar = tqdm(total=total, desc="calibrate", unit="size", file=sys.stderr)
+        bar.update(done - bar.n)
+
+    rates = timing.machine_rates(
+        recalibrate=not args.show, quick=args.quick, comm=args.comm, progress=progress
+    )
+    if bar is not None:
+        bar.close()
     print(f"machine: {rates.machine}")
     for kind, points in rates.points.items():
         shown = ", ".join(f"{w / s:.3g}/s at {w:.3g}" for w, s in points)
@@ -326,8 +371,11 @@ def _calibrate(args: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     """Entry point of ``dd-contact``."""
     parser = argparse.ArgumentParser(
-        prog="dd-contact", description=__doc__, formatter_class=argparse.RawTextHelpFormatter
+        prog="dd-contact",
+        description=_plain(__doc__),
+        formatter_class=argparse.RawTextHelpFormatter,
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     verify = sub.add_parser("verify", help="run the verification cases and print a table")
     verify.add_argument("--case", action="append", help="run only this case (repeatable)")

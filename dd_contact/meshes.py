@@ -28,6 +28,7 @@ __all__ = [
     "hemisphere",
     "rectangle_grid",
     "surface_from_boundary",
+    "surface_from_facets",
     "surface_mesh",
 ]
 
@@ -164,7 +165,6 @@ def surface_from_boundary(
         cell_type: ``"quadrilateral"`` or ``"triangle"`` (used with ``resolution``).
         comm: Communicator of the new mesh (default ``volume.comm``).
     """
-    comm = volume.comm if comm is None else comm
     tdim = volume.topology.dim
     volume.topology.create_connectivity(tdim - 1, tdim)
     facets = dolfinx.mesh.locate_entities_boundary(volume, tdim - 1, locator)
@@ -173,6 +173,19 @@ def surface_from_boundary(
             "surface_from_boundary: the locator selects no boundary facet of the volume mesh; "
             "check the locator against the mesh's bounding box"
         )
+    return surface_from_facets(volume, facets, resolution, cell_type, comm)
+
+
+def surface_from_facets(
+    volume: dolfinx.mesh.Mesh,
+    facets: npt.NDArray[np.int32],
+    resolution: tuple[int, int] | None = None,
+    cell_type: str = "quadrilateral",
+    comm: MPI.Comm | None = None,
+) -> dolfinx.mesh.Mesh:
+    """:func:`surface_from_boundary` for given boundary facets instead of a locator."""
+    comm = volume.comm if comm is None else comm
+    tdim = volume.topology.dim
     if resolution is None:
         return facet_surface(volume, facets, comm)
 

@@ -16,11 +16,11 @@ from mpi4py import MPI
 import dolfinx.fem as fem
 import dolfinx.mesh
 import numpy as np
-import numpy.typing as npt
 import ufl
 from scipy.spatial import cKDTree
 
-from dd_contact import meshes
+from dd_contact import arguments, meshes
+from dd_contact.arguments import Region
 from dd_contact.blocks import Block
 from dd_contact.bodies import Body
 from dd_contact.contact import SCHEMES
@@ -54,8 +54,8 @@ KAPPA_ASSEMBLED = 1.0e5
 #: verify --case extremes``, docs/accuracy.md); a tie outside gets a PenaltyRangeWarning.
 KAPPA_VERIFIED: tuple[float, float] = (1.0e0, 1.0e14)
 
-Locator = Callable[[np.ndarray], np.ndarray]
-Where = Locator | npt.NDArray[np.int32] | tuple[dolfinx.mesh.MeshTags, int]
+#: A boundary region (:data:`dd_contact.arguments.Region`), under the name post.py uses.
+Where = Region
 
 
 @dataclass(frozen=True)
@@ -73,11 +73,13 @@ class Material:
     rho: float = 0.0
 
     def __post_init__(self):
-        if not (math.isfinite(self.E) and self.E > 0):
+        for name in ("E", "nu", "rho"):  # frozen: the checked floats replace what was given
+            object.__setattr__(self, name, arguments.real(getattr(self, name), f"Material {name}"))
+        if not self.E > 0:
             raise InputError(f"Material: Young's modulus E must be positive, got {self.E}")
         if not (-1.0 < self.nu < 0.5):
             raise InputError(f"Material: Poisson's ratio must lie in (-1, 0.5), got {self.nu}")
-        if not (math.isfinite(self.rho) and self.rho >= 0):
+        if not self.rho >= 0:
             raise InputError(f"Material: density must be >= 0, got {self.rho}")
 
     @property
@@ -108,9 +110,11 @@ class Penalty:
             raise InputError("Penalty: give kappa or epsilon, not both")
         for name in ("kappa", "epsilon"):
             value = getattr(self, name)
-            if value is not None and not (math.isfinite(value) and value > 0):
+            if value is None:
+                continue
+            if not (arguments.is_real(value) and math.isfinite(value) and value > 0):
                 raise InputError(
-                    f"Penalty: {name} must be a positive finite number, got {value}; "
+                    f"Penalty: {name} must be a positive finite number, got {value!r}; "
                     f"a stiffer tie needs a larger kappa or a smaller epsilon"
                 )
 
@@ -128,27 +132,6 @@ class Penalty:
         return h / (E * kappa)
 
 
-def _check_finite(name: str, values: np.ndarray) -> None:
-    if not np.all(np.isfinite(values)):
-        raise InputError(f"{name} contains NaN or inf; check the data that defines it")
-
-
-def _check_mesh(mesh: dolfinx.mesh.Mesh, tdim: int, what: str, hint: str) -> None:
-    """A mesh of topological dimension ``tdim`` in 3-D, on one rank, with finite nodes."""
-    kind = "3-D volume mesh" if tdim == 3 else "surface mesh (topological dimension 2) in 3-D"
-    if mesh.topology.dim != tdim or mesh.geometry.dim != 3:
-        raise InputError(
-            f"{what}: needs a {kind}, got topological dimension {mesh.topology.dim} in "
-            f"{mesh.geometry.dim}-D; {hint}"
-        )
-    if mesh.comm.size != 1:
-        raise InputError(
-            f"{what}: its mesh is distributed over {mesh.comm.size} ranks, but every mesh of a "
-            f"scene belongs to one rank; create it on MPI.COMM_SELF ({hint})"
-        )
-    _check_finite(f"{what} mesh coordinates", mesh.geometry.x)
-
-
 class Subdomain:
     """An independently meshed part of the body, Omega^(k).
 
@@ -160,17 +143,21 @@ class Subdomain:
     """
 
     def __init__(self, mesh: dolfinx.mesh.Mesh, material: Material, name: str, degree: int = 1):
-        _check_mesh(
+        arguments.name(name, "Subdomain")
+        arguments.one_rank_mesh(
             mesh,
             3,
             f"subdomain {name!r}",
             "surface meshes belong in an Interface or ContactInterface; create subdomain "
             "meshes with e.g. dd_contact.meshes.box(MPI.COMM_SELF, ...)",
         )
+        arguments.instance(material, Material, f"subdomain {name!r}: material")
+        if isinstance(degree, bool) or degree not in (1, 2):
+            raise InputError(f"subdomain {name!r}: degree must be 1 or 2, got {degree!r}")
         self.mesh = mesh
         self.material = material
         self.name = name
-        self.V = fem.functionspace(mesh, ("Lagrange", degree, (3,)))
+        self.V = fem.functionspace(mesh, ("Lagrange", int(degree), (3,)))
         self.u = fem.Function(self.V, name=f"u_{name}")
         #: Velocity: set it (e.g. ``interpolate``) for the initial velocity of a dynamic run.
         self.velocity = fem.Function(self.V, name=f"velocity_{name}")
@@ -179,71 +166,92 @@ class Subdomain:
         self.time = fem.Constant(mesh, 0.0)
         self.body_force: ufl.core.expr.Expr | None = None
         self.tractions: list[tuple[dolfinx.mesh.MeshTags, ufl.core.expr.Expr]] = []
-        self._timed: list[tuple[fem.Constant, Callable[[float], Sequence[float]]]] = []
+        self._timed: list[tuple[fem.Constant, Callable[[float], Sequence[float]], str]] = []
         self._fixed_dofs: list[np.ndarray] = []
         self._fixed_values: list[np.ndarray] = []
 
     # -- boundary conditions -------------------------------------------------------------
-    def locate_facets(self, where: Where) -> np.ndarray:
-        """Boundary facets of a region: locator, facet indices or (meshtags, value)."""
-        tdim = self.mesh.topology.dim
-        self.mesh.topology.create_connectivity(tdim - 1, tdim)
-        if callable(where):
-            facets = dolfinx.mesh.locate_entities_boundary(self.mesh, tdim - 1, where)
-        elif isinstance(where, tuple):
-            tags, value = where
-            facets = tags.find(value)
-        else:
-            facets = np.asarray(where, dtype=np.int32)
-        if facets.size == 0:
-            raise InputError(
-                f"subdomain {self.name!r}: the boundary region selects no facet; check the "
-                "locator against the mesh (its bounding box is "
-                f"{self.mesh.geometry.x.min(axis=0)} .. {self.mesh.geometry.x.max(axis=0)})"
-            )
-        return np.sort(facets).astype(np.int32)
+    def locate_facets(self, where: Region, argument: str = "where") -> np.ndarray:
+        """Boundary facets of a region (:data:`dd_contact.arguments.Region`), sorted."""
+        return arguments.boundary_facets(self.mesh, where, f"subdomain {self.name!r}: {argument}")
 
     def fix(
         self,
-        where: Where,
+        where: Region | fem.DirichletBC | Sequence[fem.DirichletBC],
         components: Sequence[int] | None = None,
         value: Sequence[float] | Callable[[np.ndarray], np.ndarray] | None = None,
     ) -> Subdomain:
         """Prescribe displacement on a boundary region (a Dirichlet condition).
 
         Args:
-            where: Locator ``x -> bool``, facet indices, or ``(meshtags, value)``.
+            where: The region: a locator ``x -> bool``, facet indices, a facet MeshTags, or
+                ``(meshtags, value)``. Or dolfinx ``DirichletBC`` objects built on :attr:`V` or
+                its sub-spaces ``V.sub(i)`` (``components`` and ``value`` then come from
+                the conditions; their values are read now, once).
             components: Which components (default all three).
             value: A 3-vector, or a callable ``x -> (3, n)`` array (default zero).
 
         Returns:
             The subdomain, so calls can be chained.
         """
+        if isinstance(where, fem.DirichletBC) or (
+            isinstance(where, Sequence) and where and isinstance(where[0], fem.DirichletBC)
+        ):
+            return self._fix_dirichletbcs([where] if isinstance(where, fem.DirichletBC) else where)
+        picked = arguments.components(components, f"subdomain {self.name!r} fix(components=...)")
         facets = self.locate_facets(where)
         blocks = fem.locate_dofs_topological(self.V, self.mesh.topology.dim - 1, facets)
         blocks = blocks[blocks < self.V.dofmap.index_map.size_local]
         x = self.V.tabulate_dof_coordinates()[blocks]
+        what = f"subdomain {self.name!r} fix(value=...): prescribed displacement"
         if value is None:
             vals = np.zeros((3, len(blocks)))
         elif callable(value):
-            vals = np.asarray(value(x.T), dtype=float).reshape(3, len(blocks))
+            vals = np.asarray(value(x.T), dtype=float)
+            if vals.shape != (3, len(blocks)):
+                raise InputError(
+                    f"{what}: the callable must return a (3, n) array for the n = {len(blocks)} "
+                    f"points x of shape (3, n), got shape {vals.shape}"
+                )
+            arguments.finite(vals, what)
         else:
-            vals = np.tile(np.asarray(value, dtype=float).reshape(3, 1), (1, len(blocks)))
-        _check_finite(f"subdomain {self.name!r} prescribed displacement", vals)
-        for c in range(3) if components is None else components:
+            vals = np.tile(arguments.vector(value, what).reshape(3, 1), (1, len(blocks)))
+        for c in picked:
             self._fixed_dofs.append(3 * blocks + c)
             self._fixed_values.append(vals[c])
         return self
 
+    def _fix_dirichletbcs(self, bcs: Sequence[fem.DirichletBC]) -> Subdomain:
+        """The dofs and values of dolfinx DirichletBCs on :attr:`V` (or ``V.sub(i)``)."""
+        num_owned = self.V.dofmap.index_map.size_local * 3
+        for i, bc in enumerate(bcs):
+            what = f"subdomain {self.name!r}: fix DirichletBC {i}"
+            arguments.instance(bc, fem.DirichletBC, what)
+            if not self.V._cpp_object.contains(bc.function_space):
+                raise InputError(
+                    f"{what} is built on another function space; build it on this subdomain's "
+                    "V (or V.sub(i)), e.g. dirichletbc(value, locate_dofs_topological(sub.V, "
+                    "2, facets), sub.V)"
+                )
+            dofs = bc.dof_indices()[0]
+            dofs = dofs[dofs < num_owned]
+            values = np.zeros(num_owned)
+            bc.set(values)
+            arguments.finite(values[dofs], f"{what} values")
+            self._fixed_dofs.append(dofs.astype(np.int32))
+            self._fixed_values.append(values[dofs])
+        return self
+
     def add_traction(
         self,
-        where: Where,
+        where: Region,
         traction: ufl.core.expr.Expr | Sequence[float] | Callable[[float], Sequence[float]],
     ):
         """Apply a surface traction (force per area) on a boundary region.
 
         Args:
-            where: Locator ``x -> bool``, facet indices, or ``(meshtags, value)``.
+            where: The region: a locator ``x -> bool``, facet indices, a facet MeshTags, or
+                ``(meshtags, value)``.
             traction: A UFL vector expression on this mesh (it may use :attr:`time` or any
                 ``fem.Constant``), a 3-vector, or a callable ``t -> 3-vector`` evaluated by
                 the solver at every time.
@@ -266,28 +274,23 @@ class Subdomain:
         return self
 
     def _load_expression(self, value, what: str) -> ufl.core.expr.Expr:
+        argument = f"subdomain {self.name!r} {what}"
         if isinstance(value, ufl.core.expr.Expr):
-            return value
+            return arguments.ufl_vector(value, argument)
         if callable(value):
             constant = fem.Constant(self.mesh, np.zeros(3))
-            self._timed.append((constant, value))
-            self.set_time(0.0)
+            self._timed.append((constant, value, argument))
+            self.set_time(float(self.time.value))
             return constant
-        values = np.asarray(value, dtype=float)
-        _check_finite(f"subdomain {self.name!r} {what}", values)
-        return fem.Constant(self.mesh, values)
+        return fem.Constant(self.mesh, arguments.vector(value, argument))
 
     def set_time(self, t: float) -> None:
         """Set :attr:`time` and evaluate the callable loads at ``t``."""
         self.time.value = t
-        for constant, load in self._timed:
-            values = np.asarray(load(t), dtype=float).reshape(3)
-            if not np.all(np.isfinite(values)):
-                raise InputError(
-                    f"subdomain {self.name!r}: a load callable returned {values} at t = {t}; "
-                    "loads must be finite"
-                )
-            constant.value[:] = values
+        for constant, load, argument in self._timed:
+            values = load(t)
+            what = f"{argument} (its load callable returned {values!r} at t = {t})"
+            constant.value[:] = arguments.vector(values, what)
 
     @property
     def time_dependent_loads(self) -> bool:
@@ -323,6 +326,32 @@ class Subdomain:
         return Block("u", self.name)
 
 
+def _surface(
+    subdomain: Subdomain,
+    where: Region,
+    resolution: tuple[int, int] | None,
+    cell_type: str,
+    what: str,
+) -> dolfinx.mesh.Mesh:
+    """The surface mesh ``from_boundary`` builds: a copy of the region or a remeshed rectangle."""
+    arguments.instance(subdomain, Subdomain, f"{what}: subdomain")
+    if resolution is not None:
+        if not isinstance(resolution, Sequence) or len(resolution) != 2:
+            raise InputError(f"{what}: resolution must be (n1, n2) cell counts or None")
+        resolution = tuple(arguments.positive_int(n, f"{what}: resolution") for n in resolution)
+    if cell_type not in ("quadrilateral", "triangle"):
+        raise InputError(
+            f"{what}: cell_type must be 'quadrilateral' or 'triangle', got {cell_type!r}"
+        )
+    facets = subdomain.locate_facets(where, f"{what} where")
+    try:
+        return meshes.surface_from_facets(
+            subdomain.mesh, facets, resolution, cell_type, comm=MPI.COMM_SELF
+        )
+    except ValueError as err:  # a region that cannot be remeshed: the message says why
+        raise InputError(f"{what}: {err}") from None
+
+
 class Interface:
     """The interface Gamma_I: an independent surface mesh with displacement v.
 
@@ -348,17 +377,19 @@ class Interface:
         tolerance: float | None = None,
         name: str = "interface",
     ):
-        _check_mesh(
+        arguments.name(name, "Interface")
+        arguments.one_rank_mesh(
             mesh,
             2,
             f"interface {name!r}",
             "build it with dd_contact.meshes.surface_mesh(MPI.COMM_SELF, ...) or "
             "Interface.from_boundary",
         )
-        if len(subdomains) == 0:
-            raise InputError(f"interface {name!r}: give the subdomains it ties")
-        if tolerance is not None and not tolerance > 0:
-            raise InputError(f"interface {name!r}: tolerance must be positive, got {tolerance}")
+        if isinstance(subdomains, Subdomain) or len(subdomains) == 0:
+            raise InputError(f"interface {name!r}: give the list of subdomains it ties")
+        for s in subdomains:
+            arguments.instance(s, Subdomain, f"interface {name!r}: subdomains")
+        arguments.tolerance(tolerance, f"interface {name!r}")
         self.mesh = mesh
         self.subdomains = list(subdomains)
         self.penalty = Penalty(kappa=kappa, epsilon=epsilon)
@@ -371,7 +402,7 @@ class Interface:
     def from_boundary(
         cls,
         subdomain: Subdomain,
-        where: Locator,
+        where: Region,
         subdomains: Sequence[Subdomain],
         resolution: tuple[int, int] | None = None,
         cell_type: str = "quadrilateral",
@@ -381,16 +412,15 @@ class Interface:
 
         Args:
             subdomain: The subdomain whose boundary region is meshed.
-            where: Locator of the region.
+            where: The region: a locator ``x -> bool``, facet indices, a facet MeshTags, or
+                ``(meshtags, value)``.
             subdomains: The subdomains the interface ties.
             resolution: Cells along the two edges of a planar rectangular region, or
                 ``None`` for a copy of the region's facets.
             cell_type: ``"quadrilateral"`` or ``"triangle"``.
             **kwargs: Passed to :class:`Interface`.
         """
-        mesh = meshes.surface_from_boundary(
-            subdomain.mesh, where, resolution, cell_type, comm=MPI.COMM_SELF
-        )
+        mesh = _surface(subdomain, where, resolution, cell_type, "Interface.from_boundary")
         return cls(mesh, subdomains, **kwargs)
 
     @property
@@ -417,7 +447,9 @@ class _ContactBase:
         points: str,
         name: str,
     ) -> None:
-        _check_mesh(
+        arguments.name(name, "contact")
+        arguments.instance(subdomain, Subdomain, f"contact {name!r}: subdomain")
+        arguments.one_rank_mesh(
             mesh,
             2,
             f"contact {name!r}",
@@ -484,8 +516,7 @@ class ContactInterface(_ContactBase):
         tolerance: float | None = None,
         name: str = "contact",
     ):
-        if tolerance is not None and not tolerance > 0:
-            raise InputError(f"contact {name!r}: tolerance must be positive, got {tolerance}")
+        arguments.tolerance(tolerance, f"contact {name!r}")
         self._setup_contact(mesh, subdomain, obstacle, contact_kappa, contact_epsilon, points, name)
         self.penalty = Penalty(kappa=kappa, epsilon=epsilon)
         self.tolerance = tolerance
@@ -499,7 +530,7 @@ class ContactInterface(_ContactBase):
     def from_boundary(
         cls,
         subdomain: Subdomain,
-        where: Where,
+        where: Region,
         obstacle,
         resolution: tuple[int, int] | None = None,
         cell_type: str = "quadrilateral",
@@ -509,23 +540,15 @@ class ContactInterface(_ContactBase):
 
         Args:
             subdomain: The subdomain it belongs to.
-            where: The region: locator, facet indices or ``(meshtags, value)``.
+            where: The region: a locator ``x -> bool``, facet indices, a facet MeshTags, or
+                ``(meshtags, value)``.
             obstacle: The rigid obstacle.
-            resolution: Cells along the edges of a planar rectangular region (``where``
-                must then be a locator), or ``None`` for a copy of the region's facets.
+            resolution: Cells along the edges of a planar rectangular region, or ``None``
+                for a copy of the region's facets.
             cell_type: ``"quadrilateral"`` or ``"triangle"`` (with ``resolution``).
             **kwargs: Passed to :class:`ContactInterface`.
         """
-        if resolution is None:
-            mesh = meshes.facet_surface(
-                subdomain.mesh, subdomain.locate_facets(where), MPI.COMM_SELF
-            )
-        else:
-            if not callable(where):
-                raise InputError("ContactInterface.from_boundary: resolution needs a locator")
-            mesh = meshes.surface_from_boundary(
-                subdomain.mesh, where, resolution, cell_type, comm=MPI.COMM_SELF
-            )
+        mesh = _surface(subdomain, where, resolution, cell_type, "ContactInterface.from_boundary")
         return cls(mesh, subdomain, obstacle, **kwargs)
 
 
@@ -537,7 +560,8 @@ class ContactBoundary(_ContactBase):
 
     Args:
         subdomain: The subdomain (first-order Lagrange displacement).
-        where: The region: locator, facet indices or ``(meshtags, value)``.
+        where: The region: a locator ``x -> bool``, facet indices, a facet MeshTags, or
+            ``(meshtags, value)``.
         obstacle: The rigid obstacle.
         contact_kappa: Dimensionless contact penalty h / (E eps_C) (default DEFAULT_KAPPA).
         contact_epsilon: Absolute contact penalty eps_C instead.
@@ -548,13 +572,14 @@ class ContactBoundary(_ContactBase):
     def __init__(
         self,
         subdomain: Subdomain,
-        where: Where,
+        where: Region,
         obstacle,
         contact_kappa: float | None = None,
         contact_epsilon: float | None = None,
         points: str = "nodes",
         name: str = "contact",
     ):
+        arguments.instance(subdomain, Subdomain, f"contact {name!r}: subdomain")
         if subdomain.V.element.basix_element.degree != 1:
             raise InputError(
                 f"contact {name!r}: contact directly on a boundary needs a degree-1 subdomain; "
@@ -597,8 +622,17 @@ class Scene:
         interface: Interface | None = None,
         contacts: Sequence[ContactInterface | ContactBoundary] = (),
     ):
-        if len(subdomains) == 0:
-            raise InputError("Scene: give at least one subdomain")
+        arguments.instance(comm, MPI.Comm, "Scene: comm")
+        if isinstance(subdomains, Subdomain) or len(subdomains) == 0:
+            raise InputError("Scene: give a list of at least one subdomain")
+        for s in subdomains:
+            arguments.instance(s, Subdomain, "Scene: subdomains")
+        if interface is not None:
+            arguments.instance(interface, Interface, "Scene: interface")
+        if isinstance(contacts, _ContactBase):
+            raise InputError("Scene: contacts must be a list, e.g. contacts=[zone]")
+        for c in contacts:
+            arguments.instance(c, (ContactInterface, ContactBoundary), "Scene: contacts")
         names = [s.name for s in subdomains]
         if len(set(names)) != len(names):
             raise InputError(f"Scene: subdomain names must be unique, got {names}")
@@ -618,11 +652,6 @@ class Scene:
         if len(set(contact_names)) != len(contact_names):
             raise InputError(f"Scene: contact names must be unique, got {contact_names}")
         for c in contacts:
-            if not isinstance(c, _ContactBase):
-                raise InputError(
-                    f"Scene: contacts must be ContactInterface or ContactBoundary, got "
-                    f"{type(c).__name__}"
-                )
             if all(c.subdomain is not t for t in subdomains):
                 raise InputError(
                     f"Scene: contact {c.name!r} belongs to subdomain {c.subdomain.name!r}, "

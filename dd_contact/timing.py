@@ -25,7 +25,7 @@ import os
 import platform
 import statistics
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -142,13 +142,15 @@ def machine_rates(
     recalibrate: bool = False,
     quick: bool = False,
     comm: MPI.Comm | None = None,
+    progress: Callable[[int, int], None] | None = None,
 ) -> MachineRates:
     """This machine's rates: from the cache, or measured now (:func:`calibrate`) and cached.
 
     The cache (``$DD_CONTACT_CACHE`` or ``~/.cache/dd_contact``, file ``machine_rates.json``)
     keeps one record per machine fingerprint (host, CPU, thread settings). Collective over
     ``comm`` (default ``MPI.COMM_SELF``: this rank alone): its root reads or measures, every
-    rank of ``comm`` gets the result.
+    rank of ``comm`` gets the result. ``progress(done, total)`` is called as
+    :func:`calibrate` measures.
     """
     comm = MPI.COMM_SELF if comm is None else comm
     rates = None
@@ -162,7 +164,7 @@ def machine_rates(
             except ValueError:
                 rates = None
         if rates is None:
-            rates = calibrate(quick=quick)
+            rates = calibrate(quick=quick, progress=progress)
             cached[key] = rates.to_dict()
             file.parent.mkdir(parents=True, exist_ok=True)
             file.write_text(json.dumps(cached, indent=1))
@@ -206,12 +208,15 @@ def _elasticity_matrix(n: tuple[int, int, int]):
     return A
 
 
-def calibrate(quick: bool = False) -> MachineRates:
+def calibrate(
+    quick: bool = False, progress: Callable[[int, int], None] | None = None
+) -> MachineRates:
     """Measure this machine's rates (about 30 s; ``quick``: about 3 s, small sizes only).
 
     Sparse: MUMPS on elasticity matrices of cube meshes (analysis, factorisation,
     substitutions with one and with 128 right-hand sides). Dense: LAPACK potrf, potrs and
     triangular solves on random SPD matrices. Run with the thread settings of the real runs.
+    ``progress(done, total)``, if given, is called after each measured size.
     """
     points: dict[str, list[list[float]]] = {k: [] for k in RATE_KINDS}
     cubes = (
@@ -219,7 +224,9 @@ def calibrate(quick: bool = False) -> MachineRates:
         if quick
         else [(6, 6, 6), (10, 10, 10), (16, 16, 16), (22, 22, 22), (28, 28, 28)]
     )
-    for n in cubes:
+    dense_sizes = [50, 200, 800] if quick else [50, 200, 600, 1500, 3000]
+    total = len(cubes) + len(dense_sizes)
+    for done, n in enumerate(cubes, 1):
         A = _elasticity_matrix(n)
         log = WorkLog()
         factor = SparseCholesky(A, log, "calibration")
@@ -238,8 +245,10 @@ def calibrate(quick: bool = False) -> MachineRates:
         seconds = _timed(lambda: factor.solve_many(B), cold=True)
         points["sparse_solve_block"].append([factor.entries * 128, seconds])
         factor.destroy(), b.destroy(), A.destroy()
+        if progress is not None:
+            progress(done, total)
     rng = np.random.default_rng(0)
-    for n in [50, 200, 800] if quick else [50, 200, 600, 1500, 3000]:
+    for done, n in enumerate(dense_sizes, len(cubes) + 1):
         X = rng.standard_normal((n, n))
         S = X @ X.T + n * np.eye(n)
         L = sla.cho_factor(S.copy(), lower=True, check_finite=False)
@@ -253,6 +262,8 @@ def calibrate(quick: bool = False) -> MachineRates:
         Bd = rng.standard_normal((n, m))
         seconds = _timed(lambda: sla.solve_triangular(L[0], Bd, lower=True, check_finite=False), 3)
         points["dense_solve_block"].append([float(n * n * m), seconds])
+        if progress is not None:
+            progress(done, total)
     for kind in points:
         points[kind].sort()
     machine = {**machine_fingerprint(), "date": time.strftime("%Y-%m-%d %H:%M"), "quick": quick}

@@ -5,6 +5,7 @@ from mpi4py import MPI
 import dolfinx.mesh
 import numpy as np
 import pytest
+import ufl
 
 import dd_contact as dc
 from dd_contact import meshes
@@ -125,3 +126,93 @@ def test_remeshing_a_region_that_is_not_a_rectangle():
         meshes.surface_from_boundary(box, l_shape, resolution=(3, 3))
     square = meshes.surface_from_boundary(box, _on(0, 1.0), resolution=(3, 2))
     assert square.topology.index_map(2).size_local == 6
+
+
+# ------------------------------------------ malformed arguments name the argument (arguments.py)
+
+
+def _box():
+    return dc.Subdomain(meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [2, 2, 2]), STEEL, "b")
+
+
+@pytest.mark.parametrize(
+    "call,message",
+    [
+        (lambda b: b.add_traction(_on(0, 1.0), (1.0, 2.0)), r"'b' traction must be 3 real numbers"),
+        (
+            lambda b: b.add_traction(_on(0, 1.0), ufl.as_vector([1.0, 2.0])),
+            r"'b' traction must be a UFL vector with 3 components, got shape \(2,\)",
+        ),
+        (lambda b: b.add_traction(_on(0, 1.0), lambda t: [t, 0.0]), r"returned \[.*\] at t = 0"),
+        (lambda b: b.set_body_force("down"), r"'b' body force must be 3 real numbers"),
+        (lambda b: b.fix(_on(0, 0.0), components=[3]), r"fix\(components=...\) must list .* 2"),
+        (lambda b: b.fix(_on(0, 0.0), components=[0, 0]), r"lists a component twice"),
+        (lambda b: b.fix(_on(0, 0.0), value=(0.0, 1.0)), r"prescribed displacement must be 3 real"),
+        (lambda b: b.fix(_on(0, 0.0), value=lambda x: x[0]), r"must return a \(3, n\) array"),
+        (lambda b: b.fix("left"), r"'b': where must be a locator x -> bool, facet indices"),
+        (lambda b: b.fix(np.array([0, 10_000])), r"facet indices must lie in 0 \.\. 35, got 0"),
+        (lambda b: b.fix(np.array([0.5])), r"where must be a locator"),
+        (lambda b: b.fix(np.arange(36)), r"12 of its 36 facets are not on the mesh's boundary"),
+    ],
+)
+def test_malformed_subdomain_arguments(call, message):
+    with pytest.raises(dc.InputError, match=message):
+        call(_box())
+
+
+def test_malformed_meshtags():
+    box, other = _box(), _box()
+    cells = dolfinx.mesh.meshtags(box.mesh, 3, np.arange(8, dtype=np.int32), np.ones(8, np.int32))
+    with pytest.raises(dc.InputError, match=r"tag entities of dimension 3, .* needs facets"):
+        box.fix((cells, 1))
+    facets = dolfinx.mesh.locate_entities_boundary(other.mesh, 2, _on(0, 0.0))
+    foreign = dolfinx.mesh.meshtags(other.mesh, 2, facets, np.ones_like(facets))
+    with pytest.raises(dc.InputError, match=r"MeshTags belong to another mesh"):
+        box.fix(foreign)
+    with pytest.raises(dc.InputError, match=r"needs a dolfinx MeshTags first, got ndarray"):
+        box.fix((facets, 1))
+
+
+@pytest.mark.parametrize(
+    "make,message",
+    [
+        (lambda: dc.Material(E="210e9", nu=0.3), r"Material E must be a real number, got '210e9'"),
+        (lambda: dc.Material(E=210e9, nu=None), r"Material nu must be a real number"),
+        (lambda: dc.Material(E=210e9, nu=0.3, rho=[7800]), r"Material rho must be a real"),
+        (lambda: dc.Penalty(kappa="1e6"), r"kappa must be a positive finite number, got '1e6'"),
+        (lambda: dc.Subdomain(_box().mesh, STEEL, "x", degree=3), r"degree must be 1 or 2"),
+        (lambda: dc.Subdomain(_box().mesh, STEEL, ""), r"Subdomain name must be a non-empty"),
+        (lambda: dc.Subdomain(_box().mesh, {"E": 1}, "x"), r"'x': material: expected Material"),
+        (lambda: dc.Subdomain(_box().mesh._cpp_object, STEEL, "x"), r"needs a dolfinx.mesh.Mesh"),
+    ],
+)
+def test_malformed_material_and_subdomain(make, message):
+    with pytest.raises(dc.InputError, match=message):
+        make()
+
+
+def test_malformed_interface_contact_and_scene_arguments():
+    left, right = _two_boxes()
+    cut = _on(0, 1.0)
+    with pytest.raises(dc.InputError, match=r"resolution must be a positive integer, got 0"):
+        dc.Interface.from_boundary(left, cut, [left, right], resolution=(0, 2))
+    with pytest.raises(dc.InputError, match=r"resolution must be \(n1, n2\) cell counts"):
+        dc.Interface.from_boundary(left, cut, [left, right], resolution=4)
+    with pytest.raises(dc.InputError, match=r"cell_type must be 'quadrilateral' or 'triangle'"):
+        dc.Interface.from_boundary(left, cut, [left, right], resolution=(2, 2), cell_type="hex")
+    with pytest.raises(dc.InputError, match=r"give the list of subdomains it ties"):
+        dc.Interface.from_boundary(left, cut, right)
+    with pytest.raises(dc.InputError, match=r"tolerance must be a real number"):
+        dc.Interface.from_boundary(left, cut, [left, right], tolerance="small")
+    with pytest.raises(dc.InputError, match=r"subdomain: expected Subdomain, got Mesh"):
+        dc.ContactInterface.from_boundary(left.mesh, cut, dc.Plane([2, 0, 0], [-1, 0, 0]))
+    iface = dc.Interface.from_boundary(left, cut, [left, right], resolution=(2, 2))
+    zone = dc.ContactBoundary(right, _on(0, 2.0), dc.Plane([2.1, 0, 0], [-1, 0, 0]))
+    with pytest.raises(dc.InputError, match=r"Scene: comm: expected Comm, got NoneType"):
+        dc.Scene(None, [left, right], iface)
+    with pytest.raises(dc.InputError, match=r"contacts must be a list, e.g. contacts=\[zone\]"):
+        dc.Scene(MPI.COMM_WORLD, [left, right], iface, contacts=zone)
+    with pytest.raises(dc.InputError, match=r"Scene: subdomains: expected Subdomain, got Mesh"):
+        dc.Scene(MPI.COMM_WORLD, [left, right.mesh], iface)
+    with pytest.raises(dc.InputError, match=r"Scene: interface: expected Interface, got list"):
+        dc.Scene(MPI.COMM_WORLD, [left, right], [iface])

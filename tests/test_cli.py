@@ -1,11 +1,14 @@
 """`dd-contact verify`: table, JSON records, exit status."""
 
+import importlib.metadata
 import json
+import re
 from pathlib import Path
 
 import pytest
 
-from dd_contact import cli, flops, verify
+import dd_contact
+from dd_contact import cli, flops, timing, verify
 
 FIELDS = {"case", "quantity", "value", "reference", "rel_error", "tolerance", "passed"}
 
@@ -27,9 +30,65 @@ def test_verify_exits_1_when_a_case_fails(monkeypatch):
     assert cli.main(["verify", "--case", "broken"]) == 1
 
 
-def test_verify_unknown_case():
-    with pytest.raises(ValueError, match=r"unknown case.*valid: patch-hex-quad"):
-        cli.main(["verify", "--case", "nope"])
+def _nothing_runs(*args, **kwargs):
+    raise AssertionError("a case ran although the arguments were wrong")
+
+
+@pytest.mark.parametrize(
+    "argv,message",
+    [
+        (["--case", "nonsense"], "unknown case 'nonsense'; valid: patch-hex-quad, "),
+        (["--json", "/no/such/dir/x.json"], "directory /no/such/dir does not exist"),
+    ],
+)
+def test_verify_usage_errors_exit_2_before_running(monkeypatch, capsys, argv, message):
+    monkeypatch.setattr(cli, "run_cases", _nothing_runs)
+    assert cli.main(["verify", *argv]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    assert captured.err.startswith("dd-contact verify: error: ") and message in captured.err
+    assert captured.err.count("\n") == 1  # one line, no traceback
+
+
+def test_version(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out == f"dd-contact {importlib.metadata.version('dd-contact')}\n"
+    assert dd_contact.__version__ == importlib.metadata.version("dd-contact")
+
+
+@pytest.mark.parametrize(
+    "command",
+    [[], ["verify"], ["flops"], ["flops", "parallelepiped"], ["flops", "pin-joint"], ["calibrate"]],
+)
+def test_help_has_no_rest_markup(capsys, command):
+    with pytest.raises(SystemExit) as exc:
+        cli.main([*command, "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("usage: dd-contact")
+    assert "``" not in out and re.search(r":\w+:`", out) is None
+    if not command:
+        assert "dd-contact verify: run the verification cases" in out
+
+
+def test_calibrate_shows_progress_on_stderr(monkeypatch, tmp_path, capsys):
+    monkeypatch.setenv("DD_CONTACT_CACHE", str(tmp_path))
+    rates = timing.MachineRates({kind: [[1e6, 1e-3]] for kind in timing.RATE_KINDS}, {})
+
+    def measure(quick, progress):
+        for done in range(1, 5):
+            progress(done, 4)
+        return rates
+
+    monkeypatch.setattr(timing, "calibrate", measure)
+    assert cli.main(["calibrate", "--quick"]) == 0
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert lines[0] == "dd-contact calibrate: measuring this machine's rates (about 3 s)"
+    assert "4/4" in captured.err  # the progress bar reached the end
+    assert "sparse_factor" in captured.out
 
 
 # --------------------------------------------------------------------------- dd-contact flops

@@ -65,7 +65,9 @@ def test_rates_interpolate_between_the_measured_sizes_and_stay_flat_beyond():
 def test_calibration_is_measured_once_and_cached(tmp_path, monkeypatch, rates):
     path = tmp_path / "rates.json"
     calls = []
-    monkeypatch.setattr(timing, "calibrate", lambda quick: calls.append(quick) or rates)
+    monkeypatch.setattr(
+        timing, "calibrate", lambda quick, progress=None: calls.append(quick) or rates
+    )
     first = timing.machine_rates(path, quick=True)
     second = timing.machine_rates(path, quick=True)
     assert calls == [True]  # the second call read the cache
