@@ -17,11 +17,13 @@ import ufl
 
 from dd_contact.assembly import ContactZone, Model
 from dd_contact.forms import stress
+from dd_contact.parallel import gathered
 from dd_contact.scene import ContactBoundary, ContactInterface, Scene, Subdomain, Where
 
 __all__ = [
     "MeshFields",
     "Reactions",
+    "Results",
     "boundary_average",
     "cell_stress",
     "contact_area",
@@ -222,3 +224,65 @@ class Reactions:
 def contact_area(zone: ContactZone, active: np.ndarray) -> float:
     """Area of a contact region's active points (their lumped or quadrature weights)."""
     return float(zone.operator.points.weight[active].sum())
+
+
+class Results:
+    """The results of each solve, agreed by every rank, so reading them never communicates.
+
+    Agreed where the ranks meet anyway: the penalties and initial counts when built, the
+    rest in one allgather at the end of each solve (:meth:`agree`).
+
+    Args:
+        comm: Communicator of the problem.
+        scene: The scene.
+        model: This rank's assembled pieces.
+        alpha: This rank's contact state changes per owned region.
+    """
+
+    def __init__(self, comm, scene: Scene, model: Model, alpha: Mapping[str, int]):
+        self.comm, self.scene, self.zones = comm, scene, model.zones
+        self.reactions = Reactions(model)
+        owned = [k for k in range(len(scene.subdomains)) if scene.owner(k) == comm.rank]
+        self.names = {scene.subdomains[k].block: scene.subdomains[k].name for k in owned}
+        #: Absolute penalty of every tie and contact, from all ranks.
+        self.penalties = gathered(comm, model.system.penalties)
+        #: Contact state changes per region, from all ranks.
+        self.alpha = gathered(comm, alpha)
+        #: The last solve's record (empty before the first).
+        self.latest: dict = {}
+
+    def agree(
+        self,
+        x: Mapping[str, np.ndarray],
+        loads: Mapping[str, np.ndarray],
+        accelerations: Mapping[str, np.ndarray],
+        active: Mapping[str, np.ndarray],
+        alpha: Mapping[str, int],
+    ) -> dict:
+        """Collective (one allgather): this solve's results, the same on every rank.
+
+        Contact force, active points and area per region, support reaction per subdomain;
+        also refreshes :attr:`alpha`.
+        """
+        local: dict[tuple[str, str], object] = {}
+        for z in self.zones:
+            name = z.contact.name
+            local[("alpha", name)] = alpha[name]
+            local[("force", name)] = z.operator.force(x[z.block][z.dofs]).tolist()
+            local[("active", name)] = int(active[name].sum())
+            local[("contact_area", name)] = contact_area(z, active[name])
+        for block, reaction in self.reactions.of(x, loads, accelerations).items():
+            local[("reaction", self.names[block])] = reaction.tolist()
+        agreed = gathered(self.comm, local)
+        contacts = [c.name for c in self.scene.contacts]
+        self.alpha = {n: agreed[("alpha", n)] for n in contacts}
+        out = {
+            k: {n: agreed[(k, n)] for n in contacts} for k in ("force", "active", "contact_area")
+        }
+        out["reaction"] = {s.name: agreed[("reaction", s.name)] for s in self.scene.subdomains}
+        return out
+
+    def vectors(self, kind: str, names: Sequence[str]) -> dict[str, np.ndarray]:
+        """The last solve's ``kind`` (``"force"`` or ``"reaction"``) per name (zero before)."""
+        found = self.latest.get(kind, {})
+        return {n: np.array(found.get(n, np.zeros(3))) for n in names}

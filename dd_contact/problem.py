@@ -31,7 +31,7 @@ from dd_contact.errors import InputError, SingularMatrixError
 from dd_contact.io import RunOutput
 from dd_contact.iteration import ContactIteration, ContactSettings
 from dd_contact.parallel import collective, gathered
-from dd_contact.post import Reactions, contact_area, energy
+from dd_contact.post import Results, energy
 from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
@@ -141,15 +141,7 @@ class _Analysis:
         ]
         self._load_forms = {block: forms.load_forms(sub) for _, sub, block in self._owned}
         self._constant_loads: dict[str, np.ndarray] = {}
-        self._reactions = Reactions(self.model)
-        # Agreed by every rank here and at the end of each solve, where the ranks meet
-        # anyway, so that reading them needs no communication (see docs/output.md).
-        self._penalties = gathered(self.comm, self.model.system.penalties)
-        self._alpha = gathered(self.comm, self.iteration.alpha)
-        #: Results of the last solve, the same on every rank (empty before the first):
-        #: ``"force"`` (contact force per region), ``"active"`` (active points),
-        #: ``"contact_area"``, ``"reaction"`` (support reaction per subdomain).
-        self.results: dict = {}
+        self._results = Results(self.comm, scene, self.model, self.iteration.alpha)
 
     # -- pieces ----------------------------------------------------------------------------
     def _check_contact_geometry(self, t: float = 0.0) -> None:
@@ -218,45 +210,23 @@ class _Analysis:
         ]
         return f" ({'; '.join(outside)})" if outside else ""
 
-    def _active_counts(self) -> dict[str, int]:
-        """Number of active contact points per contact region (collective)."""
-        local = {n: int(a.sum()) for n, a in self.iteration.active.items()}
-        return gathered(self.comm, local)
+    def _agree(self, x, loads, accelerations) -> dict:
+        """Collective: this solve's results on every rank (:meth:`Results.agree`)."""
+        it = self.iteration
+        return self._results.agree(x, loads, accelerations, it.active, it.alpha)
 
-    def _agree(
-        self,
-        x: dict[str, np.ndarray],
-        loads: dict[str, np.ndarray],
-        accelerations: dict[str, np.ndarray],
-    ) -> dict:
-        """Collective (one allgather): this solve's results, the same on every rank.
+    @property
+    def results(self) -> dict:
+        """The last solve's results, the same on every rank (rank-local; empty before).
 
-        Contact force, active points and area per contact region, support reaction per
-        subdomain; also refreshes the contact state changes per region.
+        ``force`` (contact force per region), ``active`` (active points), ``contact_area``
+        and ``reaction`` (support reaction per subdomain); see ``docs/output.md``.
         """
-        local: dict[tuple[str, str], object] = {}
-        for z in self.zones:
-            name, active = z.contact.name, self.iteration.active[z.contact.name]
-            local[("alpha", name)] = self.iteration.alpha[name]
-            local[("force", name)] = z.operator.force(x[z.block][z.dofs]).tolist()
-            local[("active", name)] = int(active.sum())
-            local[("contact_area", name)] = contact_area(z, active)
-        names = {block: sub.name for _, sub, block in self._owned}
-        for block, reaction in self._reactions.of(x, loads, accelerations).items():
-            local[("reaction", names[block])] = reaction.tolist()
-        agreed = gathered(self.comm, local)
-        contacts = [c.name for c in self.scene.contacts]
-        subdomains = [s.name for s in self.scene.subdomains]
-        self._alpha = {n: agreed[("alpha", n)] for n in contacts}
-        results = {
-            kind: {n: agreed[(kind, n)] for n in contacts}
-            for kind in ("force", "active", "contact_area")
-        }
-        results["reaction"] = {n: agreed[("reaction", n)] for n in subdomains}
-        return results
+        return self._results.latest
 
     def _active_summary(self) -> str:
-        counts = self._active_counts()
+        local = {n: int(a.sum()) for n, a in self.iteration.active.items()}
+        counts = gathered(self.comm, local)
         return "active contact points: " + (
             ", ".join(f"{k}: {v}" for k, v in counts.items()) if counts else "none"
         )
@@ -283,8 +253,7 @@ class _Analysis:
         Rank-local: every rank holds every region's force (agreed at the end of each
         solve); zero before the first solve.
         """
-        forces = self.results.get("force", {})
-        return {c.name: np.array(forces.get(c.name, np.zeros(3))) for c in self.scene.contacts}
+        return self._results.vectors("force", [c.name for c in self.scene.contacts])
 
     @property
     def reactions(self) -> dict[str, np.ndarray]:
@@ -293,8 +262,7 @@ class _Analysis:
         The total force its Dirichlet conditions exert on it; zero without supports or
         before the first solve.
         """
-        found = self.results.get("reaction", {})
-        return {s.name: np.array(found.get(s.name, np.zeros(3))) for s in self.scene.subdomains}
+        return self._results.vectors("reaction", [s.name for s in self.scene.subdomains])
 
     @property
     def active_sets(self) -> dict[str, np.ndarray]:
@@ -308,7 +276,7 @@ class _Analysis:
     @property
     def penalties(self) -> dict[tuple[str, str], float]:
         """Absolute penalty eps of every tie and contact, from all ranks (rank-local)."""
-        return dict(self._penalties)
+        return dict(self._results.penalties)
 
     def predict(
         self, steps: float, changes: float, rates: timing.MachineRates | None = None
@@ -345,7 +313,7 @@ class _Analysis:
 
         Rank-local: the counts are agreed at the end of each solve.
         """
-        return {"gamma": self.iteration.gamma, **self._alpha}
+        return {"gamma": self.iteration.gamma, **self._results.alpha}
 
     def _functions(self) -> list[fem.Function]:
         out = [s.u for s in self.scene.subdomains]
@@ -417,7 +385,8 @@ class StaticProblem(_Analysis):
         loads = collective(self.comm, lambda: self._loads(t))
         x, self.iterations, _ = self._solve(t, self._rhs(loads), f"t = {t}")
         self._publish(x)
-        self.results = {"t": t, "iterations": self.iterations, **self._agree(x, loads, {})}
+        record = {"t": t, "iterations": self.iterations, **self._agree(x, loads, {})}
+        self._results.latest = record
         return self._functions()
 
 
@@ -600,7 +569,7 @@ class TransientProblem(_Analysis):
         record.update(self._agree(x, external, accelerations))
         if self.inertia and self.track_energy:
             record["energy"] = self.energy()
-        self.results = record
+        self._results.latest = record
         self.history.append(record)
         return record
 
@@ -735,8 +704,8 @@ class TransientProblem(_Analysis):
             self.iteration.alpha[z.contact.name] = int(state[f"alpha/{z.contact.name}"])
         # v and w need no restoring: they are massless and solved afresh in every step.
         self.history = [r for r in history if r["step"] <= self.step]
-        self.results = self.history[-1] if self.history else {}
-        self._alpha = gathered(self.comm, self.iteration.alpha)
+        self._results.latest = self.history[-1] if self.history else {}
+        self._results.alpha = gathered(self.comm, self.iteration.alpha)
         self._started = True
 
     def _publish_surfaces(self, surfaces: dict[str, np.ndarray]) -> None:
