@@ -36,6 +36,7 @@ from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
 from dd_contact.solvers.engine import BlockEliminationSolver
+from dd_contact.solvers.linalg import petsc_options
 from dd_contact.solvers.residual import ResidualCheck
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
 from dd_contact.solvers.stiff_ties import AugmentedTies
@@ -70,7 +71,13 @@ class _Analysis:
         condensation: str,
         expected: tuple[float, float],
         rates: timing.MachineRates | None,
+        options: dict | None,
     ):
+        self._options = dict(options or {})
+        with petsc_options(self._options):  # checked, and read by the factorisations built
+            self._build(scene, algorithm, mass_coefficient, contact, condensation, expected, rates)
+
+    def _build(self, scene, algorithm, mass_coefficient, contact, condensation, expected, rates):
         has_interface = scene.interface is not None
         has_w = any(not isinstance(c, ContactBoundary) for c in scene.contacts)
         valid = fitting_algorithms(has_interface, has_w)
@@ -190,7 +197,8 @@ class _Analysis:
                 "create a new problem to solve again"
             )
         try:
-            return self.iteration.solve(self.tie_solver, rhs, t, where)
+            with petsc_options(self._options):
+                return self.iteration.solve(self.tie_solver, rhs, t, where)
         except SingularMatrixError as error:
             raise type(error)(
                 f"{error} (at {where}; {self._active_summary()}). Likely causes: a body held "
@@ -289,10 +297,16 @@ class _Analysis:
         """
         contacts = [z.region for z in self.zones]
         full = self.algorithm == "FULL"
-        structure = timing.scene_structure(
-            self.comm, self.solver.system, contacts, self.condensation, full=full, orders=not full
-        )
         rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
+        with petsc_options(self._options):  # the analysis reads the factorisations' options
+            structure = timing.scene_structure(
+                self.comm,
+                self.solver.system,
+                contacts,
+                self.condensation,
+                full=full,
+                orders=not full,
+            )
         return timing.predict(timing.plan(structure, self.algorithm), rates, steps, changes)
 
     def work_summary(self) -> dict[str, dict]:
@@ -355,6 +369,9 @@ class StaticProblem(_Analysis):
             (default 3: a contact iteration typically settles in a few changes).
         rates: For ``"auto"``: machine rates (default: this machine's, measured once
             and cached; see :func:`dd_contact.timing.machine_rates`).
+        petsc_options: PETSc options for the MUMPS factorisations, as dolfinx's
+            ``LinearProblem``: ``{"mat_mumps_icntl_14": 50}`` (read under the prefix
+            ``dd_contact_`` while this problem builds its factorisations; docs/solvers.md).
 
     Example:
         >>> with StaticProblem(scene) as problem:
@@ -369,9 +386,13 @@ class StaticProblem(_Analysis):
         condensation: str = "schur",
         expected_changes: float = 3.0,
         rates: timing.MachineRates | None = None,
+        petsc_options: dict | None = None,
     ):
         scene.check_static_supports()
-        super().__init__(scene, algorithm, 0.0, contact, condensation, (1, expected_changes), rates)
+        expected = (1, expected_changes)
+        super().__init__(
+            scene, algorithm, 0.0, contact, condensation, expected, rates, petsc_options
+        )
         self.iterations = 0
 
     def solve(self, t: float = 0.0) -> list[fem.Function]:
@@ -412,6 +433,9 @@ class TransientProblem(_Analysis):
             (default: one per step, as when a contact area grows or shrinks all along).
         rates: For ``"auto"``: machine rates (default: this machine's, measured once
             and cached; see :func:`dd_contact.timing.machine_rates`).
+        petsc_options: PETSc options for the MUMPS factorisations, as dolfinx's
+            ``LinearProblem``: ``{"mat_mumps_icntl_14": 50}`` (read under the prefix
+            ``dd_contact_`` while this problem builds its factorisations; docs/solvers.md).
     """
 
     def __init__(
@@ -427,6 +451,7 @@ class TransientProblem(_Analysis):
         expected_steps: int = 1000,
         expected_changes: float | None = None,
         rates: timing.MachineRates | None = None,
+        petsc_options: dict | None = None,
     ):
         self.newmark = Newmark(dt)
         self.inertia = inertia
@@ -449,6 +474,7 @@ class TransientProblem(_Analysis):
             condensation,
             (expected_steps, changes),
             rates,
+            petsc_options,
         )
         self.track_energy = track_energy
         self.dt, self.t0 = dt, t0
@@ -482,7 +508,8 @@ class TransientProblem(_Analysis):
             sub.velocity.x.array[fixed] = 0.0
         self.iteration.start(self.t0)
         if self.inertia:
-            self._initial_acceleration()
+            with petsc_options(self._options):
+                self._initial_acceleration()
         self._started = True
 
     def _initial_acceleration(self) -> None:

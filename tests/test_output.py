@@ -284,3 +284,25 @@ def test_resume_continues_the_same_files(tmp_path):
     )
     assert json.loads((out / "history.json").read_text()) == reference
     assert (out / "history.csv").read_text() == (base / "whole" / "history.csv").read_text()
+
+
+# -- PETSc options ---------------------------------------------------------------------------
+def test_petsc_options_reach_mumps_and_leave_the_database_as_it_was():
+    from petsc4py import PETSc
+
+    _, _, scene = _pressed_block()
+    database = PETSc.Options()
+    problem = dd.StaticProblem(scene, petsc_options={"mat_mumps_icntl_14": 77})
+    problem.solve()
+    factor = problem.solver._factor.ksp.getPC().getFactorMatrix()
+    assert factor.getMumpsIcntl(14) == 77
+    assert not database.hasName("dd_contact_mat_mumps_icntl_14")
+    plain = dd.StaticProblem(scene)
+    plain.solve()
+    # Without the option the default (5 here) comes back: nothing stayed behind.
+    assert plain.solver._factor.ksp.getPC().getFactorMatrix().getMumpsIcntl(14) == 5
+    with pytest.raises(dd.InputError, match="mat_mumps_icntl_24 must be 1"):
+        dd.StaticProblem(scene, petsc_options={"mat_mumps_icntl_24": 0}).solve()
+    assert not database.hasName("dd_contact_mat_mumps_icntl_24")
+    with pytest.raises(dd.InputError, match="key '-mat_mumps_icntl_14' must be an option name"):
+        dd.StaticProblem(scene, petsc_options={"-mat_mumps_icntl_14": 50})
