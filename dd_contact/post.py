@@ -1,19 +1,36 @@
-"""Post-processing: cell stresses, von Mises stress, boundary averages, energy."""
+"""Post-processing: stresses, output fields, support reactions, contact results, energy.
+
+Units are those of the input: with SI input (m, Pa, N, kg, s) forces are in N, stresses and
+contact pressure in Pa, areas in m^2, gaps in m and energies in J.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 
 import dolfinx.fem as fem
 import dolfinx.mesh
 import numpy as np
+import scipy.sparse as sp
 import ufl
 
 from dd_contact.assembly import ContactZone, Model
 from dd_contact.forms import stress
-from dd_contact.scene import Subdomain, Where
+from dd_contact.parallel import gathered
+from dd_contact.scene import ContactBoundary, ContactInterface, Scene, Subdomain, Where
 
-__all__ = ["boundary_average", "cell_stress", "energy", "von_mises"]
+__all__ = [
+    "MeshFields",
+    "Reactions",
+    "Results",
+    "boundary_average",
+    "cell_stress",
+    "contact_area",
+    "energy",
+    "output_fields",
+    "von_mises",
+]
 
 
 def cell_stress(sub: Subdomain) -> np.ndarray:
@@ -75,3 +92,197 @@ def energy(
             kinetic += 0.5 * float(v @ (model.mass[block] @ v))
     contact = float(sum(z.operator.energy(z.contact.w.x.array) for z in zones))
     return {"kinetic": kinetic, "elastic": elastic, "contact": contact}
+
+
+@dataclass
+class MeshFields:
+    """The output Functions of one mesh and how to bring the derived ones up to date.
+
+    Attributes:
+        stem: File name stem (the mesh's displacement Function's name, e.g. ``u_left``).
+        functions: What is written: the solution Functions and the derived ones.
+        refresh: ``refresh(t)`` recomputes the derived Functions from the solution at ``t``.
+    """
+
+    stem: str
+    functions: list[fem.Function]
+    refresh: Callable[[float], None]
+
+
+def _subdomain_fields(sub: Subdomain, dynamic: bool) -> MeshFields:
+    """Displacement (velocity, acceleration), cell stress tensor, von Mises stress (DG0)."""
+    tensor = fem.functionspace(sub.mesh, ("DG", 0, (3, 3)))
+    sigma = fem.Function(tensor, name=f"stress_{sub.name}")
+    mises = fem.Function(fem.functionspace(sub.mesh, ("DG", 0)), name=f"von_mises_{sub.name}")
+    expression = fem.Expression(stress(sub.u, sub.material), tensor.element.interpolation_points)
+
+    def refresh(t: float) -> None:
+        sigma.interpolate(expression)
+        s = sigma.x.array.reshape(-1, 3, 3)
+        dev = s - np.trace(s, axis1=1, axis2=2)[:, None, None] * np.eye(3) / 3.0
+        mises.x.array[:] = np.sqrt(1.5 * np.einsum("nij,nij->n", dev, dev))
+
+    motion = [sub.velocity, sub.acceleration] if dynamic else []
+    return MeshFields(sub.u.name, [sub.u, *motion, sigma, mises], refresh)
+
+
+def _contact_fields(contact: ContactInterface | ContactBoundary) -> MeshFields:
+    """w, nodal pressure, gap ``s - w . n`` at the nodes and the active nodes (1 or 0).
+
+    A node is active where its pressure is positive: with contact checked at the nodes
+    (the default) these are exactly the active points of the contact iteration.
+    """
+    scalars = contact.pressure.function_space
+    gap = fem.Function(scalars, name=f"gap_{contact.name}")
+    active = fem.Function(scalars, name=f"active_{contact.name}")
+    n = scalars.dofmap.index_map.size_local
+    x = scalars.tabulate_dof_coordinates()[:n]
+
+    def refresh(t: float) -> None:
+        s, normal = contact.obstacle.gap_normal(x, t)
+        w = contact.w.x.array[: 3 * n].reshape(n, 3)
+        gap.x.array[:n] = s - np.einsum("ij,ij->i", w, normal)
+        active.x.array[:n] = contact.pressure.x.array[:n] > 0.0
+
+    return MeshFields(contact.w.name, [contact.w, contact.pressure, gap, active], refresh)
+
+
+def output_fields(scene: Scene, rank: int, dynamic: bool) -> list[MeshFields]:
+    """The output of every mesh rank ``rank`` owns (the interface is rank 0's).
+
+    Args:
+        scene: The scene.
+        rank: This rank.
+        dynamic: Include velocity and acceleration of the subdomains.
+    """
+    out = [
+        _subdomain_fields(s, dynamic)
+        for k, s in enumerate(scene.subdomains)
+        if scene.owner(k) == rank
+    ]
+    if scene.interface is not None and rank == 0:
+        out.append(MeshFields(scene.interface.v.name, [scene.interface.v], lambda t: None))
+    out += [_contact_fields(c) for c in scene.contacts if scene.contact_owner(c) == rank]
+    return out
+
+
+class Reactions:
+    """Total reaction force of the supports (Dirichlet conditions) of each owned subdomain.
+
+    At the prescribed dofs equilibrium reads ``M a + K x + tie forces = f + R``; the
+    reaction R is summed per component. Only the rows of the prescribed dofs are kept, so
+    a step costs a product with those rows.
+
+    Args:
+        model: This rank's assembled pieces (unconstrained matrices, mass, Dirichlet dofs).
+    """
+
+    def __init__(self, model: Model):
+        self.model = model
+        self.rows: dict[str, list[tuple[str, sp.csr_array]]] = {}
+        self.mass: dict[str, sp.csr_array] = {}
+        for block, (dofs, _) in model.dirichlet.items():
+            rows = []
+            # Off-diagonal coupling is stored once, as (row, column) or (column, row).
+            for (rb, cb), A in model.system.matrices.items():
+                if rb == block:
+                    rows.append((cb, sp.csr_array(A[dofs])))
+                elif cb == block:
+                    rows.append((rb, sp.csr_array(sp.csr_array(A.T)[dofs])))
+            self.rows[block] = rows
+            if block in model.mass:
+                self.mass[block] = sp.csr_array(model.mass[block][dofs])
+
+    def of(
+        self,
+        x: Mapping[str, np.ndarray],
+        loads: Mapping[str, np.ndarray],
+        accelerations: Mapping[str, np.ndarray],
+    ) -> dict[str, np.ndarray]:
+        """Reaction 3-vector per owned subdomain block (zero without supports).
+
+        Args:
+            x: Every block's displacement.
+            loads: The external load vector of each owned subdomain block.
+            accelerations: Acceleration of each owned block (empty for statics).
+        """
+        out = {}
+        for block, rows in self.rows.items():
+            dofs = self.model.dirichlet[block][0]
+            r = -loads[block][dofs] if block in loads else np.zeros(len(dofs))
+            for column, A in rows:
+                r = r + A @ x[column]
+            if block in self.mass and block in accelerations:
+                r = r + self.mass[block] @ accelerations[block]
+            for tie in self.model.system.stiff_ties:
+                if tie.u == block:
+                    r = r + tie.sigma * tie.jump(x)[block][dofs]
+            out[block] = np.bincount(dofs % 3, weights=r, minlength=3)
+        return out
+
+
+def contact_area(zone: ContactZone, active: np.ndarray) -> float:
+    """Area of a contact region's active points (their lumped or quadrature weights)."""
+    return float(zone.operator.points.weight[active].sum())
+
+
+class Results:
+    """The results of each solve, agreed by every rank, so reading them never communicates.
+
+    Agreed where the ranks meet anyway: the penalties and initial counts when built, the
+    rest in one allgather at the end of each solve (:meth:`agree`).
+
+    Args:
+        comm: Communicator of the problem.
+        scene: The scene.
+        model: This rank's assembled pieces.
+        alpha: This rank's contact state changes per owned region.
+    """
+
+    def __init__(self, comm, scene: Scene, model: Model, alpha: Mapping[str, int]):
+        self.comm, self.scene, self.zones = comm, scene, model.zones
+        self.reactions = Reactions(model)
+        owned = [k for k in range(len(scene.subdomains)) if scene.owner(k) == comm.rank]
+        self.names = {scene.subdomains[k].block: scene.subdomains[k].name for k in owned}
+        #: Absolute penalty of every tie and contact, from all ranks.
+        self.penalties = gathered(comm, model.system.penalties)
+        #: Contact state changes per region, from all ranks.
+        self.alpha = gathered(comm, alpha)
+        #: The last solve's record (empty before the first).
+        self.latest: dict = {}
+
+    def agree(
+        self,
+        x: Mapping[str, np.ndarray],
+        loads: Mapping[str, np.ndarray],
+        accelerations: Mapping[str, np.ndarray],
+        active: Mapping[str, np.ndarray],
+        alpha: Mapping[str, int],
+    ) -> dict:
+        """Collective (one allgather): this solve's results, the same on every rank.
+
+        Contact force, active points and area per region, support reaction per subdomain;
+        also refreshes :attr:`alpha`.
+        """
+        local: dict[tuple[str, str], object] = {}
+        for z in self.zones:
+            name = z.contact.name
+            local[("alpha", name)] = alpha[name]
+            local[("force", name)] = z.operator.force(x[z.block][z.dofs]).tolist()
+            local[("active", name)] = int(active[name].sum())
+            local[("contact_area", name)] = contact_area(z, active[name])
+        for block, reaction in self.reactions.of(x, loads, accelerations).items():
+            local[("reaction", self.names[block])] = reaction.tolist()
+        agreed = gathered(self.comm, local)
+        contacts = [c.name for c in self.scene.contacts]
+        self.alpha = {n: agreed[("alpha", n)] for n in contacts}
+        out = {
+            k: {n: agreed[(k, n)] for n in contacts} for k in ("force", "active", "contact_area")
+        }
+        out["reaction"] = {s.name: agreed[("reaction", s.name)] for s in self.scene.subdomains}
+        return out
+
+    def vectors(self, kind: str, names: Sequence[str]) -> dict[str, np.ndarray]:
+        """The last solve's ``kind`` (``"force"`` or ``"reaction"``) per name (zero before)."""
+        found = self.latest.get(kind, {})
+        return {n: np.array(found.get(n, np.zeros(3))) for n in names}

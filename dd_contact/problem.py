@@ -28,14 +28,15 @@ from dd_contact import forms, timing
 from dd_contact.assembly import Model, assemble
 from dd_contact.contact import check_contact_geometry
 from dd_contact.errors import InputError, SingularMatrixError
-from dd_contact.io import Checkpoint, ResultWriter
+from dd_contact.io import RunOutput
 from dd_contact.iteration import ContactIteration, ContactSettings
 from dd_contact.parallel import collective, gathered
-from dd_contact.post import energy
+from dd_contact.post import Results, energy
 from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
 from dd_contact.solvers.engine import BlockEliminationSolver
+from dd_contact.solvers.linalg import petsc_options
 from dd_contact.solvers.residual import ResidualCheck
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
 from dd_contact.solvers.stiff_ties import AugmentedTies
@@ -44,6 +45,12 @@ from dd_contact.timestepping import Newmark
 __all__ = ["StaticProblem", "TransientProblem"]
 
 logger = logging.getLogger(__name__)
+
+
+def _check_count(argument: str, value) -> None:
+    """Refuse a step count that is not a whole number >= 1."""
+    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
+        raise InputError(f"run: {argument} must be a whole number >= 1, got {value!r}")
 
 
 def _print_report(comm, text: str) -> None:
@@ -64,17 +71,27 @@ class _Analysis:
         condensation: str,
         expected: tuple[float, float],
         rates: timing.MachineRates | None,
+        options: dict | None,
     ):
+        self._options = dict(options or {})
+        with petsc_options(self._options):  # checked, and read by the factorisations built
+            self._build(scene, algorithm, mass_coefficient, contact, condensation, expected, rates)
+
+    def _build(self, scene, algorithm, mass_coefficient, contact, condensation, expected, rates):
         has_interface = scene.interface is not None
         has_w = any(not isinstance(c, ContactBoundary) for c in scene.contacts)
         valid = fitting_algorithms(has_interface, has_w)
         if algorithm != "auto" and algorithm not in valid:
-            what = "unknown algorithm" if algorithm not in ALGORITHMS else "algorithm"
             parts = ["an interface" if has_interface else "no interface"]
             parts.append("contact interfaces" if has_w else "no contact interfaces")
+            what = (
+                f"unknown algorithm {algorithm!r} (the algorithms: auto, {', '.join(ALGORITHMS)})"
+                if algorithm not in ALGORITHMS
+                else f"algorithm {algorithm!r} does not fit this scene"
+            )
             raise InputError(
-                f"{what} {algorithm!r} does not fit this scene ({' and '.join(parts)}); valid "
-                f"for it: {', '.join(valid)} (v needs an interface, w contact interfaces)"
+                f"{what}; this scene has {' and '.join(parts)}; valid for it: "
+                f"{', '.join(valid)} or auto (v needs an interface, w contact interfaces)"
             )
         steps, changes = expected
         if algorithm == "auto" and not (steps >= 1 and 0 <= changes < np.inf):
@@ -131,6 +148,7 @@ class _Analysis:
         ]
         self._load_forms = {block: forms.load_forms(sub) for _, sub, block in self._owned}
         self._constant_loads: dict[str, np.ndarray] = {}
+        self._results = Results(self.comm, scene, self.model, self.iteration.alpha)
 
     # -- pieces ----------------------------------------------------------------------------
     def _check_contact_geometry(self, t: float = 0.0) -> None:
@@ -179,7 +197,8 @@ class _Analysis:
                 "create a new problem to solve again"
             )
         try:
-            return self.iteration.solve(self.tie_solver, rhs, t, where)
+            with petsc_options(self._options):
+                return self.iteration.solve(self.tie_solver, rhs, t, where)
         except SingularMatrixError as error:
             raise type(error)(
                 f"{error} (at {where}; {self._active_summary()}). Likely causes: a body held "
@@ -199,13 +218,23 @@ class _Analysis:
         ]
         return f" ({'; '.join(outside)})" if outside else ""
 
-    def _active_counts(self) -> dict[str, int]:
-        """Number of active contact points per contact region (collective)."""
-        local = {n: int(a.sum()) for n, a in self.iteration.active.items()}
-        return gathered(self.comm, local)
+    def _agree(self, x, loads, accelerations) -> dict:
+        """Collective: this solve's results on every rank (:meth:`Results.agree`)."""
+        it = self.iteration
+        return self._results.agree(x, loads, accelerations, it.active, it.alpha)
+
+    @property
+    def results(self) -> dict:
+        """The last solve's results, the same on every rank (rank-local; empty before).
+
+        ``force`` (contact force per region), ``active`` (active points), ``contact_area``
+        and ``reaction`` (support reaction per subdomain); see ``docs/output.md``.
+        """
+        return self._results.latest
 
     def _active_summary(self) -> str:
-        counts = self._active_counts()
+        local = {n: int(a.sum()) for n, a in self.iteration.active.items()}
+        counts = gathered(self.comm, local)
         return "active contact points: " + (
             ", ".join(f"{k}: {v}" for k, v in counts.items()) if counts else "none"
         )
@@ -227,17 +256,35 @@ class _Analysis:
             )
 
     def contact_forces(self) -> dict[str, np.ndarray]:
-        """Total force of each obstacle on the body (collective)."""
-        local = {
-            z.contact.name: z.operator.force(z.contact.w.x.array[: z.operator.num_dofs])
-            for z in self.zones
-        }
-        return gathered(self.comm, local)
+        """Total force of each obstacle on the body at the last solve [N], per region.
+
+        Rank-local: every rank holds every region's force (agreed at the end of each
+        solve); zero before the first solve.
+        """
+        return self._results.vectors("force", [c.name for c in self.scene.contacts])
+
+    @property
+    def reactions(self) -> dict[str, np.ndarray]:
+        """Support reaction of each subdomain at the last solve [N] (rank-local).
+
+        The total force its Dirichlet conditions exert on it; zero without supports or
+        before the first solve.
+        """
+        return self._results.vectors("reaction", [s.name for s in self.scene.subdomains])
+
+    @property
+    def active_sets(self) -> dict[str, np.ndarray]:
+        """Active contact points of the contact regions this rank owns (rank-local).
+
+        One boolean per contact point (the surface nodes by default); the counts of every
+        region are in :attr:`results`.
+        """
+        return {name: active.copy() for name, active in self.iteration.active.items()}
 
     @property
     def penalties(self) -> dict[tuple[str, str], float]:
-        """Absolute penalty eps of every tie and contact, from all ranks (collective)."""
-        return gathered(self.comm, self.model.system.penalties)
+        """Absolute penalty eps of every tie and contact, from all ranks (rank-local)."""
+        return dict(self._results.penalties)
 
     def predict(
         self, steps: float, changes: float, rates: timing.MachineRates | None = None
@@ -250,10 +297,16 @@ class _Analysis:
         """
         contacts = [z.region for z in self.zones]
         full = self.algorithm == "FULL"
-        structure = timing.scene_structure(
-            self.comm, self.solver.system, contacts, self.condensation, full=full, orders=not full
-        )
         rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
+        with petsc_options(self._options):  # the analysis reads the factorisations' options
+            structure = timing.scene_structure(
+                self.comm,
+                self.solver.system,
+                contacts,
+                self.condensation,
+                full=full,
+                orders=not full,
+            )
         return timing.predict(timing.plan(structure, self.algorithm), rates, steps, changes)
 
     def work_summary(self) -> dict[str, dict]:
@@ -270,8 +323,11 @@ class _Analysis:
 
     @property
     def changes(self) -> dict[str, int]:
-        """Contact state changes so far: ``"gamma"`` (whole model) and one count per contact."""
-        return {"gamma": self.iteration.gamma, **gathered(self.comm, self.iteration.alpha)}
+        """Contact state changes so far: ``"gamma"`` (whole model) and one count per contact.
+
+        Rank-local: the counts are agreed at the end of each solve.
+        """
+        return {"gamma": self.iteration.gamma, **self._results.alpha}
 
     def _functions(self) -> list[fem.Function]:
         out = [s.u for s in self.scene.subdomains]
@@ -313,6 +369,9 @@ class StaticProblem(_Analysis):
             (default 3: a contact iteration typically settles in a few changes).
         rates: For ``"auto"``: machine rates (default: this machine's, measured once
             and cached; see :func:`dd_contact.timing.machine_rates`).
+        petsc_options: PETSc options for the MUMPS factorisations, as dolfinx's
+            ``LinearProblem``: ``{"mat_mumps_icntl_14": 50}`` (read under the prefix
+            ``dd_contact_`` while this problem builds its factorisations; docs/solvers.md).
 
     Example:
         >>> with StaticProblem(scene) as problem:
@@ -327,18 +386,28 @@ class StaticProblem(_Analysis):
         condensation: str = "schur",
         expected_changes: float = 3.0,
         rates: timing.MachineRates | None = None,
+        petsc_options: dict | None = None,
     ):
         scene.check_static_supports()
-        super().__init__(scene, algorithm, 0.0, contact, condensation, (1, expected_changes), rates)
+        expected = (1, expected_changes)
+        super().__init__(
+            scene, algorithm, 0.0, contact, condensation, expected, rates, petsc_options
+        )
         self.iterations = 0
 
     def solve(self, t: float = 0.0) -> list[fem.Function]:
-        """Solve at load time ``t``; returns subdomain, interface and contact displacements."""
+        """Collective: solve at load time ``t``.
+
+        Returns the subdomain, interface and contact displacements (the scene's Functions);
+        :attr:`results`, :meth:`contact_forces`, :attr:`reactions` and :attr:`changes`
+        then hold this solve's results on every rank.
+        """
         self.iteration.start(t)
-        x, self.iterations, _ = self._solve(
-            t, self._rhs(collective(self.comm, lambda: self._loads(t))), f"t = {t}"
-        )
+        loads = collective(self.comm, lambda: self._loads(t))
+        x, self.iterations, _ = self._solve(t, self._rhs(loads), f"t = {t}")
         self._publish(x)
+        record = {"t": t, "iterations": self.iterations, **self._agree(x, loads, {})}
+        self._results.latest = record
         return self._functions()
 
 
@@ -364,6 +433,9 @@ class TransientProblem(_Analysis):
             (default: one per step, as when a contact area grows or shrinks all along).
         rates: For ``"auto"``: machine rates (default: this machine's, measured once
             and cached; see :func:`dd_contact.timing.machine_rates`).
+        petsc_options: PETSc options for the MUMPS factorisations, as dolfinx's
+            ``LinearProblem``: ``{"mat_mumps_icntl_14": 50}`` (read under the prefix
+            ``dd_contact_`` while this problem builds its factorisations; docs/solvers.md).
     """
 
     def __init__(
@@ -379,6 +451,7 @@ class TransientProblem(_Analysis):
         expected_steps: int = 1000,
         expected_changes: float | None = None,
         rates: timing.MachineRates | None = None,
+        petsc_options: dict | None = None,
     ):
         self.newmark = Newmark(dt)
         self.inertia = inertia
@@ -401,6 +474,7 @@ class TransientProblem(_Analysis):
             condensation,
             (expected_steps, changes),
             rates,
+            petsc_options,
         )
         self.track_energy = track_energy
         self.dt, self.t0 = dt, t0
@@ -410,7 +484,7 @@ class TransientProblem(_Analysis):
 
     # -- state ---------------------------------------------------------------------------
     def start(self) -> None:
-        """Set up the initial state (done by the first step if not called; idempotent).
+        """Collective: set up the initial state (done by the first step if not called).
 
         Checks the initial data, puts the interface and contact interfaces in equilibrium
         with the initial displacement, and computes the initial acceleration.
@@ -434,7 +508,8 @@ class TransientProblem(_Analysis):
             sub.velocity.x.array[fixed] = 0.0
         self.iteration.start(self.t0)
         if self.inertia:
-            self._initial_acceleration()
+            with petsc_options(self._options):
+                self._initial_acceleration()
         self._started = True
 
     def _initial_acceleration(self) -> None:
@@ -467,7 +542,7 @@ class TransientProblem(_Analysis):
             logger.debug("initial acceleration of subdomain %r from its mass matrix", sub.name)
 
     def energy(self) -> dict[str, float]:
-        """Kinetic, elastic (with ties) and contact-penalty energy now (collective)."""
+        """Collective: kinetic, elastic (with ties) and contact-penalty energy now [J]."""
         x = {s.block: s.u.x.array for s in self.scene.subdomains}
         if self.scene.interface is not None:
             x[self.scene.interface.block] = self.scene.interface.v.x.array
@@ -487,11 +562,18 @@ class TransientProblem(_Analysis):
 
     # -- stepping -----------------------------------------------------------------------
     def advance(self) -> dict:
-        """One time step; returns its record (also appended to :attr:`history`)."""
+        """Collective: one time step; returns its record (also appended to :attr:`history`).
+
+        The record (also :attr:`results`, the same on every rank): ``step``, ``t``,
+        ``iterations``, ``changes`` (contact state changes in this step), and per contact
+        region ``force`` [N], ``active`` (points) and ``contact_area`` [m^2], per subdomain
+        ``reaction`` [N] (its supports), and ``energy`` [J] (dynamics, ``track_energy``).
+        """
         if not self._started:
             self._start()
         t_new = self.t + self.dt
         loads = collective(self.comm, lambda: self._loads(t_new))
+        external = dict(loads)
         if self.inertia:
             for _, sub, block in self._owned:
                 history = self.newmark.history(
@@ -509,11 +591,12 @@ class TransientProblem(_Analysis):
                 sub.acceleration.x.array[:] = a
         self._publish(x)
         self.t, self.step = t_new, self.step + 1
+        accelerations = {b: s.acceleration.x.array for _, s, b in self._owned if self.inertia}
         record = {"step": self.step, "t": t_new, "iterations": iterations, "changes": changes}
-        record["active"] = self._active_counts()
-        record["force"] = {k: v.tolist() for k, v in self.contact_forces().items()}
+        record.update(self._agree(x, external, accelerations))
         if self.inertia and self.track_energy:
             record["energy"] = self.energy()
+        self._results.latest = record
         self.history.append(record)
         return record
 
@@ -528,12 +611,19 @@ class TransientProblem(_Analysis):
         callback: Callable[[dict], None] | None = None,
         summary: bool = True,
     ) -> list[dict]:
-        """Advance to step ``n_steps`` (counted from t0), writing results as it goes.
+        """Collective: advance up to step number ``n_steps``, writing results as it goes.
+
+        ``n_steps`` is the step to reach, counted from t0, not a number of new steps: after
+        ``run(10)``, ``run(20)`` takes 10 more, and a second ``run(10)`` raises
+        :class:`InputError`. With ``resume=True`` the run continues from the checkpoint in
+        ``output`` (if there is one) to the same ``n_steps``; a checkpoint already at
+        ``n_steps`` leaves nothing to do and returns its history.
 
         Args:
-            n_steps: Last step number of the run.
-            output: Directory for VTX files, the history and checkpoints.
-            output_every: Write VTX every this many steps.
+            n_steps: Last step number of the run (>= 1).
+            output: Directory (created if missing) for the fields (XDMF), ``history.json``,
+                ``history.csv`` and checkpoints; see ``docs/output.md``.
+            output_every: Write the fields every this many steps (>= 1).
             checkpoint_every: Save a checkpoint every this many steps (needs ``output``).
             resume: Continue from the checkpoint in ``output`` if there is one.
             progress: Show a progress bar (default: when stderr is a terminal, on rank 0).
@@ -542,18 +632,31 @@ class TransientProblem(_Analysis):
 
         Returns:
             The history: one record per step (time, iterations, contact state changes,
-            active points, contact forces, energy).
+            active points, contact area and force per region, support reactions, energy).
         """
-        if checkpoint_every is not None and output is None:
-            raise InputError("run: checkpoint_every needs an output directory")
-        checkpoint = Checkpoint(output, self.comm) if output is not None else None
-        if resume and checkpoint is not None and checkpoint.exists():
-            self._restore(*checkpoint.load())
-        elif not self._started:
+        _check_count("n_steps", n_steps)
+        _check_count("output_every", output_every)
+        if checkpoint_every is not None:
+            _check_count("checkpoint_every", checkpoint_every)
+            if output is None:
+                raise InputError("run: checkpoint_every needs an output directory (output=...)")
+        files = RunOutput(self.scene, output, self.inertia) if output is not None else None
+        restored = resume and files is not None and files.checkpoint.exists()
+        if restored:
+            self._restore(files.checkpoint.load(), files.history.load())
+        if self.step >= n_steps and not (restored and self.step == n_steps):
+            where = f"the checkpoint in {str(output)!r} is" if restored else "the problem is"
+            raise InputError(
+                f"run(n_steps={n_steps}): {where} already at step {self.step}; n_steps is the "
+                f"step number to reach (counted from t0), not a number of new steps: call "
+                f"run({self.step + n_steps}) for {n_steps} more"
+            )
+        if not self._started:
             self._start()
-        writer = ResultWriter(self.scene, output, self.step) if output is not None else None
-        if writer is not None and self.step == 0:
-            writer.write(self.t)
+        if files is not None:
+            files.open(self.step, self.history)
+            if self.step == 0:
+                files.fields.write(self.t)
         show = progress if progress is not None else sys.stderr.isatty()
         bar = None
         if show and self.comm.rank == 0 and self.step < n_steps:
@@ -561,10 +664,10 @@ class TransientProblem(_Analysis):
         try:
             while self.step < n_steps:
                 record = self.advance()
-                if writer is not None and self.step % output_every == 0:
-                    writer.write(self.t)
+                if files is not None:
+                    files.record(record, self.step % output_every == 0)
                 if checkpoint_every and self.step % checkpoint_every == 0:
-                    checkpoint.save(self._state(), self.history)
+                    files.save(self._state(), self.history)
                     logger.info("checkpoint at step %d (t = %.6g)", self.step, self.t)
                 if bar is not None:
                     bar.update(1)
@@ -574,8 +677,8 @@ class TransientProblem(_Analysis):
         finally:
             if bar is not None:
                 bar.close()
-            if writer is not None:
-                writer.close()
+            if files is not None:
+                files.close(self.history)
         if summary:
             table = self.work_table()
             report = []
@@ -605,6 +708,7 @@ class TransientProblem(_Analysis):
         return state
 
     def _restore(self, state: dict[str, np.ndarray], history: list[dict]) -> None:
+        """Collective: the state of a checkpoint, and the history up to its step."""
         if float(state["dt"]) != self.dt:
             raise InputError(
                 f"resume: the checkpoint was written with dt = {float(state['dt'])}, this run "
@@ -626,7 +730,9 @@ class TransientProblem(_Analysis):
             self.iteration.active[z.contact.name] = state[f"active/{z.contact.name}"]
             self.iteration.alpha[z.contact.name] = int(state[f"alpha/{z.contact.name}"])
         # v and w need no restoring: they are massless and solved afresh in every step.
-        self.history = history[: self.step]
+        self.history = [r for r in history if r["step"] <= self.step]
+        self._results.latest = self.history[-1] if self.history else {}
+        self._results.alpha = gathered(self.comm, self.iteration.alpha)
         self._started = True
 
     def _publish_surfaces(self, surfaces: dict[str, np.ndarray]) -> None:

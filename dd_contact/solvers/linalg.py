@@ -12,10 +12,11 @@ settings the package relies on (:data:`REQUIRED_ICNTL`) cannot be changed that w
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import functools
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -39,6 +40,7 @@ __all__ = [
     "SparseCholesky",
     "SparseStatistics",
     "petsc_matrix",
+    "petsc_options",
     "sparse_statistics",
 ]
 
@@ -107,6 +109,43 @@ def _libpetsc() -> ctypes.CDLL:
             f"({error}); it is needed for MUMPS's Schur complement and symbolic analysis: "
             "use condensation='multi-rhs' and an explicit algorithm"
         ) from error
+
+
+@contextlib.contextmanager
+def petsc_options(options: Mapping[str, object] | None) -> Iterator[None]:
+    """Put ``options`` under :data:`OPTIONS_PREFIX` in the PETSc database, then restore it.
+
+    As dolfinx's ``LinearProblem(petsc_options=...)``: keys without the prefix or dash
+    (``{"mat_mumps_icntl_14": 50}``), values a number, string, bool or ``None`` (a flag).
+    The factorisations built inside read them; what was there before is put back after.
+    """
+    if not options:
+        yield
+        return
+    database = PETSc.Options(OPTIONS_PREFIX)
+    for key, value in options.items():
+        if not isinstance(key, str) or key.startswith("-") or key.startswith(OPTIONS_PREFIX):
+            raise InputError(
+                f"petsc_options: key {key!r} must be an option name without the dash and the "
+                f"prefix, e.g. 'mat_mumps_icntl_14' (it is read as -{OPTIONS_PREFIX}<key>)"
+            )
+        if value is not None and not isinstance(value, str | int | float | bool):
+            raise InputError(
+                f"petsc_options[{key!r}]: give a number, string, bool or None, got "
+                f"{type(value).__name__}"
+            )
+    saved = {k: database.getString(k) if database.hasName(k) else None for k in options}
+    present = {k for k in options if database.hasName(k)}
+    try:
+        for key, value in options.items():
+            database[key] = value
+        yield
+    finally:
+        for key in options:
+            if key in present:
+                database[key] = saved[key]
+            else:
+                database.delValue(key)
 
 
 def _check_required_options() -> None:
