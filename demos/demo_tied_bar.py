@@ -2,16 +2,16 @@
 #
 # A steel cantilever 10 x 1 x 1 (m), clamped at x = 0 and loaded at its tip by a shear
 # force, is cut at x = 5 into two subdomains that are meshed independently: the left half
-# with 20 x 4 x 4 hexahedra, the right half with 15 x 3 x 3. An interface mesh of
-# triangles, at a third resolution, glues them with penalty ties (eqs. 6, 9, 10 of the
-# method). We compare the tip deflection with
+# with 20 x 4 x 4 hexahedra, the right half with 14 x 6 x 6. An interface mesh of 10 x 10
+# triangles, a third resolution, glues them with penalty ties (eqs. 6, 9, 10 of
+# docs/method.md). We compare the tip deflection with
 #
 # * the same cantilever as one conforming dolfinx mesh, solved with plain dolfinx, and
 # * Timoshenko beam theory,
 #
 # and write a picture coloured by von Mises stress and VTX files for ParaView.
 #
-# Run it with `make demo`; `--small` runs a coarse version (used by the tests).
+# Run it with `make demo`; `--small` halves every mesh (used by the tests).
 
 # +
 import argparse
