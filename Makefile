@@ -1,10 +1,10 @@
 # One command: `make test` sets up .venv (finds or builds Python >= 3.12), then runs the tests.
 VENV   := .venv
 PY     := $(VENV)/bin/python
-EXTRAS := fenicsx,viz,mesh,test
+EXTRAS := fenicsx,viz,mesh,test,docs
 LINTED := dd_contact tests demos benchmarks
 
-.PHONY: venv test demo lint clean
+.PHONY: venv test demo docs lint clean
 
 venv: $(VENV)/.installed
 
@@ -28,6 +28,10 @@ test: venv
 demo: venv
 	$(PY) demos/demo_tied_bar.py
 	$(PY) demos/demo_hertz.py
+
+# The API reference from the docstrings (pdoc) in build/api; any pdoc warning fails.
+docs: venv
+	$(PY) docs/build_api.py build/api
 
 lint: venv
 	$(VENV)/bin/ruff check $(LINTED)

@@ -1,16 +1,62 @@
-"""Pictures: pyvista images of deformed meshes (offscreen, no display needed)."""
+"""Pictures: pyvista images of deformed meshes, obstacles and contact pressure.
+
+Rendering is off-screen. On Linux without a display (no ``DISPLAY`` or ``WAYLAND_DISPLAY``)
+VTK is told to render through EGL before the first window is made, so a script needs no
+environment variables and VTK does not probe for an X server.
+
+Every function here is rank-local: it draws this rank's copy of the results. Subdomain
+displacements and the interface are on every rank; a contact region's ``w`` and
+``pressure`` hold results on its owner, ``scene.contact_owner(contact)``.
+
+Each picture comes in two forms: ``*_plotter`` returns the :class:`pyvista.Plotter` (to
+add to it, or to show it interactively) and ``plot_*`` saves a PNG and closes it.
+"""
 
 from __future__ import annotations
 
+import ctypes.util
+import os
+import sys
 from pathlib import Path
 
 import dolfinx.plot
 import numpy as np
 
+from dd_contact.obstacles import Cylinder, Obstacle, Plane, Sphere
 from dd_contact.post import von_mises
-from dd_contact.scene import Scene
+from dd_contact.scene import ContactBoundary, ContactInterface, Scene
 
-__all__ = ["deformed_grid", "plot_deformed"]
+__all__ = [
+    "UNIFORM_RTOL",
+    "contact_pressure_plotter",
+    "deformed_grid",
+    "deformed_plotter",
+    "plot_contact_pressure",
+    "plot_deformed",
+    "use_headless_rendering",
+]
+
+# A field whose spread is below this fraction of its magnitude is drawn as one colour: a
+# 1 MPa stress with 2e-9 Pa of round-off is uniform, not a purple-to-yellow gradient.
+UNIFORM_RTOL = 1e-6
+
+_SI_PREFIXES = {0: "", 1: "k", 2: "M", 3: "G", 4: "T"}
+_WINDOW = (1400, 700)
+
+
+def use_headless_rendering() -> None:
+    """Render off-screen, through EGL when there is no display to connect to.
+
+    Called by every picture function before its first window; an explicit
+    ``VTK_DEFAULT_OPENGL_WINDOW`` in the environment is kept.
+    """
+    import pyvista
+
+    no_display = not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+    if sys.platform.startswith("linux") and no_display and ctypes.util.find_library("EGL"):
+        # VTK reads this when it creates a render window: set it before the first one.
+        os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
+    pyvista.OFF_SCREEN = True
 
 
 def deformed_grid(function, scale: float):
@@ -24,59 +70,273 @@ def deformed_grid(function, scale: float):
     return grid
 
 
-def plot_deformed(
-    scene: Scene, filename: str | Path, scale: float | None = None, title: str = ""
-) -> Path:
-    """Save a PNG of the deformed subdomains coloured by von Mises stress.
+def _scaled_unit(magnitude: float, unit: str) -> tuple[float, str]:
+    """Divisor and label for values in ``unit``: Pa becomes kPa, MPa or GPa by magnitude."""
+    if unit != "Pa" or not magnitude > 0:
+        return 1.0, unit
+    power = int(np.clip(np.floor(np.log10(magnitude) / 3), 0, max(_SI_PREFIXES)))
+    return 1000.0**power, f"{_SI_PREFIXES[power]}Pa"
 
-    The interface mesh is drawn as a black wireframe on its deformed position.
+
+def _colour_range(values: np.ndarray) -> tuple[tuple[float, float], bool]:
+    """Colour-bar limits and whether the field is uniform (spread within UNIFORM_RTOL)."""
+    low, high = float(values.min()), float(values.max())
+    size = max(abs(low), abs(high))
+    if high - low > UNIFORM_RTOL * size:
+        return (low, high), False
+    # One colour, the middle of the map, with a bar of +-10 % around the value.
+    half = 0.1 * size if size > 0 else 1.0
+    middle = 0.5 * (low + high)
+    return (middle - half, middle + half), True
+
+
+def _bar_args(title: str) -> dict:
+    # Vertical on the right: the title sits above the bar, clear of the tick labels.
+    return {
+        "title": title,
+        "vertical": True,
+        "position_x": 0.86,
+        "position_y": 0.12,
+        "width": 0.05,
+        "height": 0.72,
+        "fmt": "%.4g",
+        "title_font_size": 16,
+        "label_font_size": 14,
+        "n_labels": 5,
+    }
+
+
+def _add_field(plotter, grids: dict, name: str, values: list, unit: str, label: str, **kw):
+    """Colour ``grids`` (actor name: grid) by ``values`` with one bar ``label [unit]``."""
+    every = np.concatenate(values)
+    divisor, shown_unit = _scaled_unit(float(np.abs(every).max(initial=0.0)), unit)
+    clim, uniform = _colour_range(every / divisor)
+    title = f"{label} [{shown_unit}]" if shown_unit else label
+    if uniform:
+        title += "\nuniform"
+    for k, ((actor, grid), v) in enumerate(zip(grids.items(), values, strict=True)):
+        data = grid.cell_data if len(v) == grid.n_cells else grid.point_data
+        # A uniform field is drawn at its mean: round-off must not pick neighbouring colours.
+        data[name] = np.full(len(v), every.mean() / divisor) if uniform else v / divisor
+        plotter.add_mesh(
+            grid,
+            scalars=name,
+            clim=clim,
+            cmap="viridis",
+            show_scalar_bar=k == 0,
+            scalar_bar_args=_bar_args(title),
+            name=actor,
+            **kw,
+        )
+
+
+def _bounds(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    x = np.concatenate([s.mesh.geometry.x for s in scene.subdomains])
+    return x.min(axis=0), x.max(axis=0)
+
+
+def _obstacle_mesh(obstacle: Obstacle, low: np.ndarray, high: np.ndarray, t: float):
+    """A surface of the obstacle around the model's bounding box, or None if not drawable."""
+    import pyvista
+
+    centre, size = 0.5 * (low + high), float(np.linalg.norm(high - low))
+    offset = np.zeros(3) if obstacle.motion is None else np.asarray(obstacle.motion(t), float)
+    if isinstance(obstacle, Plane):
+        point = obstacle.point + offset
+        foot = centre - ((centre - point) @ obstacle.normal) * obstacle.normal
+        return pyvista.Plane(
+            center=foot, direction=obstacle.normal, i_size=1.5 * size, j_size=1.5 * size
+        )
+    if isinstance(obstacle, Sphere):
+        return pyvista.Sphere(
+            radius=obstacle.radius,
+            center=obstacle.centre + offset,
+            theta_resolution=48,
+            phi_resolution=48,
+        )
+    if isinstance(obstacle, Cylinder):
+        # The pin's length: the model's extent along the axis, and a little more.
+        point = obstacle.point + offset
+        along = (centre - point) @ obstacle.axis
+        return pyvista.Cylinder(
+            center=point + along * obstacle.axis,
+            direction=obstacle.axis,
+            radius=obstacle.radius,
+            height=1.2 * size,
+            resolution=64,
+        )
+    return None  # a UserObstacle has no shape to draw
+
+
+def _contact_owned(scene: Scene, contact: ContactInterface | ContactBoundary) -> bool:
+    return scene.contact_owner(contact) == scene.comm.rank
+
+
+def deformed_plotter(
+    scene: Scene,
+    scale: float | None = None,
+    title: str = "",
+    stress_unit: str = "Pa",
+    obstacles: bool = True,
+):
+    """A plotter of the deformed subdomains coloured by von Mises stress.
+
+    The interface is drawn as a black wireframe and the contact surfaces this rank holds
+    results for as red wireframes with their active points (positive pressure) as red
+    dots, all at their deformed positions; the rigid obstacles (Plane, Sphere, Cylinder) as
+    translucent grey surfaces. A field uniform to within :data:`UNIFORM_RTOL` is one colour.
 
     Args:
         scene: A solved scene.
-        filename: PNG path.
         scale: Displacement magnification (default: largest displacement drawn as 10% of
             the model's size).
         title: Text at the top of the picture.
+        stress_unit: Unit of the model's stresses; ``"Pa"`` (SI input) is shown as kPa,
+            MPa or GPa, whichever fits; any other text is shown as it is.
+        obstacles: Whether to draw the obstacles.
+
+    Returns:
+        The :class:`pyvista.Plotter`, off-screen; close it when done. Its actors are named
+        ``subdomain NAME``, ``interface``, ``contact NAME``, ``active NAME`` and
+        ``obstacle NAME``.
     """
+    use_headless_rendering()
     import pyvista
 
-    pyvista.OFF_SCREEN = True
+    low, high = _bounds(scene)
     if scale is None:
-        size = max(np.ptp(s.mesh.geometry.x, axis=0).max() for s in scene.subdomains)
         umax = max(np.abs(s.u.x.array).max() for s in scene.subdomains)
-        scale = 0.1 * size / umax if umax > 0 else 1.0
-    plotter = pyvista.Plotter(off_screen=True, window_size=(1400, 700))
-    stress_range = [np.inf, -np.inf]
-    grids = []
-    for sub in scene.subdomains:
-        grid = deformed_grid(sub.u, scale)
-        grid.cell_data["von Mises"] = von_mises(sub).x.array
-        stress_range = [
-            min(stress_range[0], grid.cell_data["von Mises"].min()),
-            max(stress_range[1], grid.cell_data["von Mises"].max()),
-        ]
-        grids.append(grid)
-    for grid in grids:
-        plotter.add_mesh(
-            grid, scalars="von Mises", clim=stress_range, show_edges=True, cmap="viridis"
-        )
+        scale = 0.1 * float((high - low).max()) / umax if umax > 0 else 1.0
+    plotter = pyvista.Plotter(off_screen=True, window_size=_WINDOW)
+    grids = {f"subdomain {s.name}": deformed_grid(s.u, scale) for s in scene.subdomains}
+    stresses = [von_mises(s).x.array for s in scene.subdomains]
+    _add_field(plotter, grids, "von Mises", stresses, stress_unit, "von Mises", show_edges=True)
     if scene.interface is not None:
+        interface = deformed_grid(scene.interface.v, scale)
         plotter.add_mesh(
-            deformed_grid(scene.interface.v, scale),
-            style="wireframe",
-            color="black",
-            line_width=2,
+            interface, style="wireframe", color="black", line_width=2, name="interface"
         )
-    plotter.add_text(f"{title}  (displacement x {scale:.3g})", font_size=10)
+    time = scene.subdomains[0].time.value
+    for contact in scene.contacts:
+        name = contact.name
+        if _contact_owned(scene, contact):
+            surface = deformed_grid(contact.w, scale)
+            plotter.add_mesh(
+                surface, style="wireframe", color="red", line_width=2, name=f"contact {name}"
+            )
+            active = contact.pressure.x.array > 0
+            if active.any():
+                dots = pyvista.PolyData(surface.points[active])
+                plotter.add_mesh(
+                    dots,
+                    color="red",
+                    point_size=8,
+                    render_points_as_spheres=True,
+                    name=f"active {name}",
+                )
+        shape = _obstacle_mesh(contact.obstacle, low, high, float(time)) if obstacles else None
+        if shape is not None:
+            plotter.add_mesh(shape, color="grey", opacity=0.35, name=f"obstacle {name}")
+    plotter.add_text(f"{title}  (displacement x {scale:.3g})".strip(), font_size=10)
     # Look at the x-z plane from the front, a little from above: bending shows best.
     plotter.view_xz()
     plotter.camera.azimuth = 25
     plotter.camera.elevation = 20
-    plotter.reset_camera()
+    plotter.reset_camera(bounds=[v for pair in zip(low, high, strict=True) for v in pair])
     plotter.camera.zoom(1.4)
     plotter.add_axes()
+    return plotter
+
+
+def contact_pressure_plotter(
+    contact: ContactInterface | ContactBoundary,
+    scale: float = 1.0,
+    title: str = "",
+    unit: str = "Pa",
+):
+    """A plotter of a contact surface coloured by its nodal contact pressure.
+
+    The surface is drawn displaced by ``scale * w`` and seen from the obstacle (along the
+    mean contact normal), with its active points (positive pressure) as black dots.
+    Rank-local: the results are on the contact's owner rank.
+
+    Args:
+        contact: A solved contact interface or contact boundary.
+        scale: Displacement magnification.
+        title: Text at the top of the picture.
+        unit: Unit of the model's stresses; ``"Pa"`` is shown as kPa, MPa or GPa.
+
+    Returns:
+        The :class:`pyvista.Plotter`, off-screen; close it when done.
+    """
+    use_headless_rendering()
+    import pyvista
+
+    plotter = pyvista.Plotter(off_screen=True, window_size=(1000, 800))
+    surface = deformed_grid(contact.w, scale)
+    pressure = contact.pressure.x.array
+    surfaces = {f"contact {contact.name}": surface}
+    _add_field(plotter, surfaces, "pressure", [pressure], unit, "contact pressure", show_edges=True)
+    active = pressure > 0
+    if active.any():
+        dots = pyvista.PolyData(surface.points[active])
+        plotter.add_mesh(
+            dots,
+            color="black",
+            point_size=6,
+            render_points_as_spheres=True,
+            name=f"active {contact.name}",
+        )
+    plotter.add_text(title or f"contact pressure on {contact.name!r}", font_size=10)
+    # The body's outward contact normal points at the obstacle: look back along it.
+    x = contact.V.tabulate_dof_coordinates()
+    _, normals = contact.obstacle.gap_normal(x, float(contact.subdomain.time.value))
+    mean = normals.mean(axis=0)
+    if np.linalg.norm(mean) > 0.5:
+        centre = surface.center
+        distance = 3.0 * surface.length
+        plotter.camera_position = [centre + distance * mean, centre, _up(mean)]
+    else:  # a surface all around a pin: no single side to look from
+        plotter.view_isometric()
+    plotter.reset_camera()
+    plotter.add_axes()
+    return plotter
+
+
+def _up(direction: np.ndarray) -> np.ndarray:
+    """A view-up vector not parallel to the viewing direction."""
+    axis = np.eye(3)[int(np.argmin(np.abs(direction)))]
+    return axis - (axis @ direction) / (direction @ direction) * direction
+
+
+def _save(plotter, filename: str | Path) -> Path:
     path = Path(filename)
     path.parent.mkdir(parents=True, exist_ok=True)
-    plotter.screenshot(str(path))
-    plotter.close()
+    try:
+        plotter.screenshot(str(path))
+    finally:
+        plotter.close()
     return path
+
+
+def plot_deformed(
+    scene: Scene,
+    filename: str | Path,
+    scale: float | None = None,
+    title: str = "",
+    stress_unit: str = "Pa",
+    obstacles: bool = True,
+) -> Path:
+    """Save a PNG of :func:`deformed_plotter`'s picture; returns its path."""
+    return _save(deformed_plotter(scene, scale, title, stress_unit, obstacles), filename)
+
+
+def plot_contact_pressure(
+    contact: ContactInterface | ContactBoundary,
+    filename: str | Path,
+    scale: float = 1.0,
+    title: str = "",
+    unit: str = "Pa",
+) -> Path:
+    """Save a PNG of :func:`contact_pressure_plotter`'s picture; returns its path."""
+    return _save(contact_pressure_plotter(contact, scale, title, unit), filename)

@@ -26,7 +26,7 @@ import dolfinx.mesh
 import numpy as np
 
 import dd_contact as dc
-from dd_contact import io, meshes
+from dd_contact import io, meshes, viz
 
 parser = argparse.ArgumentParser()
 parser.add_argument("--small", action="store_true", help="coarse mesh (for tests)")
@@ -107,21 +107,13 @@ if comm.rank == scene.contact_owner(contact):
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    import pyvista
 
-    from dd_contact.viz import deformed_grid
-
-    pyvista.OFF_SCREEN = True
-    grid = deformed_grid(contact.w, 1.0)
-    grid.point_data["pressure"] = p
-    plotter = pyvista.Plotter(off_screen=True, window_size=(900, 800))
-    plotter.add_mesh(grid, scalars="pressure", cmap="inferno", show_edges=True)
-    plotter.add_text("Contact pressure on the contact interface (quarter model)", font_size=10)
-    plotter.view_xy(negative=True)
-    plotter.add_axes()
-    out.mkdir(parents=True, exist_ok=True)
-    plotter.screenshot(str(out / "hertz_pressure.png"))
-    plotter.close()
+    viz.plot_contact_pressure(
+        contact,
+        out / "hertz_pressure.png",
+        title="Contact pressure on the contact interface (quarter model)",
+        unit="E",
+    )
 
     fig, ax = plt.subplots(figsize=(6, 4))
     rr = np.linspace(0, a_ref, 200)

@@ -1,0 +1,100 @@
+"""The docs: every relative link resolves inside the repository; the API reference builds."""
+
+import importlib.util
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
+# [text](target) in Markdown, and file names in backticks such as `docs/solvers.md`.
+MARKDOWN_LINK = re.compile(r"\]\(([^)\s]+)\)")
+CODE_PATH = re.compile(r"`([\w./-]+\.(?:md|py|json|png))`")
+
+
+def _relative_links(page: Path) -> list[str]:
+    links = [t.split("#")[0] for t in MARKDOWN_LINK.findall(page.read_text())]
+    return [t for t in links if t and not re.match(r"[a-z]+:", t)]
+
+
+def test_pages_found():
+    assert len(PAGES) >= 9  # README and the docs, method.md among them
+    assert ROOT / "docs" / "method.md" in PAGES
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
+def test_links_resolve_in_repository(page):
+    for target in _relative_links(page):
+        resolved = (page.parent / target).resolve()
+        assert resolved.is_relative_to(ROOT), f"{page.name}: {target} leaves the repository"
+        assert resolved.exists(), f"{page.name}: {target} does not exist"
+
+
+@pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
+def test_named_files_exist(page):
+    """A file named in backticks exists: beside the page, from the root, in docs/ or the package."""
+    for name in CODE_PATH.findall(page.read_text()):
+        if "/" not in name and name.endswith((".json", ".png")):
+            continue  # an output file name (history.json, tied_bar.png), not a repository path
+        places = [page.parent / name, ROOT / name, ROOT / "docs" / name, ROOT / "dd_contact" / name]
+        if any(p.resolve().is_relative_to(ROOT) and p.exists() for p in places):
+            continue
+        outputs = ("demo_output/", "results/", "build/", "out/")
+        assert name.startswith(outputs), f"{page.name}: `{name}` not found in the repository"
+
+
+def test_link_check_finds_a_broken_link(tmp_path):
+    page = tmp_path / "page.md"
+    page.write_text("See [the method](../shared/method.md) and [x](https://example.org).")
+    assert _relative_links(page) == ["../shared/method.md"]
+
+
+def _build_script():
+    spec = importlib.util.spec_from_file_location("build_api", ROOT / "docs" / "build_api.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_api_reference_builds_without_warnings(tmp_path):
+    pytest.importorskip("pdoc")
+    path = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
+    done = subprocess.run(
+        [sys.executable, ROOT / "docs" / "build_api.py", tmp_path / "api"],
+        env=dict(os.environ, PYTHONPATH=path),
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    pages = {p.relative_to(tmp_path / "api").as_posix() for p in (tmp_path / "api").rglob("*.html")}
+    # One page per module: the package, its subpackages and their modules.
+    modules = {
+        p.relative_to(ROOT).with_suffix(".html").as_posix().replace("/__init__.html", ".html")
+        for p in (ROOT / "dd_contact").rglob("*.py")
+    }
+    assert modules <= pages
+    assert "0 warnings" in done.stdout
+    viz = (tmp_path / "api" / "dd_contact" / "viz.html").read_text()
+    assert "plot_contact_pressure" in viz and "UNIFORM_RTOL" in viz
+
+
+def test_build_skips_only_type_parameters():
+    pytest.importorskip("pdoc")
+    build = _build_script()
+    pep695 = (
+        "Error parsing type annotation T for dd_contact.parallel.bcast_from_root. "
+        "Import of T failed: name 'T' is not defined"
+    )
+    other = (
+        "Error parsing type annotation Foo for dd_contact.parallel.bcast_from_root. "
+        "Import of Foo failed: name 'Foo' is not defined"
+    )
+    assert build._is_type_parameter(pep695)
+    assert not build._is_type_parameter(other)
+    assert not build._is_type_parameter("Cannot find spec for dd_contact.nothing")
