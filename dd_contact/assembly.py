@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 from mpi4py import MPI
 
+import dolfinx.fem
 import dolfinx.mesh
 import numpy as np
 import scipy.sparse as sp
@@ -276,6 +277,8 @@ class ContactZone:
         length: Mean cell size of the contact surface: the zone's length scale.
         recovery: Pressure recovery of a surface that does not copy its wall (None for
             facet copies and contact boundaries, whose nodal pressure is the wall's own).
+        wall: The subdomain dofs on the facets the contact acts through (its own surface
+            dofs for a contact boundary, the tied facets' dofs for a contact interface).
     """
 
     contact: ContactInterface | ContactBoundary
@@ -286,6 +289,7 @@ class ContactZone:
     prescribed: np.ndarray
     length: float
     recovery: sp.csr_array | None = None
+    wall: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     warned: bool = field(default=False, repr=False)
 
     def pressure(self, w: np.ndarray) -> np.ndarray:
@@ -387,6 +391,7 @@ def _contact_zone(
         block = u
         dofs = (3 * contact.node_map[:, None] + np.arange(3)).ravel()
         coverage = recovery = None
+        wall = dofs
     else:
         ops = _tie_operators(contact, sub, "contact interface")
         block = contact.block
@@ -397,6 +402,8 @@ def _contact_zone(
         # A surface that does not copy its wall carries a node-to-node pressure oscillation
         # that the wall does not feel (measured up to +25 % on tetrahedra): recover it.
         recovery = patch_average(ops.P4) if ops.projected else None
+        nodes = dolfinx.fem.locate_dofs_topological(sub.V, 2, ops.facets)
+        wall = (3 * nodes[:, None] + np.arange(3)).ravel()
     eps_c = contact.contact_penalty.epsilon_for(height, sub.material.E)
     system.penalties[(sub.name, f"contact:{contact.name}")] = eps_c
     operator = ContactOperator(contact_points(contact.V, contact.points), contact.obstacle, eps_c)
@@ -407,7 +414,7 @@ def _contact_zone(
         prescribed_full[fixed] = values
         free, prescribed = ~np.isin(dofs, fixed), prescribed_full[dofs]
     length = mean_cell_size(contact.mesh)
-    zone = ContactZone(contact, block, dofs, operator, free, prescribed, length, recovery)
+    zone = ContactZone(contact, block, dofs, operator, free, prescribed, length, recovery, wall)
     return zone, coverage
 
 

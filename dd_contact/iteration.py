@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import hashlib
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -157,6 +157,7 @@ class ContactIteration:
         self.gamma = 0
         self.alpha = {z.contact.name: 0 for z in zones}
         self.cycles_resolved = 0
+        self._correction = None
 
     def start(self, t: float) -> None:
         """Initial active sets: the points touching the obstacle at ``t`` (within tolerance)."""
@@ -164,7 +165,14 @@ class ContactIteration:
             z.operator.update(t)
             self.active[z.contact.name] = z.operator.gap <= self._touching[z.contact.name]
 
-    def solve(self, solver: ContactSolver, rhs: dict[str, np.ndarray], t: float, where: str):
+    def solve(
+        self,
+        solver: ContactSolver,
+        rhs: dict[str, np.ndarray],
+        t: float,
+        where: str,
+        correction: Callable[[Mapping[str, np.ndarray]], dict[str, np.ndarray]] | None = None,
+    ):
         """Solve at time ``t`` with the contact iteration; returns the solution blocks.
 
         Args:
@@ -172,7 +180,10 @@ class ContactIteration:
             rhs: Right-hand side without contact terms (this rank's contributions).
             t: Time (obstacles may move).
             where: Text for messages (e.g. "step 12 (t = 0.0012)").
+            correction: Right-hand-side terms that depend on the active sets being tried
+                (rank-local; the time step's start forces, :mod:`dd_contact.impact`).
         """
+        self._correction = correction
         for z in self.zones:
             z.operator.update(t)
         seen = {self._global_digest(): 0}
@@ -263,6 +274,9 @@ class ContactIteration:
             if z.block not in rhs:
                 rhs[z.block] = np.zeros(self.sizes[z.block])
             np.add.at(rhs[z.block], z.dofs, vector)
+        if self._correction is not None:
+            for block, vector in self._correction(self.active).items():
+                rhs[block] = rhs[block] + vector if block in rhs else vector
         self.last_solve = (rhs, contact)
         return solver.solve(rhs)
 

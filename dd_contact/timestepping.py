@@ -4,9 +4,15 @@ With ``a0 = 4 / dt^2`` and ``a1 = 4 / dt`` the step from t to t + dt solves::
 
     (a0 M + K) u_new = M (a0 u + a1 u' + u'') + r(t + dt)                      (A10, A11)
 
-and then updates ``u'' = a0 (u_new - u) - a1 u' - u''`` and ``u' += dt/2 (u''_old + u''_new)``.
-The rule is unconditionally stable and, for a linear system, conserves energy exactly.
-Quasi-static load stepping is the same loop without the mass terms.
+with ``M u'' = r(t) - K u`` (+ contact): written with the start-of-step forces computed
+from the state at t rather than carried in u'' (``dd_contact.impact``, which also keeps the
+contact from creating energy), it is::
+
+    (a0 M + K) u_new = M (a0 u + a1 u') + r(t) + r(t + dt) - K x(t) + f_C(t)
+
+and ``u'_new = 2 (u_new - u) / dt - u'``. The rule is unconditionally stable and, for a linear
+system, conserves energy exactly. Quasi-static load stepping is the same loop without the
+mass terms.
 """
 
 from __future__ import annotations
@@ -36,15 +42,13 @@ class Newmark:
         """a0 = 4 / dt^2, the mass factor of the effective matrix (A10)."""
         return 4.0 / self.dt**2
 
-    def history(self, u: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray):
-        """The vector that multiplies M in (A11): a0 u + a1 u' + u''."""
-        return self.mass_coefficient * u + (4.0 / self.dt) * velocity + acceleration
+    def history(self, u: np.ndarray, velocity: np.ndarray) -> np.ndarray:
+        """The vector that multiplies M on the right-hand side: a0 u + a1 u'."""
+        return self.mass_coefficient * u + (4.0 / self.dt) * velocity
 
     def update(
-        self, u_new: np.ndarray, u: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray
+        self, u_new: np.ndarray, u: np.ndarray, velocity: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Velocity and acceleration at t + dt."""
-        acceleration_new = self.mass_coefficient * (u_new - u) - (4.0 / self.dt) * velocity
-        acceleration_new -= acceleration
-        velocity_new = velocity + 0.5 * self.dt * (acceleration + acceleration_new)
-        return velocity_new, acceleration_new
+        """Velocity at t + dt, and the step's mean acceleration (reported, not reused)."""
+        velocity_new = (2.0 / self.dt) * (u_new - u) - velocity
+        return velocity_new, (velocity_new - velocity) / self.dt

@@ -272,6 +272,8 @@ def bar_impact(
     end_time: float = 3.0,
     split: bool = False,
     comm: MPI.Comm = MPI.COMM_WORLD,
+    algorithm: str = "FULL",
+    energy_safe_contact: bool = False,
 ) -> dict:
     """Bar impact on a rigid wall: contact duration, rebound velocity and energy.
 
@@ -286,6 +288,8 @@ def bar_impact(
         end_time: Simulated time (in units of L / c).
         split: Cut the bar in the middle into two subdomains tied by an interface.
         comm: Communicator.
+        algorithm: Elimination order.
+        energy_safe_contact: See :class:`dd_contact.TransientProblem`.
 
     Returns:
         duration, rebound (mean velocity after / -v0), energy ratio after/before, changes,
@@ -319,7 +323,12 @@ def bar_impact(
             bar, end, wall, resolution=(1, 1), contact_kappa=contact_kappa, name="end"
         )
     dt = cfl * L / n
-    problem = TransientProblem(Scene(comm, parts, interface, contacts=[zone]), dt)
+    problem = TransientProblem(
+        Scene(comm, parts, interface, contacts=[zone]),
+        dt,
+        algorithm=algorithm,
+        energy_safe_contact=energy_safe_contact,
+    )
     # The signed penetration of the end: positive in contact, negative once the bar has left.
     penetration = []
 
@@ -353,6 +362,7 @@ def bar_impact(
         "changes": problem.changes["gamma"],
         "factorisations": comm.allreduce(problem.work.count("sparse_factor", "FULL"), op=MPI.MAX),
         "steps": len(g),
+        "history": [record["changes"] for record in problem.history],
     }
 
 
