@@ -84,7 +84,9 @@ class Analysis:
         self.work = WorkLog()
         self.model: Model = collective(self.comm, lambda: assemble(scene))
         system = self.model.effective(mass_coefficient)
-        self.lifting, system.rhs = system.rhs, {}
+        system.rhs = {}  # built at every solve: loads and prescribed values at its time
+        self._lifting = self.model.lifting(mass_coefficient)
+        self._lifted: tuple[dict, dict] | None = None  # the last prescribed values, their rhs
         self.zones = self.model.zones
         self.settings = contact or ContactSettings()
         collective(self.comm, self._check_contact_geometry)
@@ -163,9 +165,28 @@ class Analysis:
             loads[block] = vector
         return loads
 
-    def _rhs(self, extra: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """Lifting of the Dirichlet conditions plus free-dof loads."""
-        rhs = {name: vector.copy() for name, vector in self.lifting.items()}
+    def _prescribed(self, t: float) -> dict[str, np.ndarray]:
+        """The right-hand side of the prescribed values at ``t`` (recomputed when they change).
+
+        A contact boundary on prescribed dofs gets their new values too.
+        """
+        values = {block: sub.prescribed.values(t) for _, sub, block in self._owned}
+        if self._lifted is not None and all(
+            np.array_equal(v, values[block]) for block, v in self._lifted[0].items()
+        ):
+            return self._lifted[1]
+        for z in self.zones:
+            if z.block in values:
+                g = np.zeros(self.model.system.sizes[z.block])
+                g[self._lifting.dofs[z.block]] = values[z.block]
+                z.prescribed[:] = g[z.dofs]
+        self._lifted = (values, self._lifting(values))
+        return self._lifted[1]
+
+    def _rhs(self, t: float, extra: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Collective: the prescribed values' right-hand side at ``t`` plus free-dof loads."""
+        lifted = collective(self.comm, lambda: self._prescribed(t))
+        rhs = {name: vector.copy() for name, vector in lifted.items()}
         for block, vector in extra.items():
             free = self.model.free(block) * vector
             rhs[block] = rhs[block] + free if block in rhs else free

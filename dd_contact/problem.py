@@ -95,7 +95,7 @@ class StaticProblem(Analysis):
         """
         self.iteration.start(t)
         loads = collective(self.comm, lambda: self._loads(t))
-        x, self.iterations, _ = self._solve(t, self._rhs(loads), f"t = {t}")
+        x, self.iterations, _ = self._solve(t, self._rhs(t, loads), f"t = {t}")
         self._publish(x)
         record = {"t": t, "iterations": self.iterations, **self._agree(x, loads, {})}
         self._results.latest = record
@@ -272,7 +272,7 @@ class TransientProblem(Analysis):
                 )
                 loads[block] = loads[block] + self.model.mass[block] @ history
         where = f"step {self.step + 1} (t = {t_new:.6g})"
-        x, iterations, changes = self._solve(t_new, self._rhs(loads), where)
+        x, iterations, changes = self._solve(t_new, self._rhs(t_new, loads), where)
         if self.inertia:
             for _, sub, block in self._owned:
                 v, a = self.newmark.update(
