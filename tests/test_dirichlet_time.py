@@ -200,3 +200,42 @@ def test_malformed_time_value_is_refused_by_fix(value, message):
     )
     with pytest.raises(dc.InputError, match=message):
         sub.fix(_on(0, 0.0), value=value)
+
+
+@pytest.mark.mpi
+def test_block_pressed_on_a_plane_by_a_prescribed_top():
+    """u_z = -d(t) on the top of a block on a rigid plane: contact carries sigma A, no refactor.
+
+    sigma_zz = -d / (H / E + eps_tie + eps_contact) (the block, its contact interface's tie
+    and the contact penalty in series); every bottom node stays in contact.
+    """
+    height, side, rate = 1.0, 0.5, 1e-4
+    forces = {}
+    for algorithm in ("FULL", "w-u"):
+        block = dc.Subdomain(
+            meshes.box(MPI.COMM_SELF, [0, 0, 0], [side, side, height], [2, 2, 4]),
+            dc.Material(E=E, nu=NU),
+            "block",
+        )
+        block.fix(_on(2, height), components=[2], value=lambda x, t: (0.0, 0.0, -rate * t))
+        block.fix(_on(0, 0.0), components=[0])  # symmetry planes: no sliding, free to bulge
+        block.fix(_on(1, 0.0), components=[1])
+        bottom = dc.ContactInterface.from_boundary(
+            block, _on(2, 0.0), dc.Plane([0, 0, 0], [0, 0, 1])
+        )
+        scene = dc.Scene(MPI.COMM_WORLD, [block], contacts=[bottom])
+        with dc.StaticProblem(scene, algorithm=algorithm) as problem:
+            for t in (0.5, 1.0, 3.0):
+                problem.solve(t)
+                eps = problem.penalties
+                compliance = height / E + eps[("block", "contact")]
+                sigma = -rate * t / (compliance + eps[("block", "contact:contact")])
+                np.testing.assert_allclose(cell_stress(block)[:, 2, 2], sigma, rtol=1e-8)
+                force = problem.results["force"]["contact"]
+                np.testing.assert_allclose(force, [0, 0, -sigma * side**2], atol=1e-8 * -sigma)
+                assert problem.results["active"]["contact"] == 9  # the 3 x 3 bottom nodes
+            assert set(_decompositions(problem).values()) == {
+                problem.comm.size if algorithm == "FULL" else 1
+            }
+        forces[algorithm] = force
+    np.testing.assert_allclose(forces["w-u"], forces["FULL"], rtol=1e-8)
