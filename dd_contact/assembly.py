@@ -38,7 +38,7 @@ from dd_contact.scene import (
     Scene,
 )
 
-__all__ = ["BlockSystem", "ContactZone", "Model", "StiffTie", "assemble"]
+__all__ = ["BlockSystem", "ContactZone", "Lifting", "Model", "StiffTie", "assemble"]
 
 
 @dataclass
@@ -129,26 +129,39 @@ class BlockSystem:
         """
         if dofs.size == 0:
             return
-        g = np.zeros(self.sizes[block])
-        g[dofs] = values
+        for row, columns in self.prescribed_columns(block, dofs):
+            self.add_rhs(row, -(columns @ values))
         keep = np.ones(self.sizes[block])
         keep[dofs] = 0.0
         mask = sp.diags_array(keep)
         for (row, col), A in list(self.matrices.items()):
             if row == block and col == block:
-                self.add_rhs(block, -(A @ g))
                 A = mask @ A @ mask + sp.diags_array(1.0 - keep)
             elif row == block:
-                self.add_rhs(col, -(A.T @ g))
                 A = mask @ A
             elif col == block:
-                self.add_rhs(row, -(A @ g))
                 A = A @ mask
             else:
                 continue
             self.matrices[(row, col)] = sp.csr_array(A)
-        rhs = self.rhs.get(block, np.zeros(self.sizes[block]))
-        self.rhs[block] = np.where(keep > 0, rhs, g)
+        rhs = self.rhs.get(block, np.zeros(self.sizes[block])).copy()
+        rhs[dofs] = values
+        self.rhs[block] = rhs
+
+    def prescribed_columns(
+        self, block: Block, dofs: np.ndarray
+    ) -> list[tuple[Block, sp.csr_array]]:
+        """``A[r, D]``: the columns of ``block``'s dofs ``dofs`` in every block row r.
+
+        Prescribed values g put ``-A[r, D] g`` on the right-hand side of row block r.
+        """
+        columns = []
+        for (row, col), A in self.matrices.items():
+            if col == block:
+                columns.append((row, sp.csr_array(sp.csc_array(A)[:, dofs])))
+            elif row == block:  # an off-diagonal pair stands for its transpose too
+                columns.append((col, sp.csr_array(sp.csr_array(A)[dofs].T)))
+        return columns
 
 
 def _tie_operators(surface, sub, what: str) -> coupling.TieOperators:
@@ -347,6 +360,38 @@ class ContactZone:
 
 
 @dataclass
+class Lifting:
+    """What prescribed values put on the right-hand side of the eliminated system.
+
+    For values g on the dofs D of a block: ``-A[:, D] g`` on every row, and g itself on
+    the rows of D (the identity after elimination), with A the matrix before elimination.
+    The matrix does not depend on g: a new value is a new right-hand side, never a new
+    factorisation.
+
+    Attributes:
+        sizes: Size of every block.
+        dofs: The prescribed dofs of every owned subdomain block.
+        columns: Per prescribed block, ``(row block, A[rows, D])`` of every coupled block.
+    """
+
+    sizes: dict[Block, int]
+    dofs: dict[Block, np.ndarray]
+    columns: dict[Block, list[tuple[Block, sp.csr_array]]]
+
+    def __call__(self, values: dict[Block, np.ndarray]) -> dict[Block, np.ndarray]:
+        """This rank's right-hand-side contributions for the values of every owned block."""
+        rhs: dict[Block, np.ndarray] = {}
+        for block, parts in self.columns.items():
+            for row, columns in parts:
+                lifted = -(columns @ values[block])
+                rhs[row] = rhs[row] + lifted if row in rhs else lifted
+        for block, dofs in self.dofs.items():
+            if dofs.size:
+                rhs.setdefault(block, np.zeros(self.sizes[block]))[dofs] = values[block]
+        return rhs
+
+
+@dataclass
 class Model:
     """This rank's assembled pieces of a scene, before any time discretisation.
 
@@ -361,6 +406,17 @@ class Model:
     mass: dict[Block, sp.csr_array]
     dirichlet: dict[Block, tuple[np.ndarray, np.ndarray]]
     zones: list[ContactZone]
+
+    def lifting(self, mass_coefficient: float) -> Lifting:
+        """The right-hand side of prescribed values in :meth:`effective`'s system, for any g."""
+        columns = {}
+        for block, (dofs, _) in self.dirichlet.items():
+            columns[block] = self.system.prescribed_columns(block, dofs)
+            if mass_coefficient and block in self.mass:
+                mass = sp.csc_array(self.mass[block])[:, dofs]
+                columns[block].append((block, sp.csr_array(mass_coefficient * mass)))
+        dofs = {block: dofs for block, (dofs, _) in self.dirichlet.items()}
+        return Lifting(self.system.sizes, dofs, columns)
 
     def effective(self, mass_coefficient: float) -> BlockSystem:
         """``K + c M`` with the Dirichlet conditions eliminated; rhs = their lifting."""

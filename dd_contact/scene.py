@@ -27,6 +27,7 @@ from dd_contact.contact import SCHEMES
 from dd_contact.errors import InputError
 from dd_contact.obstacles import Obstacle
 from dd_contact.parallel import owner_of
+from dd_contact.prescribed import Prescribed, Value
 
 __all__ = [
     "DEFAULT_KAPPA",
@@ -167,8 +168,8 @@ class Subdomain:
         self.body_force: ufl.core.expr.Expr | None = None
         self.tractions: list[tuple[dolfinx.mesh.MeshTags, ufl.core.expr.Expr]] = []
         self._timed: list[tuple[fem.Constant, Callable[[float], Sequence[float]], str]] = []
-        self._fixed_dofs: list[np.ndarray] = []
-        self._fixed_values: list[np.ndarray] = []
+        #: The Dirichlet conditions (:meth:`fix`): dofs, and values at any time.
+        self.prescribed = Prescribed(self.V, f"subdomain {name!r}")
 
     # -- boundary conditions -------------------------------------------------------------
     def locate_facets(self, where: Region, argument: str = "where") -> np.ndarray:
@@ -179,7 +180,7 @@ class Subdomain:
         self,
         where: Region | fem.DirichletBC | Sequence[fem.DirichletBC],
         components: Sequence[int] | None = None,
-        value: Sequence[float] | Callable[[np.ndarray], np.ndarray] | None = None,
+        value: Value | None = None,
     ) -> Subdomain:
         """Prescribe displacement on a boundary region (a Dirichlet condition).
 
@@ -187,9 +188,13 @@ class Subdomain:
             where: The region: a locator ``x -> bool``, facet indices, a facet MeshTags, or
                 ``(meshtags, value)``. Or dolfinx ``DirichletBC`` objects built on :attr:`V` or
                 its sub-spaces ``V.sub(i)`` (``components`` and ``value`` then come from
-                the conditions; their values are read now, once).
+                the conditions; their values are read at every solve, so a ``Constant`` or
+                ``Function`` updated between solves takes effect).
             components: Which components (default all three).
-            value: A 3-vector, or a callable ``x -> (3, n)`` array (default zero).
+            value: A 3-vector (default zero), a callable ``x -> (3, n)`` array, or a
+                callable ``(x, t)`` returning a ``(3, n)`` array or a 3-vector, evaluated at
+                every solve time (``lambda x, t: (0.0, 0.0, -d(t))`` presses down by d(t)).
+                A changing value is a new right-hand side, never a new factorisation.
 
         Returns:
             The subdomain, so calls can be chained.
@@ -197,49 +202,14 @@ class Subdomain:
         if isinstance(where, fem.DirichletBC) or (
             isinstance(where, Sequence) and where and isinstance(where[0], fem.DirichletBC)
         ):
-            return self._fix_dirichletbcs([where] if isinstance(where, fem.DirichletBC) else where)
+            bcs = [where] if isinstance(where, fem.DirichletBC) else where
+            self.prescribed.add_dirichletbcs(bcs)
+            return self
         picked = arguments.components(components, f"subdomain {self.name!r} fix(components=...)")
         facets = self.locate_facets(where)
-        blocks = fem.locate_dofs_topological(self.V, self.mesh.topology.dim - 1, facets)
-        blocks = blocks[blocks < self.V.dofmap.index_map.size_local]
-        x = self.V.tabulate_dof_coordinates()[blocks]
-        what = f"subdomain {self.name!r} fix(value=...): prescribed displacement"
-        if value is None:
-            vals = np.zeros((3, len(blocks)))
-        elif callable(value):
-            vals = np.asarray(value(x.T), dtype=float)
-            if vals.shape != (3, len(blocks)):
-                raise InputError(
-                    f"{what}: the callable must return a (3, n) array for the n = {len(blocks)} "
-                    f"points x of shape (3, n), got shape {vals.shape}"
-                )
-            arguments.finite(vals, what)
-        else:
-            vals = np.tile(arguments.vector(value, what).reshape(3, 1), (1, len(blocks)))
-        for c in picked:
-            self._fixed_dofs.append(3 * blocks + c)
-            self._fixed_values.append(vals[c])
-        return self
-
-    def _fix_dirichletbcs(self, bcs: Sequence[fem.DirichletBC]) -> Subdomain:
-        """The dofs and values of dolfinx DirichletBCs on :attr:`V` (or ``V.sub(i)``)."""
-        num_owned = self.V.dofmap.index_map.size_local * 3
-        for i, bc in enumerate(bcs):
-            what = f"subdomain {self.name!r}: fix DirichletBC {i}"
-            arguments.instance(bc, fem.DirichletBC, what)
-            if not self.V._cpp_object.contains(bc.function_space):
-                raise InputError(
-                    f"{what} is built on another function space; build it on this subdomain's "
-                    "V (or V.sub(i)), e.g. dirichletbc(value, locate_dofs_topological(sub.V, "
-                    "2, facets), sub.V)"
-                )
-            dofs = bc.dof_indices()[0]
-            dofs = dofs[dofs < num_owned]
-            values = np.zeros(num_owned)
-            bc.set(values)
-            arguments.finite(values[dofs], f"{what} values")
-            self._fixed_dofs.append(dofs.astype(np.int32))
-            self._fixed_values.append(values[dofs])
+        nodes = fem.locate_dofs_topological(self.V, self.mesh.topology.dim - 1, facets)
+        nodes = nodes[nodes < self.V.dofmap.index_map.size_local]
+        self.prescribed.add_nodes(nodes, picked, value, float(self.time.value))
         return self
 
     def add_traction(
@@ -306,14 +276,12 @@ class Subdomain:
 
     @property
     def dirichlet(self) -> tuple[np.ndarray, np.ndarray]:
-        """Constrained dofs (unrolled, 3 per node) and their values; later calls win."""
-        if not self._fixed_dofs:
-            return np.zeros(0, np.int32), np.zeros(0)
-        dofs = np.concatenate(self._fixed_dofs)
-        values = np.concatenate(self._fixed_values)
-        # np.unique keeps the first occurrence: reverse so the latest condition wins.
-        unique, first = np.unique(dofs[::-1], return_index=True)
-        return unique.astype(np.int32), values[::-1][first]
+        """Constrained dofs (unrolled, 3 per node) and their values at :attr:`time`.
+
+        Where conditions overlap, the latest wins; ``prescribed.values(t)`` gives the
+        values at another time.
+        """
+        return self.prescribed.dofs, self.prescribed.values(float(self.time.value))
 
     @property
     def num_dofs(self) -> int:

@@ -7,6 +7,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -98,3 +99,36 @@ def test_build_skips_only_type_parameters():
     assert build._is_type_parameter(pep695)
     assert not build._is_type_parameter(other)
     assert not build._is_type_parameter("Cannot find spec for dd_contact.nothing")
+
+
+PYTHON_BLOCK = re.compile(r"```python\n(.*?)```", re.S)
+
+
+def test_readme_python_blocks_run_as_written(tmp_path):
+    """The README's python blocks, in order, as one script: they run and print what they say."""
+    blocks = PYTHON_BLOCK.findall((ROOT / "README.md").read_text())
+    assert len(blocks) == 4  # the tied bar, the pressed block, pictures, an algorithm
+    script = tmp_path / "readme.py"
+    script.write_text("\n".join(blocks))
+    path = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
+    done = subprocess.run(
+        [sys.executable, script],
+        cwd=tmp_path,
+        env=dict(os.environ, PYTHONPATH=path),
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    lines = done.stdout.splitlines()
+    reaction = np.array(lines[0].strip("[]").split(), dtype=float)
+    assert reaction[2] == pytest.approx(1e5, rel=1e-5)  # the clamp carries the 100 kN tip load
+    force, area = lines[1].rsplit(" ", 1)
+    assert float(force.strip("[]").split(",")[2]) > 0 and float(area) == pytest.approx(1.0)
+    results = tmp_path / "results"
+    written = ["history.json", "history.csv", "u_block.xdmf", "w_bottom.xdmf", "u_left.bp"]
+    for name in [*written, "checkpoint.rank0.npz", "deformed.png", "pressure.png"]:
+        assert (results / name).exists(), name
+    assert len((results / "history.csv").read_text().splitlines()) == 1 + 10  # header, steps
+    assert "v-u: 100 steps" in done.stdout
