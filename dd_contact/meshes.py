@@ -158,7 +158,8 @@ def surface_from_boundary(
 
     With ``resolution=None`` the surface mesh is the boundary facets themselves (a conforming
     copy). With ``resolution=(n1, n2)`` the region must be a planar rectangle; it is remeshed
-    with ``n1 x n2`` cells of ``cell_type``, independently of the volume mesh.
+    with ``n1 x n2`` cells of ``cell_type``, independently of the volume mesh, and its cells'
+    normals point out of the volume.
 
     Args:
         volume: The volume mesh.
@@ -202,7 +203,7 @@ def surface_from_facets(
             "remeshed at a given resolution; pass resolution=None to copy its facets"
         )
     # Align the rectangle with a facet edge (principal axes are arbitrary for a square).
-    normal = axes[2]
+    normal = _outward(volume, facets[0], axes[2])
     edge = volume.geometry.x[facet_nodes[0, 1]] - volume.geometry.x[facet_nodes[0, 0]]
     e1 = edge - (edge @ normal) * normal
     e1 /= np.linalg.norm(e1)
@@ -229,6 +230,18 @@ def surface_from_facets(
         cell_type,
     )
     return surface_mesh(comm, points, cells, cell_type)
+
+
+def _outward(volume: dolfinx.mesh.Mesh, facet: int, normal: np.ndarray) -> np.ndarray:
+    """``normal`` or its opposite, whichever points out of the volume at boundary ``facet``."""
+    tdim = volume.topology.dim
+    volume.topology.create_connectivity(tdim - 1, tdim)
+    cell = volume.topology.connectivity(tdim - 1, tdim).links(facet)[0]
+    inside = volume.geometry.x[volume.geometry.dofmaps[0][cell]].mean(axis=0)
+    on_facet = volume.geometry.x[
+        dolfinx.mesh.entities_to_geometry(volume, tdim - 1, np.array([facet], np.int32))[0]
+    ].mean(axis=0)
+    return normal if (on_facet - inside) @ normal > 0 else -normal
 
 
 def hemisphere(

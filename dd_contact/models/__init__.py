@@ -8,17 +8,16 @@
 ``docs/models.md`` states their dimensions, loads and meshes.
 """
 
+from dd_contact.models.common import FACE_TAGS, STEEL, block_tags
 from dd_contact.models.parallelepiped import (
     BAR_SCALES,
     BAR_SIZE,
     LAYOUTS,
-    STEEL,
     bar_elements,
     bar_scene,
     parallelepiped,
 )
 from dd_contact.models.pin_joint import (
-    FACE_TAGS,
     PIN_JOINT_SCALES,
     PinJointMeshes,
     pin_joint,
@@ -36,6 +35,7 @@ __all__ = [
     "PinJointMeshes",
     "bar_elements",
     "bar_scene",
+    "block_tags",
     "parallelepiped",
     "pin_joint",
     "pin_joint_layout",

@@ -24,6 +24,7 @@ import numpy as np
 from dd_contact import meshes
 from dd_contact.errors import InputError
 from dd_contact.flops.paper import PAPER_BAR
+from dd_contact.models.common import STEEL
 from dd_contact.obstacles import Plane
 from dd_contact.scene import (
     ContactBoundary,
@@ -38,7 +39,6 @@ __all__ = [
     "BAR_SCALES",
     "BAR_SIZE",
     "LAYOUTS",
-    "STEEL",
     "bar_elements",
     "bar_scene",
     "parallelepiped",
@@ -48,8 +48,6 @@ __all__ = [
 BAR_SIZE = (0.4, 0.1, 0.01)
 #: Hexahedra of the named scales ("paper" is method.md 7.1).
 BAR_SCALES = {"paper": PAPER_BAR.elements, "small": (80, 20, 2), "tiny": (20, 5, 1)}
-#: Structural steel [Pa, -, kg/m^3].
-STEEL = Material(210e9, 0.3, 7850.0)
 
 #: How the bar is modelled for each algorithm: split in two or one mesh, contact on a
 #: contact interface or on the subdomain's own boundary. ``None``: the scene every
@@ -179,6 +177,7 @@ def parallelepiped(
     tilt: float = 2e-5,
     body_force: float | None = None,
     period: float = 4e-3,
+    contact_kappa: float | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
 ) -> Scene:
     """The paper's bar, clamped at x = 0.4 m and shaken against a rigid wall at its other end.
@@ -203,6 +202,7 @@ def parallelepiped(
         tilt: Angle between the wall and the end face [rad].
         body_force: Amplitude of the body force [N/m^3]; default as above.
         period: Period of the load [s].
+        contact_kappa: Dimensionless contact penalty (default the package's).
         comm: Communicator.
     """
     if algorithm not in LAYOUTS:
@@ -227,5 +227,5 @@ def parallelepiped(
     wall = Plane([-gap, 0.0, 0.0], [np.cos(tilt), np.sin(tilt), 0.0])
     return bar_scene(
         elements, BAR_SIZE, split, interface, contact, LAYOUTS[algorithm], wall,
-        setup=clamp_and_shake, comm=comm,
+        contact_kappa=contact_kappa, setup=clamp_and_shake, comm=comm,
     )  # fmt: skip

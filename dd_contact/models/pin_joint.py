@@ -29,12 +29,11 @@ import numpy as np
 from dd_contact import meshes
 from dd_contact.errors import InputError
 from dd_contact.flops.paper import PinJointLayout
-from dd_contact.models.parallelepiped import STEEL
+from dd_contact.models.common import FACE_TAGS, STEEL, block_tags
 from dd_contact.obstacles import Cylinder
 from dd_contact.scene import ContactInterface, Interface, Scene, Subdomain
 
 __all__ = [
-    "FACE_TAGS",
     "PIN_JOINT_SCALES",
     "PinJointMeshes",
     "pin_joint",
@@ -48,8 +47,6 @@ PIN_JOINT_SCALES = {
     "small": {"n_circumferential": 4, "n_radial": 3, "n_layers": 2, "n_length": 12},
     "tiny": {"n_circumferential": 2, "n_radial": 2, "n_layers": 1, "n_length": 4},
 }
-#: Facet tags of every subdomain mesh: its hole wall and the six sides of its bounding box.
-FACE_TAGS = {"hole": 1, "x0": 2, "x1": 3, "y0": 4, "y1": 5, "z0": 6, "z1": 7}
 #: mm of PinJointLayout to m.
 MM = 1e-3
 
@@ -88,19 +85,6 @@ class PinJointMeshes:
     walls: dict[str, dolfinx.mesh.Mesh]
 
 
-def _tags(mesh: dolfinx.mesh.Mesh, lower, upper, hole=None) -> dolfinx.mesh.MeshTags:
-    """:data:`FACE_TAGS` of a block ``[lower, upper]`` (with a hole of axis/radius ``hole``)."""
-    tol = 1e-9 * max(np.subtract(upper, lower))
-    regions = {}
-    if hole is not None:
-        (cx, cy), radius = hole
-        regions[FACE_TAGS["hole"]] = lambda x: np.hypot(x[0] - cx, x[1] - cy) < radius * 1.001
-    for axis, name in enumerate("xyz"):
-        regions[FACE_TAGS[f"{name}0"]] = lambda x, a=axis: np.abs(x[a] - lower[a]) < tol
-        regions[FACE_TAGS[f"{name}1"]] = lambda x, a=axis: np.abs(x[a] - upper[a]) < tol
-    return meshes.face_tags(mesh, regions)
-
-
 def pin_joint_meshes(
     scale: str | PinJointLayout = "small", wall_cells: int | None = None
 ) -> PinJointMeshes:
@@ -128,7 +112,7 @@ def pin_joint_meshes(
             lower, upper = (k * pitch, 0.0, z0), ((k + 1) * pitch, pitch, z0 + thick)
             mesh = meshes.hole_block(MPI.COMM_SELF, lower, pitch, radius, thick, c, r, t)
             centre = ((k + 0.5) * pitch, 0.5 * pitch)
-            subdomains[name] = (mesh, _tags(mesh, lower, upper, (centre, radius)))
+            subdomains[name] = (mesh, block_tags(mesh, lower, upper, (centre, radius)))
             holes[name], plates[name] = centre, plate
             walls[name] = meshes.cylinder_surface(
                 MPI.COMM_SELF, (*centre, z0), radius, thick, around, t, phase=0.5
@@ -137,7 +121,7 @@ def pin_joint_meshes(
                 pieces.append(((k * pitch, 0.0, z0), (0, pitch, 0), (0, 0, thick), c, t))
         lower, upper = (0.0, grip_y[0], z0), (width, grip_y[1], z0 + thick)
         mesh = meshes.box(MPI.COMM_SELF, lower, upper, (h * c, lay.n_length, t))
-        subdomains[f"{plate}_grip"] = (mesh, _tags(mesh, lower, upper))
+        subdomains[f"{plate}_grip"] = (mesh, block_tags(mesh, lower, upper))
         plates[f"{plate}_grip"] = plate
         cut_y = pitch if plate == "upper" else 0.0
         pieces.append(((0.0, cut_y, z0), (width, 0, 0), (0, 0, thick), h * c, t))
