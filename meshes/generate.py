@@ -60,7 +60,9 @@ def write(folder: Path = HERE) -> list[Path]:
                 file.write_mesh(mesh)
                 if tags is not None:
                     tags.name = f"{name}_facets"
-                    file.write_meshtags(tags, mesh.geometry, f"/Xdmf/Domain/Grid[@Name='{name}']/Geometry")
+                    file.write_meshtags(
+                        tags, mesh.geometry, f"/Xdmf/Domain/Grid[@Name='{name}']/Geometry"
+                    )
         written.append(path)
     return written
 

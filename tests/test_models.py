@@ -237,10 +237,11 @@ def test_the_bars_surfaces_do_not_match_its_faces_unless_asked():
     assert scene.contacts[0].num_dofs == 3 * 6 * 3
 
 
+@pytest.mark.mpi
 def test_the_bar_closes_and_opens_on_the_wall_every_period_and_full_agrees():
     displacement, contact, periods = {}, {}, 2
     for algorithm in ("FULL", "w-v-u"):
-        scene = models.parallelepiped("tiny", comm=MPI.COMM_SELF)
+        scene = models.parallelepiped("tiny", comm=MPI.COMM_WORLD)
         problem = dd.TransientProblem(scene, 1e-4, algorithm=algorithm, track_energy=False)
         problem.run(4, progress=False, summary=False)  # on the wall from step 1
         displacement[algorithm] = np.concatenate([s.u.x.array for s in scene.subdomains])
@@ -305,8 +306,9 @@ def test_the_joint_meshes_have_the_flops_models_counts(scale):
         assert 170_000 <= hexahedra <= 200_000  # the paper's 173,250
 
 
+@pytest.mark.mpi
 def test_the_joint_on_touching_pins_carries_the_load_statically():
-    scene = models.pin_joint("small", clearance=0.0, comm=MPI.COMM_SELF)
+    scene = models.pin_joint("small", clearance=0.0, comm=MPI.COMM_WORLD)
     with warnings.catch_warnings():
         # The lower plate carries nothing: its pressure is round-off, which the resolution
         # check reads as a swing. The loaded walls must pass it.
@@ -324,10 +326,11 @@ def test_the_joint_on_touching_pins_carries_the_load_statically():
     assert np.abs(total[[0, 2]]).max() < 1e-6 * 20e3
 
 
+@pytest.mark.mpi
 def test_the_joint_closes_on_its_pins_and_every_order_agrees_with_full():
     displacement = {}
     for algorithm in ("FULL", "w-v-u"):
-        scene = models.pin_joint("small", comm=MPI.COMM_SELF)
+        scene = models.pin_joint("small", comm=MPI.COMM_WORLD)
         problem = dd.TransientProblem(scene, 4e-5, algorithm=algorithm, track_energy=False)
         history = problem.run(10, progress=False, summary=False)
         active = [sum(r["active"][f"hole_upper{k}"] for k in range(5)) for r in history]

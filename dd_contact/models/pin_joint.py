@@ -149,7 +149,7 @@ def pin_joint(
     """The multi-pin joint: 12 subdomains, 1 interface, 10 contact interfaces, 5 pins.
 
     Args:
-        scale: ``"paper"`` (174,080 hexahedra), ``"small"`` (1,920), ``"tiny"`` (400), or a
+        scale: ``"paper"`` (174,080 hexahedra), ``"small"`` (1,920), ``"tiny"`` (240), or a
             :class:`PinJointLayout`.
         clearance: Hole radius minus pin radius [m] (0: the pins touch the hole walls).
         load: Amplitude of the force on the upper plate's grip end, along +y [N].
