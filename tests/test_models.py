@@ -8,6 +8,7 @@ outward normals, the interface on the cuts between two subdomains.
 from __future__ import annotations
 
 import importlib.util
+import inspect
 import warnings
 from pathlib import Path
 
@@ -219,6 +220,11 @@ def test_the_paper_bar_is_the_flops_models_bar():
     assert 3 * (nx + 1) * (ny + 1) * (nz + 1) == flops.parallelepiped_sizes().whole.dofs
     assert flops.parallelepiped_sizes().whole.dofs == 1_336_533
     assert models.bar_elements(0.1) == (40, 10, 1)
+    for study in (flops.parallelepiped_sizes, flops.parallelepiped_studies):  # one source
+        defaults = inspect.signature(study).parameters
+        assert {k: defaults[k].default for k in ("elements", "split", "interface", "contact")} == {
+            k: getattr(flops.PAPER_BAR, k) for k in ("elements", "split", "interface", "contact")
+        }
     # the split model has the dofs of the operation-count model's subdomains, any ratio
     for split in ((5, 5), (1, 9), (3, 1)):
         scene = models.parallelepiped("tiny", split=split, comm=MPI.COMM_SELF)
