@@ -23,6 +23,7 @@ from mpi4py import MPI
 from tqdm import tqdm
 
 from dd_contact import __version__, flops, timing
+from dd_contact.flops import PAPER_BAR
 from dd_contact.verify import CASES, run_cases
 
 __all__ = ["main"]
@@ -269,28 +270,32 @@ def _add_flops(sub: Any) -> None:
         "--elements",
         nargs=3,
         type=_positive_int,
-        default=[400, 100, 10],
+        default=list(PAPER_BAR.elements),
         metavar=("NX", "NY", "NZ"),
-        help="hexahedra along x (cut direction), y, z (default: 400 100 10)",
+        help="hexahedra along x (cut), y, z (default: {} {} {})".format(*PAPER_BAR.elements),
     )
     bar.add_argument(
-        "--split", type=_ratio, default=(5, 5), metavar="A:B", help="Omega1:Omega2 (default 5:5)"
+        "--split",
+        type=_ratio,
+        default=PAPER_BAR.split,
+        metavar="A:B",
+        help="Omega1:Omega2 (default {}:{})".format(*PAPER_BAR.split),
     )
     bar.add_argument(
         "--interface",
         nargs=2,
         type=_positive_int,
-        default=[100, 10],
+        default=list(PAPER_BAR.interface),
         metavar=("NY", "NZ"),
-        help="quads of the interface mesh (default: 100 10)",
+        help="quads of the interface mesh (default: {} {})".format(*PAPER_BAR.interface),
     )
     bar.add_argument(
         "--contact",
         nargs=2,
         type=_positive_int,
-        default=[100, 10],
+        default=list(PAPER_BAR.contact),
         metavar=("NY", "NZ"),
-        help="quads of the contact interface mesh (default: 100 10)",
+        help="quads of the contact interface mesh (default: {} {})".format(*PAPER_BAR.contact),
     )
     _add_history_options(bar, "alpha = gamma")
     _add_output_options(bar, suppress=True)

@@ -1,22 +1,21 @@
 """Scenes for benchmarks, demos and tests.
 
-The paper's parallelepiped (method.md 7.1) at any size, and a row of blocks with many
-contact interfaces. Benchmarks and demos build their models here, so that every algorithm
+The paper's parallelepiped (method.md 7.1) pressed on a wall (the benchmark scene; the
+model itself is :mod:`dd_contact.models`), and a row of blocks with many contact
+interfaces. Benchmarks and demos build their models here, so that every algorithm
 runs the same problem.
 """
 
 from __future__ import annotations
-
-import itertools
 
 from mpi4py import MPI
 
 import numpy as np
 
 from dd_contact import meshes
+from dd_contact.models.parallelepiped import LAYOUTS, bar_scene
 from dd_contact.obstacles import Plane
 from dd_contact.scene import (
-    ContactBoundary,
     ContactInterface,
     Interface,
     Material,
@@ -26,15 +25,8 @@ from dd_contact.scene import (
 
 __all__ = ["PARALLELEPIPED_LAYOUTS", "parallelepiped", "row_of_blocks"]
 
-#: How the bar is modelled for each algorithm: split in two or one mesh, contact on a
-#: contact interface (w) or on the subdomain's own boundary.
-PARALLELEPIPED_LAYOUTS = {
-    "FULL": ("one mesh", "boundary"),
-    "v-w-u": ("split", "interface"),
-    "w-v-u": ("split", "interface"),
-    "w-u": ("one mesh", "interface"),
-    "v-u": ("split", "boundary"),
-}
+#: How the bar is modelled for each algorithm (:data:`dd_contact.models.LAYOUTS`).
+PARALLELEPIPED_LAYOUTS = {a: layout for a, layout in LAYOUTS.items() if a is not None}
 
 
 def parallelepiped(
@@ -51,12 +43,13 @@ def parallelepiped(
 ) -> Scene:
     """The bar of method.md 7.1 pressed with one end on a rigid wall, for a given algorithm.
 
-    A steel bar of ``elements`` 8-node hexahedra (size ``element_size``), long in x, moves at
-    ``speed`` towards a rigid plane through the origin whose normal is tilted by ``tilt``
-    (radians) about z: the bar's end touches it along the edge y = 0 first, and the contact
-    area then grows across the face by about ``speed * dt / (tilt * element_size)`` element
-    rows per time step dt, while a pressure (ramped up over ``ramp`` seconds) pushes the far
-    end.
+    The benchmark scene (``benchmarks/decomposition_speed.py``): the decomposition of
+    :func:`dd_contact.models.bar_scene` with matching surfaces, free of supports. A steel bar
+    of ``elements`` 8-node hexahedra (size ``element_size``), long in x, moves at ``speed``
+    towards a rigid plane through the origin whose normal is tilted by ``tilt`` (radians)
+    about z: the bar's end touches it along the edge y = 0 first, and the contact area then
+    grows across the face by about ``speed * dt / (tilt * element_size)`` element rows per
+    time step dt, while a pressure (ramped up over ``ramp`` seconds) pushes the far end.
     For the decomposition orders it is cut across x in the ratio ``split`` into two
     subdomains tied by an interface mesh on the cut; contact is on a contact interface
     covering the end face of the first subdomain, or on that face itself, as
@@ -75,46 +68,28 @@ def parallelepiped(
         comm: Communicator.
     """
     nx, ny, nz = elements
-    h = element_size
-    length, width, height = nx * h, ny * h, nz * h
-    steel = Material(210e9, 0.3, 7850.0)
-    layout, contact = PARALLELEPIPED_LAYOUTS[algorithm]
-    cuts = [0, nx]
-    if layout == "split":
-        first = round(nx * split[0] / sum(split))
-        if not 0 < first < nx:
-            raise ValueError(f"split {split} leaves an empty subdomain of {nx} layers")
-        cuts = [0, first, nx]
-    parts = [
-        Subdomain(
-            meshes.box(MPI.COMM_SELF, [a * h, 0, 0], [b * h, width, height], [b - a, ny, nz]),
-            steel,
-            f"Omega{k + 1}",
-        )
-        for k, (a, b) in enumerate(itertools.pairwise(cuts))
-    ]
+    length = nx * element_size
 
-    for part in parts:
-        part.velocity.interpolate(lambda x: np.vstack([-speed + 0 * x[0], 0 * x[0], 0 * x[0]]))
-    parts[-1].add_traction(
-        lambda x: np.isclose(x[0], length),
-        lambda t: [-pressure * min(t / ramp, 1.0), 0.0, 0.0],
+    def move_and_press(parts: list[Subdomain]) -> None:
+        for part in parts:
+            part.velocity.interpolate(lambda x: np.vstack([-speed + 0 * x[0], 0 * x[0], 0 * x[0]]))
+        parts[-1].add_traction(
+            lambda x: np.isclose(x[0], length),
+            lambda t: [-pressure * min(t / ramp, 1.0), 0.0, 0.0],
+        )
+
+    return bar_scene(
+        elements,
+        [n * element_size for n in elements],
+        split,
+        interface=(ny, nz),
+        contact=(ny, nz),
+        layout=PARALLELEPIPED_LAYOUTS[algorithm],
+        wall=Plane([0.0, 0.0, 0.0], [np.cos(tilt), np.sin(tilt), 0.0]),
+        contact_kappa=contact_kappa,
+        setup=move_and_press,
+        comm=comm,
     )
-    interface = None
-    if len(parts) == 2:
-        cut = cuts[1] * h
-        interface = Interface.from_boundary(
-            parts[0], lambda x: np.isclose(x[0], cut), parts, resolution=(ny, nz)
-        )
-    wall = Plane([0.0, 0.0, 0.0], [np.cos(tilt), np.sin(tilt), 0.0])
-    end = lambda x: np.isclose(x[0], 0.0)  # noqa: E731
-    if contact == "interface":
-        zone = ContactInterface.from_boundary(
-            parts[0], end, wall, resolution=(ny, nz), contact_kappa=contact_kappa, name="end"
-        )
-    else:
-        zone = ContactBoundary(parts[0], end, wall, contact_kappa=contact_kappa, name="end")
-    return Scene(comm, parts, interface, contacts=[zone])
 
 
 def row_of_blocks(

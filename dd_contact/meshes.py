@@ -24,8 +24,11 @@ __all__ = [
     "HEMISPHERE_SYMMETRY_Y",
     "HEMISPHERE_TOP",
     "box",
+    "cylinder_surface",
+    "face_tags",
     "facet_surface",
     "hemisphere",
+    "hole_block",
     "rectangle_grid",
     "surface_from_boundary",
     "surface_from_facets",
@@ -155,7 +158,8 @@ def surface_from_boundary(
 
     With ``resolution=None`` the surface mesh is the boundary facets themselves (a conforming
     copy). With ``resolution=(n1, n2)`` the region must be a planar rectangle; it is remeshed
-    with ``n1 x n2`` cells of ``cell_type``, independently of the volume mesh.
+    with ``n1 x n2`` cells of ``cell_type``, independently of the volume mesh, and its cells'
+    normals point out of the volume.
 
     Args:
         volume: The volume mesh.
@@ -199,7 +203,7 @@ def surface_from_facets(
             "remeshed at a given resolution; pass resolution=None to copy its facets"
         )
     # Align the rectangle with a facet edge (principal axes are arbitrary for a square).
-    normal = axes[2]
+    normal = _outward(volume, facets[0], axes[2])
     edge = volume.geometry.x[facet_nodes[0, 1]] - volume.geometry.x[facet_nodes[0, 0]]
     e1 = edge - (edge @ normal) * normal
     e1 /= np.linalg.norm(e1)
@@ -226,6 +230,18 @@ def surface_from_facets(
         cell_type,
     )
     return surface_mesh(comm, points, cells, cell_type)
+
+
+def _outward(volume: dolfinx.mesh.Mesh, facet: int, normal: np.ndarray) -> np.ndarray:
+    """``normal`` or its opposite, whichever points out of the volume at boundary ``facet``."""
+    tdim = volume.topology.dim
+    volume.topology.create_connectivity(tdim - 1, tdim)
+    cell = volume.topology.connectivity(tdim - 1, tdim).links(facet)[0]
+    inside = volume.geometry.x[volume.geometry.dofmaps[0][cell]].mean(axis=0)
+    on_facet = volume.geometry.x[
+        dolfinx.mesh.entities_to_geometry(volume, tdim - 1, np.array([facet], np.int32))[0]
+    ].mean(axis=0)
+    return normal if (on_facet - inside) @ normal > 0 else -normal
 
 
 def hemisphere(
@@ -416,3 +432,149 @@ def _hemisphere_model(
     gmsh.model.mesh.generate(3)
     if order > 1:
         gmsh.model.mesh.setOrder(order)
+
+
+def face_tags(
+    mesh: dolfinx.mesh.Mesh, regions: dict[int, Callable[[np.ndarray], np.ndarray]]
+) -> dolfinx.mesh.MeshTags:
+    """Facet tags of a volume mesh's boundary: ``regions[tag]`` locates the facets of ``tag``.
+
+    A facet selected by two locators gets the first tag; boundary facets no locator selects
+    stay untagged.
+    """
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    tagged: dict[int, int] = {}
+    for tag, locator in regions.items():
+        for facet in dolfinx.mesh.locate_entities_boundary(mesh, tdim - 1, locator):
+            tagged.setdefault(int(facet), tag)
+    facets = np.array(sorted(tagged), dtype=np.int32)
+    values = np.array([tagged[f] for f in facets], dtype=np.int32)
+    return dolfinx.mesh.meshtags(mesh, tdim - 1, facets, values)
+
+
+def cylinder_surface(
+    comm: MPI.Comm,
+    centre: Sequence[float],
+    radius: float,
+    height: float,
+    n_around: int,
+    n_along: int,
+    phase: float = 0.0,
+) -> dolfinx.mesh.Mesh:
+    """A quadrilateral mesh of the cylinder wall about the z axis through ``centre``.
+
+    The wall runs from ``centre[2]`` to ``centre[2] + height``; its nodes lie on the circle,
+    ``n_around`` cells around (the first node at angle ``phase`` of a cell from +x) and
+    ``n_along`` along z. Cells are ordered so that their normal points to the axis: out of
+    a body around the hole.
+    """
+    angles = 2 * np.pi * (phase + np.arange(n_around)) / n_around
+    z = centre[2] + height * np.linspace(0.0, 1.0, n_along + 1)
+    ring = np.column_stack(
+        [centre[0] + radius * np.cos(angles), centre[1] + radius * np.sin(angles)]
+    )
+    points = np.column_stack([np.tile(ring, (n_along + 1, 1)), np.repeat(z, n_around)])
+    i, k = np.meshgrid(np.arange(n_around), np.arange(n_along), indexing="ij")
+    i, k = i.ravel(), k.ravel()
+    a, b = k * n_around + i, k * n_around + (i + 1) % n_around
+    # (z along e1, angle along e2): e1 x e2 = z x tangent = -radial, towards the axis.
+    cells = np.column_stack([a, a + n_around, b, b + n_around])
+    return surface_mesh(comm, points, cells, "quadrilateral")
+
+
+def hole_block(
+    comm: MPI.Comm,
+    lower: Sequence[float],
+    side: float,
+    radius: float,
+    thickness: float,
+    cells_side: int,
+    cells_radial: int,
+    layers: int,
+) -> dolfinx.mesh.Mesh:
+    """Hexahedra of a square plate block with a centred round hole: an O-grid made by gmsh.
+
+    The block is ``[lower, lower + (side, side, thickness)]`` with a hole of ``radius``
+    through its thickness; four transfinite patches join the hole's quarter arcs to the
+    block's sides along the diagonals: ``cells_side`` cells along each side and quarter arc,
+    ``cells_radial`` from the hole to the side, ``layers`` through the thickness
+    (``4 cells_side cells_radial layers`` hexahedra).
+
+    Raises:
+        ValueError: If the hole does not fit in the block or a count is not positive.
+        ModuleNotFoundError: If Gmsh is not installed (``pip install dd_contact[mesh]``).
+    """
+    if not 0.0 < radius < side / 2 or thickness <= 0.0:
+        raise ValueError(
+            f"hole_block: need 0 < radius < side / 2 and thickness > 0, got {radius=}, "
+            f"{side=}, {thickness=}"
+        )
+    if min(cells_side, cells_radial, layers) < 1:
+        raise ValueError(
+            f"hole_block: cell counts must be positive, got {cells_side=}, {cells_radial=}, "
+            f"{layers=}"
+        )
+    try:
+        import gmsh
+    except ModuleNotFoundError as err:
+        raise ModuleNotFoundError(
+            "hole_block needs the Gmsh Python module: pip install dd_contact[mesh]", name="gmsh"
+        ) from err
+    owner = not gmsh.isInitialized()
+    if owner:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+    previous_model = None if owner else gmsh.model.getCurrent()
+    saved = gmsh.option.getNumber("General.Terminal")
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.model.add("dd_contact_hole_block")
+        _hole_block_model(gmsh, lower, side, radius, thickness, cells_side, cells_radial, layers)
+        mesh = dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, 0, gdim=3).mesh
+    finally:
+        gmsh.option.setNumber("General.Terminal", saved)
+        if owner:
+            gmsh.finalize()
+        else:
+            gmsh.model.remove()
+            if previous_model:
+                gmsh.model.setCurrent(previous_model)
+    return mesh
+
+
+def _hole_block_model(
+    gmsh: ModuleType,
+    lower: Sequence[float],
+    side: float,
+    radius: float,
+    thickness: float,
+    cells_side: int,
+    cells_radial: int,
+    layers: int,
+) -> None:
+    """Build and mesh the O-grid of :func:`hole_block` in the current gmsh model."""
+    geo = gmsh.model.geo
+    cx, cy, z0 = lower[0] + side / 2, lower[1] + side / 2, lower[2]
+    centre = geo.addPoint(cx, cy, z0)
+    angles = np.pi / 4 + np.arange(4) * np.pi / 2
+    corner = side / np.sqrt(2.0)
+    inner = [geo.addPoint(cx + radius * np.cos(a), cy + radius * np.sin(a), z0) for a in angles]
+    outer = [geo.addPoint(cx + corner * np.cos(a), cy + corner * np.sin(a), z0) for a in angles]
+    arcs = [geo.addCircleArc(inner[i], centre, inner[(i + 1) % 4]) for i in range(4)]
+    sides = [geo.addLine(outer[i], outer[(i + 1) % 4]) for i in range(4)]
+    spokes = [geo.addLine(inner[i], outer[i]) for i in range(4)]
+    for curve in arcs + sides:
+        geo.mesh.setTransfiniteCurve(curve, cells_side + 1)
+    for curve in spokes:
+        geo.mesh.setTransfiniteCurve(curve, cells_radial + 1)
+    patches = []
+    for i in range(4):
+        loop = geo.addCurveLoop([arcs[i], spokes[(i + 1) % 4], -sides[i], -spokes[i]])
+        patch = geo.addPlaneSurface([loop])
+        geo.mesh.setTransfiniteSurface(patch)
+        geo.mesh.setRecombine(2, patch)
+        patches.append((2, patch))
+    extruded = geo.extrude(patches, 0, 0, thickness, numElements=[layers], recombine=True)
+    geo.synchronize()
+    gmsh.model.addPhysicalGroup(3, [tag for dim, tag in extruded if dim == 3], 1)
+    gmsh.model.mesh.generate(3)

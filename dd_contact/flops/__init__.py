@@ -45,6 +45,8 @@ from dd_contact.flops.model import (
     schedule_counts,
 )
 from dd_contact.flops.paper import (
+    PAPER_BAR,
+    PaperBar,
     PinJointLayout,
     parallelepiped_sizes,
     pin_joint_mesh_counts,
@@ -69,11 +71,13 @@ __all__ = [
     "ALGORITHMS",
     "CHANGES_SWEEP",
     "CONTACT_SCALES",
+    "PAPER_BAR",
     "STEPS_SWEEP",
     "ContactCounts",
     "CostReport",
     "MeshCost",
     "MeshCounts",
+    "PaperBar",
     "PinJointLayout",
     "SceneSizes",
     "Study",

@@ -27,6 +27,8 @@ from dd_contact.flops.model import (
 )
 
 __all__ = [
+    "PAPER_BAR",
+    "PaperBar",
     "PinJointLayout",
     "parallelepiped_sizes",
     "pin_joint_mesh_counts",
@@ -36,6 +38,35 @@ __all__ = [
 
 
 # --------------------------------------------------------------------------- paper's bar
+
+
+@dataclass(frozen=True)
+class PaperBar:
+    """The paper's rectangular parallelepiped and its efficiency study (method.md 7.1).
+
+    The one place these numbers live: the operation-count model (:func:`parallelepiped_sizes`,
+    :func:`~dd_contact.flops.studies.parallelepiped_studies`) and the finite element model
+    (:func:`dd_contact.models.parallelepiped` at ``scale="paper"``) both read them.
+
+    Attributes:
+        elements: Hexahedra along x (long, cut direction), y, z.
+        split: Element layers of subdomain 1 : subdomain 2.
+        interface: Quads of the interface mesh on the cut.
+        contact: Quads of the contact interface on the end face of subdomain 1.
+        steps: Time steps ``N_TS`` of the study.
+        changes: Contact state changes ``alpha = gamma`` of the study.
+    """
+
+    elements: tuple[int, int, int] = (400, 100, 10)
+    split: tuple[int, int] = (5, 5)
+    interface: tuple[int, int] = (100, 10)
+    contact: tuple[int, int] = (100, 10)
+    steps: int = 10000
+    changes: int = 20000
+
+
+#: The paper's bar: 400 x 100 x 10 hexahedra, 1,336,533 dofs, cut 5:5.
+PAPER_BAR = PaperBar()
 
 
 def split_layers(nx: int, split: tuple[int, int]) -> tuple[int, int]:
@@ -61,12 +92,12 @@ def split_layers(nx: int, split: tuple[int, int]) -> tuple[int, int]:
 
 
 def parallelepiped_sizes(
-    elements: tuple[int, int, int] = (400, 100, 10),
-    split: tuple[int, int] = (5, 5),
-    interface: tuple[int, int] = (100, 10),
-    contact: tuple[int, int] = (100, 10),
-    steps: int = 10000,
-    changes: int = 20000,
+    elements: tuple[int, int, int] = PAPER_BAR.elements,
+    split: tuple[int, int] = PAPER_BAR.split,
+    interface: tuple[int, int] = PAPER_BAR.interface,
+    contact: tuple[int, int] = PAPER_BAR.contact,
+    steps: int = PAPER_BAR.steps,
+    changes: int = PAPER_BAR.changes,
 ) -> SceneSizes:
     """Scene of the paper's rectangular parallelepiped (method.md 7.1).
 

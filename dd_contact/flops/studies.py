@@ -21,6 +21,7 @@ from typing import Any
 
 from dd_contact.flops.model import CostReport, SceneSizes, compare
 from dd_contact.flops.paper import (
+    PAPER_BAR,
     PinJointLayout,
     parallelepiped_sizes,
     pin_joint_sizes,
@@ -116,12 +117,12 @@ CONTACT_SCALES: tuple[float, ...] = (0.1, 0.2, 0.3, 0.5, 0.7, 1.0, 1.4, 2.0)
 
 
 def parallelepiped_studies(
-    elements: tuple[int, int, int] = (400, 100, 10),
-    split: tuple[int, int] = (5, 5),
-    interface: tuple[int, int] = (100, 10),
-    contact: tuple[int, int] = (100, 10),
-    steps: int = 10000,
-    changes: int = 20000,
+    elements: tuple[int, int, int] = PAPER_BAR.elements,
+    split: tuple[int, int] = PAPER_BAR.split,
+    interface: tuple[int, int] = PAPER_BAR.interface,
+    contact: tuple[int, int] = PAPER_BAR.contact,
+    steps: int = PAPER_BAR.steps,
+    changes: int = PAPER_BAR.changes,
 ) -> list[Study]:
     """The paper's four studies of the bar (method.md 7.1), around the given configuration.
 

@@ -1,0 +1,192 @@
+"""The paper's multi-pin joint (method.md 7.2) as a finite element model.
+
+Two steel plates lapped over each other, joined by a row of rigid pins. The dimensions are
+those of :class:`dd_contact.flops.PinJointLayout` (in mm there, in m here): 10 mm plates,
+300 mm wide, 20 mm holes at a 60 mm pitch, 270 mm grips. Each plate is cut into a hole
+block per hole (``pitch x pitch``, an O-grid of hexahedra made by gmsh) and a grip; the
+lower plate lies in 0 <= z <= t with its grip towards -y, the upper one on top of it with
+its grip towards +y, their hole strips 0 <= y <= pitch over each other. One interface
+mesh covers every cut of both plates; every hole wall of every plate is a contact
+interface of its own (a cylinder mesh with nodes on the circle, turned half a cell from
+the wall's nodes) against its pin, a :class:`~dd_contact.Cylinder` ``clearance`` thinner
+than the hole.
+
+The lower plate is clamped at its grip's end; the upper one is pulled and pushed along y at
+its grip's end by ``load * sin(2 pi t / period)``, that end guided in x and z. The pins are
+fixed in space: they carry the upper plate's load to the ground.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from mpi4py import MPI
+
+import dolfinx.mesh
+import numpy as np
+
+from dd_contact import meshes
+from dd_contact.errors import InputError
+from dd_contact.flops.paper import PinJointLayout
+from dd_contact.models.common import FACE_TAGS, STEEL, block_tags
+from dd_contact.obstacles import Cylinder
+from dd_contact.scene import ContactInterface, Interface, Scene, Subdomain
+
+__all__ = [
+    "PIN_JOINT_SCALES",
+    "PinJointMeshes",
+    "pin_joint",
+    "pin_joint_layout",
+    "pin_joint_meshes",
+]
+
+#: Element counts of the named scales; "paper" is PinJointLayout's 174,080 hexahedra.
+PIN_JOINT_SCALES = {
+    "paper": {},
+    "small": {"n_circumferential": 4, "n_radial": 3, "n_layers": 2, "n_length": 12},
+    "tiny": {"n_circumferential": 2, "n_radial": 2, "n_layers": 1, "n_length": 4},
+}
+#: mm of PinJointLayout to m.
+MM = 1e-3
+
+
+def pin_joint_layout(scale: str | PinJointLayout = "small") -> PinJointLayout:
+    """The joint at a named scale (:data:`PIN_JOINT_SCALES`) or as given."""
+    if isinstance(scale, PinJointLayout):
+        return scale
+    if scale not in PIN_JOINT_SCALES:
+        raise InputError(
+            f"pin_joint: scale {scale!r} is not one of {sorted(PIN_JOINT_SCALES)}; give a name "
+            "or a dd_contact.flops.PinJointLayout"
+        )
+    return dataclasses.replace(PinJointLayout(), **PIN_JOINT_SCALES[scale])
+
+
+@dataclass
+class PinJointMeshes:
+    """The meshes of the joint (metres), each on one rank's communicator.
+
+    Attributes:
+        layout: The joint (dimensions in mm).
+        subdomains: ``{name: (hexahedral mesh, facet tags)}``: ``lower0..``, ``lower_grip``,
+            ``upper0..``, ``upper_grip``; tags :data:`FACE_TAGS`.
+        holes: ``{subdomain name: (x, y) of its hole's axis}``.
+        plates: ``{subdomain name: "lower" | "upper"}``.
+        interface: The surface mesh of every cut of both plates.
+        walls: ``{subdomain name: surface mesh of its hole wall}``.
+    """
+
+    layout: PinJointLayout
+    subdomains: dict[str, tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]]
+    holes: dict[str, tuple[float, float]]
+    plates: dict[str, str]
+    interface: dolfinx.mesh.Mesh
+    walls: dict[str, dolfinx.mesh.Mesh]
+
+
+def pin_joint_meshes(
+    scale: str | PinJointLayout = "small", wall_cells: int | None = None
+) -> PinJointMeshes:
+    """Every mesh of the joint (see the module's description).
+
+    Args:
+        scale: A name of :data:`PIN_JOINT_SCALES` or a :class:`PinJointLayout`.
+        wall_cells: Cells around each hole wall's contact interface (default as many as the
+            plate has around the hole; no more, or the surface is finer than its wall,
+            docs/contact.md).
+    """
+    lay = pin_joint_layout(scale)
+    c, r, t, h = lay.n_circumferential, lay.n_radial, lay.n_layers, lay.n_holes
+    pitch, thick, grip = lay.pitch * MM, lay.thickness * MM, lay.free_length * MM
+    radius, width = lay.hole_diameter * MM / 2, h * pitch
+    around = 4 * c if wall_cells is None else int(wall_cells)
+    subdomains, holes, plates, walls = {}, {}, {}, {}
+    pieces = []  # interface rectangles: origin, e1, e2, n1, n2
+    for plate, z0, grip_y in (
+        ("lower", 0.0, (-grip, 0.0)),
+        ("upper", thick, (pitch, pitch + grip)),
+    ):
+        for k in range(h):
+            name = f"{plate}{k}"
+            lower, upper = (k * pitch, 0.0, z0), ((k + 1) * pitch, pitch, z0 + thick)
+            mesh = meshes.hole_block(MPI.COMM_SELF, lower, pitch, radius, thick, c, r, t)
+            centre = ((k + 0.5) * pitch, 0.5 * pitch)
+            subdomains[name] = (mesh, block_tags(mesh, lower, upper, (centre, radius)))
+            holes[name], plates[name] = centre, plate
+            walls[name] = meshes.cylinder_surface(
+                MPI.COMM_SELF, (*centre, z0), radius, thick, around, t, phase=0.5
+            )
+            if k > 0:
+                pieces.append(((k * pitch, 0.0, z0), (0, pitch, 0), (0, 0, thick), c, t))
+        lower, upper = (0.0, grip_y[0], z0), (width, grip_y[1], z0 + thick)
+        mesh = meshes.box(MPI.COMM_SELF, lower, upper, (h * c, lay.n_length, t))
+        subdomains[f"{plate}_grip"] = (mesh, block_tags(mesh, lower, upper))
+        plates[f"{plate}_grip"] = plate
+        cut_y = pitch if plate == "upper" else 0.0
+        pieces.append(((0.0, cut_y, z0), (width, 0, 0), (0, 0, thick), h * c, t))
+    points, cells = [], []
+    for origin, e1, e2, n1, n2 in pieces:
+        p, q = meshes.rectangle_grid(
+            np.array(origin), np.array(e1, float), np.array(e2, float), n1, n2, "quadrilateral"
+        )
+        cells.append(q + sum(len(x) for x in points))
+        points.append(p)
+    interface = meshes.surface_mesh(
+        MPI.COMM_SELF, np.vstack(points), np.vstack(cells), "quadrilateral"
+    )
+    return PinJointMeshes(lay, subdomains, holes, plates, interface, walls)
+
+
+def pin_joint(
+    scale: str | PinJointLayout = "small",
+    clearance: float = 0.05e-3,
+    load: float = 20e3,
+    period: float = 2e-3,
+    wall_cells: int | None = None,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> Scene:
+    """The multi-pin joint: 12 subdomains, 1 interface, 10 contact interfaces, 5 pins.
+
+    Args:
+        scale: ``"paper"`` (174,080 hexahedra), ``"small"`` (1,920), ``"tiny"`` (240), or a
+            :class:`PinJointLayout`.
+        clearance: Hole radius minus pin radius [m] (0: the pins touch the hole walls).
+        load: Amplitude of the force on the upper plate's grip end, along +y [N].
+        period: Period of the load [s]; ``load * sin(2 pi t / period)``.
+        wall_cells: Cells around each contact interface (default the plate's).
+        comm: Communicator.
+    """
+    if not 0.0 <= clearance:
+        raise InputError(f"pin_joint: clearance must be >= 0, got {clearance}")
+    if not period > 0.0:
+        raise InputError(f"pin_joint: period must be positive, got {period}")
+    model = pin_joint_meshes(scale, wall_cells)
+    lay = model.layout
+    radius, thick = lay.hole_diameter * MM / 2, lay.thickness * MM
+    if not clearance < radius:
+        raise InputError(f"pin_joint: clearance {clearance} m leaves no pin in a {radius} m hole")
+    width = lay.n_holes * lay.pitch * MM
+    parts = {name: Subdomain(mesh, STEEL, name) for name, (mesh, _) in model.subdomains.items()}
+    tags = {name: t for name, (_, t) in model.subdomains.items()}
+    parts["lower_grip"].fix((tags["lower_grip"], FACE_TAGS["y0"]))
+    upper_end = (tags["upper_grip"], FACE_TAGS["y1"])
+    parts["upper_grip"].fix(upper_end, components=[0, 2])
+    stress = load / (width * thick)
+    parts["upper_grip"].add_traction(
+        upper_end, lambda t: [0.0, stress * np.sin(2 * np.pi * t / period), 0.0]
+    )
+    interface = Interface(model.interface, list(parts.values()), name="cuts")
+    # The wall's nodes lie on the circle, off the plate's facet chords by up to a sagitta.
+    sagitta = radius * (1.0 - np.cos(np.pi / (4 * lay.n_circumferential)))
+    contacts = [
+        ContactInterface(
+            model.walls[name],
+            parts[name],
+            Cylinder([x, y, 0.0], [0.0, 0.0, 1.0], radius - clearance),
+            tolerance=2.0 * sagitta,
+            name=f"hole_{name}",
+        )
+        for name, (x, y) in model.holes.items()
+    ]
+    return Scene(comm, list(parts.values()), interface, contacts=contacts)
