@@ -244,6 +244,25 @@ def _outward(volume: dolfinx.mesh.Mesh, facet: int, normal: np.ndarray) -> np.nd
     return normal if (on_facet - inside) @ normal > 0 else -normal
 
 
+def _gmsh(what: str):
+    """The Gmsh module (an optional dependency), or an error that names the extra to install."""
+    try:
+        import gmsh
+    except ModuleNotFoundError as err:
+        raise ModuleNotFoundError(
+            f"{what} needs the Gmsh Python module: pip install dd_contact[mesh]", name="gmsh"
+        ) from err
+    return gmsh
+
+
+def _start_gmsh(gmsh) -> bool:
+    """Initialise Gmsh unless the caller has; whether this call owns (must finalise) it."""
+    owner = not gmsh.isInitialized()
+    if owner:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+    return owner
+
+
 def hemisphere(
     comm: MPI.Comm,
     radius: float,
@@ -303,16 +322,9 @@ def hemisphere(
         data = dolfinx.io.gmsh.model_to_mesh(None, comm, rank, gdim=3)
         return data.mesh, data.facet_tags
 
-    try:
-        import gmsh
-    except ModuleNotFoundError as err:
-        raise ModuleNotFoundError(
-            "hemisphere needs the Gmsh Python module: pip install dd_contact[mesh]", name="gmsh"
-        ) from err
+    gmsh = _gmsh("hemisphere")
 
-    owner = not gmsh.isInitialized()
-    if owner:
-        gmsh.initialize(readConfigFiles=False, interruptible=False)
+    owner = _start_gmsh(gmsh)
     options = {
         "General.Terminal": 0,
         "Mesh.MeshSizeExtendFromBoundary": 0,
@@ -515,15 +527,8 @@ def hole_block(
             f"hole_block: cell counts must be positive, got {cells_side=}, {cells_radial=}, "
             f"{layers=}"
         )
-    try:
-        import gmsh
-    except ModuleNotFoundError as err:
-        raise ModuleNotFoundError(
-            "hole_block needs the Gmsh Python module: pip install dd_contact[mesh]", name="gmsh"
-        ) from err
-    owner = not gmsh.isInitialized()
-    if owner:
-        gmsh.initialize(readConfigFiles=False, interruptible=False)
+    gmsh = _gmsh("hole_block")
+    owner = _start_gmsh(gmsh)
     previous_model = None if owner else gmsh.model.getCurrent()
     saved = gmsh.option.getNumber("General.Terminal")
     try:
