@@ -106,12 +106,21 @@ class StartForces:
         matrix, vector = z.contribution(active[z.contact.name])
         return matrix @ self.x[z.block][z.dofs] - vector
 
-    def correction(self, active: Mapping[str, np.ndarray]) -> dict[Block, np.ndarray]:
-        """Right-hand-side change when the step ends with ``active``: leaving points let go.
+    def correction(
+        self, active: Mapping[str, np.ndarray]
+    ) -> tuple[dict[Block, np.ndarray], dict[Block, np.ndarray]]:
+        """When the step ends with ``active``, points that leave let go: the change.
 
-        Zero unless a point active at ``t_n`` is not active in ``active``.
+        Returns right-hand-side additions and shifts of solved blocks (both empty unless a
+        point active at ``t_n`` is not in ``active``). A contact boundary's start force is
+        on its subdomain's rows and is given back there. A contact interface's reaches the
+        subdomain through the tie, ``K_uw w_n``, which should be ``K_uw w'`` (w in
+        equilibrium with the points in contact throughout): solving for ``w - (w_n - w')``
+        instead puts that change on the small w rows only, so no subdomain is re-solved
+        for it (unless stiff ties carry part of the tie on the right-hand side).
         """
-        out: dict[Block, np.ndarray] = {}
+        rhs: dict[Block, np.ndarray] = {}
+        shifts: dict[Block, np.ndarray] = {}
         for z in self.zones:
             name = z.contact.name
             leaving = self.start[name] & ~active[name]
@@ -120,15 +129,20 @@ class StartForces:
             if z.block in self.internal:  # its start force was in K x_n - f_C: give it back
                 part = np.zeros(self.system.sizes[z.block])
                 np.add.at(part, z.dofs, self._contact_force(z, {name: leaving}))
-                out[z.block] = out.get(z.block, 0.0) + part
+                rhs[z.block] = rhs.get(z.block, 0.0) + part
                 continue
             both = {name: self.start[name] & active[name]}
-            u = z.contact.subdomain.block
-            w_start = self._surface_at_start(z, both)
-            coupling = self._coupling(u, z.block)
-            # K x_n used the tie force K_uw w_n: with w in equilibrium with A' it is K_uw w'.
-            out[u] = out.get(u, 0.0) + coupling @ (self.x[z.block] - w_start)
-        return out
+            shift = self.x[z.block] - self._surface_at_start(z, both)
+            if self.system.stiff_ties:
+                u = z.contact.subdomain.block
+                rhs[u] = rhs.get(u, 0.0) + self._coupling(u, z.block) @ shift
+                continue
+            matrix, _ = z.contribution(active[name])
+            w_rows = self.system.matrices[(z.block, z.block)] @ shift
+            w_rows[z.dofs] += matrix @ shift[z.dofs]
+            rhs[z.block] = rhs.get(z.block, 0.0) - w_rows
+            shifts[z.block] = shift
+        return rhs, shifts
 
     def _coupling(self, row: Block, col: Block) -> sp.csr_array:
         if (row, col) in self.system.matrices:

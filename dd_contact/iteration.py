@@ -157,7 +157,7 @@ class ContactIteration:
         self.gamma = 0
         self.alpha = {z.contact.name: 0 for z in zones}
         self.cycles_resolved = 0
-        self._correction = None
+        self._correction, self._shift = None, {}
 
     def start(self, t: float) -> None:
         """Initial active sets: the points touching the obstacle at ``t`` (within tolerance)."""
@@ -171,7 +171,7 @@ class ContactIteration:
         rhs: dict[str, np.ndarray],
         t: float,
         where: str,
-        correction: Callable[[Mapping[str, np.ndarray]], dict[str, np.ndarray]] | None = None,
+        correction: Callable[[Mapping[str, np.ndarray]], tuple[dict, dict]] | None = None,
     ):
         """Solve at time ``t`` with the contact iteration; returns the solution blocks.
 
@@ -180,10 +180,11 @@ class ContactIteration:
             rhs: Right-hand side without contact terms (this rank's contributions).
             t: Time (obstacles may move).
             where: Text for messages (e.g. "step 12 (t = 0.0012)").
-            correction: Right-hand-side terms that depend on the active sets being tried
-                (rank-local; the time step's start forces, :mod:`dd_contact.impact`).
+            correction: Right-hand-side terms that depend on the active sets being tried,
+                and shifts of the solved blocks (the solver solves for ``x - shift``);
+                rank-local (the time step's start forces, :mod:`dd_contact.impact`).
         """
-        self._correction = correction
+        self._correction, self._shift = correction, {}
         for z in self.zones:
             z.operator.update(t)
         seen = {self._global_digest(): 0}
@@ -194,7 +195,7 @@ class ContactIteration:
             new = {z.contact.name: z.operator.active_set(x[z.block][z.dofs]) for z in self.zones}
             changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
             if not self.comm.allreduce(len(changed)):
-                x = self._checked(solver, solver.finish(), where)
+                x = self._shifted(self._checked(solver, solver.finish(), where))
                 return x, iteration, changes_this_solve
             self._count_change(changed)
             changes_this_solve += 1
@@ -224,7 +225,7 @@ class ContactIteration:
                     self._count_change(grown)
                     changes_this_solve += 1
                 self._solve_once(solver, rhs, where)
-                x = self._checked(solver, solver.finish(), where)
+                x = self._shifted(self._checked(solver, solver.finish(), where))
                 return x, iteration + 1, changes_this_solve
             seen[key] = iteration
             sets.append(dict(self.active))
@@ -275,10 +276,17 @@ class ContactIteration:
                 rhs[z.block] = np.zeros(self.sizes[z.block])
             np.add.at(rhs[z.block], z.dofs, vector)
         if self._correction is not None:
-            for block, vector in self._correction(self.active).items():
+            extra, self._shift = self._correction(self.active)
+            for block, vector in extra.items():
                 rhs[block] = rhs[block] + vector if block in rhs else vector
         self.last_solve = (rhs, contact)
-        return solver.solve(rhs)
+        return self._shifted(solver.solve(rhs))
+
+    def _shifted(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The solution of the blocks the last solve was shifted on (the others as solved)."""
+        if not self._shift:
+            return x
+        return {b: v + self._shift[b] if b in self._shift else v for b, v in x.items()}
 
     def solved_system(self, solver: ContactSolver) -> tuple[dict, list]:
         """This rank's right-hand side and contact matrices of the solver's last solve.

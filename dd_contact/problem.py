@@ -301,7 +301,8 @@ class TransientProblem(Analysis):
                 )
 
             def correction(active):
-                return {b: v * self.model.free(b) for b, v in start.correction(active).items()}
+                rhs, shifts = start.correction(active)
+                return {b: v * self.model.free(b) for b, v in rhs.items()}, shifts
 
             release = correction if self._energy_safe else None
             x, iterations, changes = self._solve(t_new, self._rhs(t_new, loads), where, release)

@@ -363,6 +363,9 @@ def bar_impact(
         "factorisations": comm.allreduce(problem.work.count("sparse_factor", "FULL"), op=MPI.MAX),
         "steps": len(g),
         "history": [record["changes"] for record in problem.history],
+        "substitutions": comm.allreduce(
+            sum(problem.work.count("sparse_solve", part.block) for part in parts)
+        ),
     }
 
 
