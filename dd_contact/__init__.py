@@ -5,6 +5,7 @@ from mpi4py import MPI as _MPI  # noqa: F401  (loads libmpi before petsc4py)
 from dd_contact.errors import (
     ContactCycleWarning,
     ContactIterationError,
+    EnergyGrowthWarning,
     InaccurateSolutionError,
     InputError,
     PenaltyRangeWarning,
@@ -39,6 +40,7 @@ __all__ = [
     "ContactIterationError",
     "ContactSettings",
     "Cylinder",
+    "EnergyGrowthWarning",
     "InaccurateSolutionError",
     "InputError",
     "Interface",

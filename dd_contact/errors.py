@@ -9,6 +9,7 @@ from __future__ import annotations
 __all__ = [
     "ContactCycleWarning",
     "ContactIterationError",
+    "EnergyGrowthWarning",
     "InaccurateSolutionError",
     "InputError",
     "PenaltyRangeWarning",
@@ -47,3 +48,7 @@ class ContactCycleWarning(UserWarning):
 
 class SurfaceResolutionWarning(UserWarning):
     """A contact surface is finer than the wall it is tied to: its nodal pressure may oscillate."""
+
+
+class EnergyGrowthWarning(UserWarning):
+    """A time step's energy grew by more than the loads' work: the contact created energy."""

@@ -10,8 +10,11 @@ from __future__ import annotations
 
 import logging
 import sys
+import warnings
 from collections.abc import Callable
 from pathlib import Path
+
+from mpi4py import MPI
 
 import dolfinx.fem as fem
 import numpy as np
@@ -19,7 +22,7 @@ from tqdm import tqdm
 
 from dd_contact import timing
 from dd_contact.analysis import Analysis
-from dd_contact.errors import InputError
+from dd_contact.errors import EnergyGrowthWarning, InputError
 from dd_contact.impact import StartForces, block_product
 from dd_contact.io import RunOutput
 from dd_contact.iteration import ContactSettings
@@ -45,6 +48,12 @@ def _print_report(comm, text: str) -> None:
     """Print a report the user asked for (``run(summary=True)``) on stdout, on rank 0."""
     if comm.rank == 0:
         print(text)
+
+
+#: A step whose energy grows by more than this fraction beyond the loads' work warns
+#: (EnergyGrowthWarning). Round-off is far below it: 7e-12 a step at the default tie penalty
+#: (docs/contact.md, free vibration); a contact release of the classic rule gains 1-10 %.
+ENERGY_GROWTH_TOLERANCE = 1e-6
 
 
 class StaticProblem(Analysis):
@@ -153,6 +162,8 @@ class TransientProblem(Analysis):
     ):
         self.newmark = Newmark(dt)
         self._energy_safe = bool(energy_safe_contact)
+        self._energy_before: float | None = None  # the last step's total energy
+        self._energy_warned = False
         self.inertia = inertia
         if inertia:
             massless = [s.name for s in scene.subdomains if s.material.rho <= 0]
@@ -206,6 +217,8 @@ class TransientProblem(Analysis):
             fixed = self.model.free(block) == 0
             sub.velocity.x.array[fixed] = 0.0
         self.iteration.start(self.t0)
+        if self.inertia and self.track_energy:
+            self._energy_before = self.energy()["total"]
         if self.inertia:
             with petsc_options(self._options):
                 self._initial_acceleration()
@@ -235,6 +248,45 @@ class TransientProblem(Analysis):
                 self.model.mass[block], fixed, residual[block], self.work, sub.name
             )
             logger.debug("initial acceleration of subdomain %r from its mass matrix", sub.name)
+
+    def _check_energy(self, record, before, previous, external, x) -> None:
+        """Collective: warn once if the step's energy grew by more than the loads' work.
+
+        The trapezoidal rule conserves energy exactly but for contact points that change
+        state; a gain beyond round-off is energy the contact created (dd_contact.impact).
+        Skipped while prescribed displacements move (their reactions' work is not counted).
+        """
+        energy_before = self._energy_before
+        self._energy_before = record["energy"]["total"]
+        if energy_before is None or self._energy_warned:
+            return
+        work, moved = 0.0, False
+        for _, _, block in self._owned:
+            free = self.model.free(block)
+            du = x[block] - before[block]
+            moved = moved or bool(np.any(du[free == 0]))
+            work += 0.5 * float((free * (previous[block] + external[block])) @ du)
+        work = self.comm.allreduce(work)
+        if self.comm.allreduce(moved, op=MPI.LOR):
+            return
+        energy_after = record["energy"]["total"]
+        gain = energy_after - energy_before - work
+        if gain > ENERGY_GROWTH_TOLERANCE * max(abs(energy_before), abs(energy_after)):
+            self._energy_warned = True
+            fix = (
+                "this should not happen with energy_safe_contact=True: please report it"
+                if self._energy_safe
+                else "use TransientProblem(..., energy_safe_contact=True), or a softer "
+                "contact penalty (contact_kappa)"
+            )
+            warnings.warn(
+                f"step {record['step']} (t = {record['t']:.6g}): the energy grew by "
+                f"{gain:.3g} J ({gain / max(abs(energy_before), 1e-300):.2%}) more than the "
+                f"loads' work, with {record['changes']} contact state change(s): the contact "
+                f"created energy; {fix}",
+                EnergyGrowthWarning,
+                stacklevel=3,
+            )
 
     def _state_now(self) -> dict[str, np.ndarray]:
         """This rank's view of every block at the current time (subdomains, surfaces)."""
@@ -282,6 +334,7 @@ class TransientProblem(Analysis):
         where = f"step {self.step + 1} (t = {t_new:.6g})"
         if self.inertia:  # the trapezoidal rule in equilibrium form (dd_contact.impact)
             previous = collective(self.comm, lambda: self._loads(self.t))
+            before = {b: s.u.x.array[: s.num_dofs].copy() for _, s, b in self._owned}
             start = StartForces(
                 self.model.system,
                 self.zones,
@@ -320,6 +373,7 @@ class TransientProblem(Analysis):
         record.update(self._agree(x, external, accelerations))
         if self.inertia and self.track_energy:
             record["energy"] = self.energy()
+            self._check_energy(record, before, previous, external, x)
         self._results.latest = record
         self.history.append(record)
         return record

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
+import dd_contact as dd
 from dd_contact import verify
 from dd_contact.impact import massless_walls
 
@@ -62,3 +65,15 @@ def test_massless_walls_keep_the_total_mass_and_free_the_wall():
     assert moved.sum() == pytest.approx(M.sum(), rel=1e-14)  # 1.0: the bar's mass
     # node 1 gained node 0's row sum, and its coupling to node 0 became its own mass
     assert moved[1, 1] == pytest.approx(M[1, 1] + M[0, :].sum() + M[1, 0], rel=1e-14)
+
+
+def test_energy_created_by_the_classic_contact_is_reported_and_the_safe_one_is_quiet():
+    # Classic steps, default penalty: the first release gains 4 % of the energy beyond the
+    # loads' work (the run ends 9x up); before this check nothing said so.
+    with pytest.warns(dd.EnergyGrowthWarning, match="the contact created energy"):
+        classic = verify.bar_impact(n=40, cfl=0.58, contact_kappa=None)
+    assert classic["energy_ratio"] > 2
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", dd.EnergyGrowthWarning)
+        safe = verify.bar_impact(n=40, cfl=0.58, contact_kappa=None, energy_safe_contact=True)
+    assert safe["energy_ratio"] <= 1 + 1e-6
