@@ -21,8 +21,10 @@ The start force counts only the points in contact at both ends of the step,
 - in contact throughout: the mean force, exact for the quadratic penalty energy;
 - entering: no start force (the point does not touch at ``t_n``); the end force removes
   ``k g_{n+1} |g_n| / 2``: at most the force times the last gap, dissipated;
-- leaving: no force over the step; the penalty energy ``k g_n^2 / 2`` (``f^2 / 2k``, small
-  for a stiff penalty) is dissipated instead of ``k g_n |g_{n+1}| / 2`` being created.
+- leaving: the start force scaled by ``theta = g_n / (g_n - g_{n+1})`` (the discrete gradient
+  of ``k <g>+^2 / 2``, Armero and Petocz): the work is the energy the penalty held, exactly,
+  instead of ``k g_n |g_{n+1}| / 2`` more. ``theta`` depends on the end state: it is updated
+  from each solution until it settles (:meth:`StartForces.settled`).
 
 So the contact never adds energy, at any penalty and any time step (``docs/contact.md``).
 A contact interface's surface w has no mass: its start force reaches the subdomain through
@@ -52,7 +54,12 @@ from scipy.sparse.linalg import spsolve
 from dd_contact.assembly import BlockSystem, ContactZone
 from dd_contact.blocks import Block
 
-__all__ = ["StartForces", "block_product", "massless_walls"]
+__all__ = ["RELEASE_TOLERANCE", "StartForces", "block_product", "massless_walls"]
+
+#: The kept fraction theta of a releasing point is settled when it changes by less than this
+#: fraction of itself between two solves: the energy error of the release is then below this
+#: fraction of the penalty energy the point held (f^2 / 2k, small for a stiff penalty).
+RELEASE_TOLERANCE = 1e-3
 
 
 def block_product(system: BlockSystem, row: Block, x: Mapping[Block, np.ndarray]) -> np.ndarray:
@@ -90,6 +97,8 @@ class StartForces:
     ):
         self.system, self.zones, self.x = system, zones, x
         self.start = {name: a.copy() for name, a in active.items()}
+        self.kept: dict[str, np.ndarray] = {}  # theta of the last correction, per contact
+        self._previous: dict[str, np.ndarray] = {}
         #: ``K x_n - f_C(x_n; A_n)`` on each owned subdomain block (ties and stiff-tie forces in).
         self.internal = {}
         for block in owned:
@@ -107,32 +116,41 @@ class StartForces:
         return matrix @ self.x[z.block][z.dofs] - vector
 
     def correction(
-        self, active: Mapping[str, np.ndarray]
+        self, active: Mapping[str, np.ndarray], x: Mapping[Block, np.ndarray] | None
     ) -> tuple[dict[Block, np.ndarray], dict[Block, np.ndarray]]:
         """When the step ends with ``active``, points that leave let go: the change.
+
+        A point that leaves keeps the fraction ``theta = g_n / (g_n - g_n+1)`` of its start
+        force (the discrete gradient of its penalty energy, with ``g_n+1`` from the last
+        solution ``x``): the work over the step is then the energy it held, exactly, and the
+        force tends to the in-contact one as ``g_n+1 -> 0``.
 
         Returns right-hand-side additions and shifts of solved blocks (both empty unless a
         point active at ``t_n`` is not in ``active``). A contact boundary's start force is
         on its subdomain's rows and is given back there. A contact interface's reaches the
         subdomain through the tie, ``K_uw w_n``, which should be ``K_uw w'`` (w in
-        equilibrium with the points in contact throughout): solving for ``w - (w_n - w')``
+        equilibrium with the start forces that remain): solving for ``w - (w_n - w')``
         instead puts that change on the small w rows only, so no subdomain is re-solved
         for it (unless stiff ties carry part of the tie on the right-hand side).
         """
         rhs: dict[Block, np.ndarray] = {}
         shifts: dict[Block, np.ndarray] = {}
+        self.kept = {}
         for z in self.zones:
             name = z.contact.name
             leaving = self.start[name] & ~active[name]
             if not leaving.any():
                 continue
+            kept = self._kept(z, leaving, x)
+            self.kept[name] = kept
             if z.block in self.internal:  # its start force was in K x_n - f_C: give it back
                 part = np.zeros(self.system.sizes[z.block])
-                np.add.at(part, z.dofs, self._contact_force(z, {name: leaving}))
+                np.add.at(part, z.dofs, self._point_forces(z, np.where(leaving, 1 - kept, 0)))
                 rhs[z.block] = rhs.get(z.block, 0.0) + part
                 continue
             both = {name: self.start[name] & active[name]}
-            shift = self.x[z.block] - self._surface_at_start(z, both)
+            remaining = self._point_forces(z, np.where(leaving, kept, 0))
+            shift = self.x[z.block] - self._surface_at_start(z, both, remaining)
             if self.system.stiff_ties:
                 u = z.contact.subdomain.block
                 rhs[u] = rhs.get(u, 0.0) + self._coupling(u, z.block) @ shift
@@ -144,19 +162,54 @@ class StartForces:
             shifts[z.block] = shift
         return rhs, shifts
 
+    def settled(self, active: Mapping[str, np.ndarray], x: Mapping[Block, np.ndarray]) -> bool:
+        """Whether the kept fractions of the last :meth:`correction` hold for solution x."""
+        for z in self.zones:
+            name = z.contact.name
+            if name not in self.kept:
+                continue
+            leaving = self.start[name] & ~active[name]
+            new = self._kept(z, leaving, x, damp=False)
+            change = np.abs(new - self.kept[name]) > RELEASE_TOLERANCE * self.kept[name]
+            if change[leaving].any():
+                return False
+        return True
+
+    def _kept(self, z: ContactZone, leaving: np.ndarray, x, damp: bool = True) -> np.ndarray:
+        """``theta = g_n / (g_n - g_n+1)`` of each point (1 before any solution)."""
+        if x is None:
+            return np.ones(len(leaving))
+        g0 = np.maximum(z.operator.penetration(self.x[z.block][z.dofs]), 0.0)
+        g1 = np.minimum(z.operator.penetration(x[z.block][z.dofs]), 0.0)
+        theta = np.divide(g0, g0 - g1, out=np.ones_like(g0), where=(g0 - g1) > 0)
+        previous = self._previous.get(z.contact.name)
+        if damp and previous is not None:  # theta ~ c / theta': the mean settles it
+            theta = np.sqrt(theta * previous)
+        if damp:
+            self._previous[z.contact.name] = theta
+        return theta
+
+    def _point_forces(self, z: ContactZone, factor: np.ndarray) -> np.ndarray:
+        """``factor`` times each point's penalty force at ``t_n``, on the zone's dofs."""
+        op = z.operator
+        pen = op.penetration(self.x[z.block][z.dofs])
+        return z.free * (op.G.T @ (factor * op.points.weight / op.epsilon * pen))
+
     def _coupling(self, row: Block, col: Block) -> sp.csr_array:
         if (row, col) in self.system.matrices:
             return self.system.matrices[(row, col)]
         return sp.csr_array(self.system.matrices[(col, row)].T)
 
-    def _surface_at_start(self, z: ContactZone, active: Mapping[str, np.ndarray]) -> np.ndarray:
-        """The massless surface w of ``z`` in equilibrium at ``t_n`` with ``active``."""
+    def _surface_at_start(
+        self, z: ContactZone, active: Mapping[str, np.ndarray], forces: np.ndarray
+    ) -> np.ndarray:
+        """The massless w of ``z`` in equilibrium at ``t_n`` with ``active`` and ``forces``."""
         w = z.block
         matrix, vector = z.contribution(active[z.contact.name])
         A = sp.csr_array(self.system.matrices[(w, w)]).tolil()
         A[np.ix_(z.dofs, z.dofs)] = A[np.ix_(z.dofs, z.dofs)] + matrix
         b = np.zeros(self.system.sizes[w])
-        np.add.at(b, z.dofs, vector)
+        np.add.at(b, z.dofs, vector - forces)
         for (r, c), C in self.system.matrices.items():
             if r == w and c != w and c in self.x:
                 b -= C @ self.x[c]

@@ -11,9 +11,11 @@ from __future__ import annotations
 
 import hashlib
 import warnings
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
+
+from mpi4py import MPI
 
 import numpy as np
 import scipy.sparse as sp
@@ -57,6 +59,25 @@ class ContactSolver(Protocol):
 
         The stiff ties' forces (:mod:`dd_contact.solvers.stiff_ties`); empty for others.
         """
+        ...
+
+
+#: Solves again for one contact state while a :class:`StepCorrection` settles; then the
+#: last one stands (the energy check of a time step reports what is left).
+MAX_RELEASES = 10
+
+
+class StepCorrection(Protocol):
+    """Right-hand-side terms of a solve that depend on its outcome (rank-local)."""
+
+    def __call__(
+        self, active: Mapping[str, np.ndarray], x: Mapping[str, np.ndarray] | None
+    ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """Additions to the right-hand side, and shifts: the solver solves for x - shift."""
+        ...
+
+    def settled(self, active: Mapping[str, np.ndarray], x: Mapping[str, np.ndarray]) -> bool:
+        """Whether the terms used for the last solve hold for its solution ``x``."""
         ...
 
 
@@ -157,7 +178,7 @@ class ContactIteration:
         self.gamma = 0
         self.alpha = {z.contact.name: 0 for z in zones}
         self.cycles_resolved = 0
-        self._correction, self._shift = None, {}
+        self._correction, self._shift, self._last = None, {}, None
 
     def start(self, t: float) -> None:
         """Initial active sets: the points touching the obstacle at ``t`` (within tolerance)."""
@@ -171,7 +192,7 @@ class ContactIteration:
         rhs: dict[str, np.ndarray],
         t: float,
         where: str,
-        correction: Callable[[Mapping[str, np.ndarray]], tuple[dict, dict]] | None = None,
+        correction: StepCorrection | None = None,
     ):
         """Solve at time ``t`` with the contact iteration; returns the solution blocks.
 
@@ -180,20 +201,25 @@ class ContactIteration:
             rhs: Right-hand side without contact terms (this rank's contributions).
             t: Time (obstacles may move).
             where: Text for messages (e.g. "step 12 (t = 0.0012)").
-            correction: Right-hand-side terms that depend on the active sets being tried,
-                and shifts of the solved blocks (the solver solves for ``x - shift``);
-                rank-local (the time step's start forces, :mod:`dd_contact.impact`).
+            correction: Right-hand-side terms that depend on the active sets being tried
+                and the last solution (the time step's start forces, :mod:`dd_contact.impact`).
         """
-        self._correction, self._shift = correction, {}
+        self._correction, self._shift, self._last = correction, {}, None
         for z in self.zones:
             z.operator.update(t)
         seen = {self._global_digest(): 0}
+        releases = 0  # solves again for the same contact state (the correction settling)
         sets = [dict(self.active)]
         changes_this_solve = 0
         for iteration in range(1, self.settings.max_iterations + 1):
             x = self._solve_once(solver, rhs, where)
             new = {z.contact.name: z.operator.active_set(x[z.block][z.dofs]) for z in self.zones}
             changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
+            unsettled = self._correction is not None and not changed and releases < MAX_RELEASES
+            unsettled = unsettled and not self._correction.settled(self.active, x)
+            releases += unsettled
+            if self.comm.allreduce(unsettled, op=MPI.LOR) and not self.comm.allreduce(len(changed)):
+                continue  # the same contact state; its releasing forces still move
             if not self.comm.allreduce(len(changed)):
                 x = self._shifted(self._checked(solver, solver.finish(), where))
                 return x, iteration, changes_this_solve
@@ -276,11 +302,12 @@ class ContactIteration:
                 rhs[z.block] = np.zeros(self.sizes[z.block])
             np.add.at(rhs[z.block], z.dofs, vector)
         if self._correction is not None:
-            extra, self._shift = self._correction(self.active)
+            extra, self._shift = self._correction(self.active, self._last)
             for block, vector in extra.items():
                 rhs[block] = rhs[block] + vector if block in rhs else vector
         self.last_solve = (rhs, contact)
-        return self._shifted(solver.solve(rhs))
+        self._last = self._shifted(solver.solve(rhs))
+        return self._last
 
     def _shifted(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """The solution of the blocks the last solve was shifted on (the others as solved)."""

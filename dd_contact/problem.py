@@ -353,11 +353,7 @@ class TransientProblem(Analysis):
                     + self.model.mass[block] @ history
                 )
 
-            def correction(active):
-                rhs, shifts = start.correction(active)
-                return {b: v * self.model.free(b) for b, v in rhs.items()}, shifts
-
-            release = correction if self._energy_safe else None
+            release = _MaskedCorrection(start, self.model.free) if self._energy_safe else None
             x, iterations, changes = self._solve(t_new, self._rhs(t_new, loads), where, release)
             for _, sub, block in self._owned:
                 n = sub.num_dofs
@@ -519,3 +515,17 @@ class TransientProblem(Analysis):
         for z in self.zones:
             if z.block in surfaces:
                 z.contact.w.x.array[:] = surfaces[z.block][z.dofs]
+
+
+class _MaskedCorrection:
+    """A step's start-force correction with the prescribed rows masked out."""
+
+    def __init__(self, start: StartForces, free: Callable[[str], np.ndarray]):
+        self.start, self.free = start, free
+
+    def __call__(self, active, x):
+        rhs, shifts = self.start.correction(active, x)
+        return {b: v * self.free(b) for b, v in rhs.items()}, shifts
+
+    def settled(self, active, x) -> bool:
+        return self.start.settled(active, x)
