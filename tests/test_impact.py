@@ -71,7 +71,7 @@ def test_energy_created_by_the_classic_contact_is_reported_and_the_safe_one_is_q
     # Classic steps, default penalty: the first release gains 4 % of the energy beyond the
     # loads' work (the run ends 9x up); before this check nothing said so.
     with pytest.warns(dd.EnergyGrowthWarning, match="the contact created energy"):
-        classic = verify.bar_impact(n=40, cfl=0.58, contact_kappa=None)
+        classic = verify.bar_impact(n=40, cfl=0.58, energy_safe_contact=False)
     assert classic["energy_ratio"] > 2
     with warnings.catch_warnings():
         warnings.simplefilter("error", dd.EnergyGrowthWarning)

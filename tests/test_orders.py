@@ -58,7 +58,11 @@ _COLUMNS = {
 def test_work_counts_equal_the_papers(kind, order, condensation):
     n_steps = 25
     scene = verify.order_scene(kind, True, 1e4)
-    problem = dd.TransientProblem(scene, 0.01, algorithm=order, condensation=condensation)
+    # The paper's algorithms: classic contact steps (an energy-safe release adds solves of
+    # the same contact state, which the paper does not have; tests/test_impact.py).
+    problem = dd.TransientProblem(
+        scene, 0.01, algorithm=order, condensation=condensation, energy_safe_contact=False
+    )
     problem.run(n_steps, progress=False, summary=False)
     assert problem.changes["gamma"] >= 2
     model = {m.name: m for m in flops.operation_counts(_sizes(problem, n_steps), order).meshes}
@@ -130,7 +134,11 @@ def test_parallelepiped_scene_for_every_algorithm(algorithm):
 
     nx, ny, nz = 12, 4, 2
     scene = parallelepiped(algorithm, (nx, ny, nz), comm=MPI.COMM_SELF)
-    problem = dd.TransientProblem(scene, 1e-6, algorithm=algorithm, track_energy=False)
+    # Classic steps: with massless contact walls (the default) the end face comes onto the
+    # tilted wall within two steps ([6, 15, 15, 15]) instead of two node rows a step.
+    problem = dd.TransientProblem(
+        scene, 1e-6, algorithm=algorithm, track_energy=False, energy_safe_contact=False
+    )
     history = problem.run(4, progress=False, summary=False)
     face = 3 * (ny + 1) * (nz + 1)  # dofs of an end face, the interface, a contact interface
     split = algorithm in ("v-w-u", "w-v-u", "v-u")

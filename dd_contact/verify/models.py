@@ -267,13 +267,13 @@ BAR_IMPACT = {"length": 1.0, "section": 0.1, "v0": 0.01}
 def bar_impact(
     n: int = 40,
     cfl: float = 0.5,
-    contact_kappa: float | None = 1.0,
+    contact_kappa: float | None = None,
     contact: str = "boundary",
     end_time: float = 3.0,
     split: bool = False,
     comm: MPI.Comm = MPI.COMM_WORLD,
     algorithm: str = "FULL",
-    energy_safe_contact: bool = False,
+    energy_safe_contact: bool = True,
 ) -> dict:
     """Bar impact on a rigid wall: contact duration, rebound velocity and energy.
 
@@ -283,7 +283,7 @@ def bar_impact(
     Args:
         n: Elements along the bar.
         cfl: Time step in units of h / c.
-        contact_kappa: Dimensionless contact penalty (a stiff penalty chatters; see docs).
+        contact_kappa: Dimensionless contact penalty (default: the package's).
         contact: ``"boundary"`` or ``"interface"`` (a 1x1 contact interface on the end).
         end_time: Simulated time (in units of L / c).
         split: Cut the bar in the middle into two subdomains tied by an interface.
