@@ -164,6 +164,7 @@ class TransientProblem(Analysis):
         self.newmark = Newmark(dt)
         self._energy_safe = bool(energy_safe_contact)
         self._energy_before: float | None = None  # the last step's total energy
+        self._previous_loads: tuple[float | None, dict] = (None, {})  # (t, r(t)) of a step
         self._energy_warned = False
         self.inertia = inertia
         if inertia:
@@ -334,7 +335,9 @@ class TransientProblem(Analysis):
         external = dict(loads)
         where = f"step {self.step + 1} (t = {t_new:.6g})"
         if self.inertia:  # the trapezoidal rule in equilibrium form (dd_contact.impact)
-            previous = collective(self.comm, lambda: self._loads(self.t))
+            if self._previous_loads[0] != self.t:  # the last step's loads are r(t_n)
+                self._previous_loads = (self.t, collective(self.comm, lambda: self._loads(self.t)))
+            previous = self._previous_loads[1]
             before = {b: s.u.x.array[: s.num_dofs].copy() for _, s, b in self._owned}
             start = StartForces(
                 self.model.system,
@@ -365,6 +368,7 @@ class TransientProblem(Analysis):
             x, iterations, changes = self._solve(t_new, self._rhs(t_new, loads), where)
         self._publish(x)
         self.t, self.step = t_new, self.step + 1
+        self._previous_loads = (t_new, external)
         accelerations = {b: s.acceleration.x.array for _, s, b in self._owned if self.inertia}
         record = {"step": self.step, "t": t_new, "iterations": iterations, "changes": changes}
         record.update(self._agree(x, external, accelerations))
