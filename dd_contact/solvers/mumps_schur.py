@@ -107,12 +107,18 @@ JOB_INIT, JOB_END, JOB_SOLVE, JOB_FACTORISE, JOB_ANALYSE_FACTORISE = -1, -2, 3, 
 SYM_SPD, HOST_WORKS = 1, 1
 SCHUR_REDUCTION, SCHUR_EXPANSION = 1, 2  # ICNTL(26)
 ICNTL_SCHUR = 19  # 1: centralised Schur complement, lower triangle by rows
-ERROR_NO_REDUCTION = -35  # INFO(1) of an expansion without a preceding reduction
+# Room after the structure, so a MUMPS with a longer one cannot write past it before its
+# version is checked.
+SLACK_BYTES = 1 << 16
 
 #: ICNTL the package sets on its Schur factorisations, index -> value: output streams off
 #: (1-4), a centralised assembled matrix (5, 18), dense right-hand sides (20, 21), the
 #: Schur complement (19), plus :data:`REQUIRED_ICNTL`. Options that change them are refused.
-PACKAGE_ICNTL = {1: 0, 2: 0, 3: 0, 4: 0, 5: 0, 18: 0, 19: 1, 20: 0, 21: 0, **REQUIRED_ICNTL}
+PACKAGE_ICNTL = {
+    **{k: 0 for k in (1, 2, 3, 4, 5, 18, 20, 21)},
+    ICNTL_SCHUR: 1,
+    **REQUIRED_ICNTL,
+}
 
 
 @functools.cache
@@ -180,7 +186,9 @@ class SchurFactorisation:
         #: MUMPS holds the forward sweep of the last reduced b (an expansion releases it)
         self.reduced = False
         self._analysed = False
-        self._id = _DmumpsStruc(sym=SYM_SPD, par=HOST_WORKS, job=JOB_INIT)
+        self._memory = ctypes.create_string_buffer(ctypes.sizeof(_DmumpsStruc) + SLACK_BYTES)
+        self._id = _DmumpsStruc.from_buffer(self._memory)
+        self._id.sym, self._id.par, self._id.job = SYM_SPD, HOST_WORKS, JOB_INIT
         self._id.comm_fortran = MPI.COMM_SELF.py2f()
         self._call("initialisation")
         version = self._id.version_number.decode().strip()
@@ -202,6 +210,11 @@ class SchurFactorisation:
         self._id.schur = _pointer(self._S, _REAL)
         self._id.redrhs, self._id.lredrhs = _pointer(self._redrhs, _REAL), schur
         self._id.rhs, self._id.nrhs, self._id.lrhs = _pointer(self._rhs, _REAL), 1, size
+
+    @property
+    def handle(self) -> int:
+        """Address of the MUMPS instance, 0 once destroyed (as a petsc4py object's handle)."""
+        return 0 if self._id is None else ctypes.addressof(self._id)
 
     def icntl(self, k: int) -> int:
         """MUMPS's ICNTL(k) as set on this factorisation."""
@@ -282,10 +295,14 @@ class SchurFactorisation:
 
     def destroy(self) -> None:
         """Free MUMPS's memory (idempotent)."""
-        if self._id is not None:
+        if getattr(self, "_id", None) is not None and not MPI.Is_finalized():
             self._id.job = JOB_END
             _dmumps_c()(ctypes.byref(self._id))
-            self._id = None
+        self._id = None
+
+    def __del__(self) -> None:
+        # as petsc4py objects: freed when collected if nobody called destroy()
+        self.destroy()
 
 
 def _pointer(array: np.ndarray, ctype):

@@ -299,10 +299,11 @@ class Schedule:
         """A substitution with a subdomain's factor for ``"u_hat"`` or ``"u"``.
 
         Split: the forward sweep for u_hat (the surface right-hand side), the backward sweep
-        for u. Otherwise a full substitution for each.
+        for u. Otherwise, or for a subdomain coupled to nothing (no Schur block), a full
+        substitution for each.
         """
         n = self.subdomains[block]
-        if not self.split_substitution:
+        if not self.split_substitution or not self.coupling_size(block):
             if self.condensation == "schur":  # the vectors carry the (zero) Schur block
                 n += self.coupling_size(block)
             return Operation(block, "sparse_solve", n, 1, what)
@@ -349,7 +350,8 @@ class Schedule:
         if self.needs_all_surface:
             ops += self.back_substitution()
         for b in self.needed_u:
-            if self.split_substitution and b != block:  # the expansion used the forward sweep
+            if self.split_substitution and self.coupling_size(b) and b != block:
+                # the forward sweep was used by the last expansion: sweep forward again
                 ops.append(Operation(b, SWEEPS[0], self.subdomains[b], 1, "u"))
             ops.append(self.substitute_subdomain(b, "u"))
         return ops
