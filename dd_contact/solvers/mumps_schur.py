@@ -175,10 +175,10 @@ class SchurFactorisation:
         icntl, cntl = _user_controls()  # before MUMPS allocates anything
         self.log, self.block, self.size, self.schur, self.nnz = log, block, size, schur, nnz
         self.entries, self.schur_complement = 0.0, None
-        self._upper = np.flatnonzero(rows <= cols)  # MUMPS sums a_ij and a_ji: one triangle
+        self._upper = rows <= cols  # MUMPS sums a_ij and a_ji: one triangle (a mask: 1 B each)
         self._irn = (rows[self._upper] + 1).astype(np.int32)
         self._jcn = (cols[self._upper] + 1).astype(np.int32)
-        self._a = np.zeros(len(self._upper))
+        self._a = np.zeros(len(self._irn))
         self._listvar = np.arange(size - schur + 1, size + 1, dtype=np.int32)
         self._S = np.zeros(schur * schur)
         self._redrhs = np.zeros(schur)
