@@ -101,6 +101,20 @@ def test_summary_table_is_printed_and_returned(capsys):
     assert "u:A" in table and "w:end" in table and "decompositions" in table
 
 
+def test_a_second_back_substitution_for_the_same_rhs_sweeps_forward_again():
+    """MUMPS releases the forward sweep after an expansion (v-u: a subdomain read again)."""
+    problem = dd.StaticProblem(verify.order_scene("interface", False, 1e4), "v-w-u")
+    problem.solve()
+    sub = problem.solver.subdomains["u:A"]
+    x = problem.solver.finish()
+    u = x["u:A"].copy()
+    before = len(problem.work.records)
+    sub.u = None  # as after a new surface solution for the same right-hand side
+    np.testing.assert_allclose(sub.back_substitute(x), u, rtol=0, atol=1e-12 * abs(u).max())
+    redo = [(r.kind, r.what) for r in problem.work.records[before:]]
+    assert redo == [("sparse_forward", "u"), ("sparse_backward", "u")]
+
+
 @pytest.mark.parametrize(
     ("kind", "order", "valid"),
     [
