@@ -18,8 +18,16 @@ log per block, and the peak memory. Derived, per algorithm (medians over runs):
 * ``seconds_per_step_base``: a step without its change iterations (steps after the first,
   whose first iteration factorises and condenses: ``seconds_first_step``);
 * ``seconds_per_step_2_changes``: base + 2 x per change (the issue's "two changes per step");
-* ``floor_two_substitutions``: two forward/back substitutions with every subdomain factor
-  (u_hat and u), the least a decomposition step can cost.
+* ``floor_substitution``: the subdomain work of one step, the least a decomposition step can
+  cost: per subdomain the median of its work for u_hat plus that for u (one substitution,
+  MUMPS's forward and backward sweeps, with the default Schur condensation; two full
+  substitutions before it);
+* ``step_base_over_full``: an order's step without changes over FULL's (issue 14 target
+  <= 1.1).
+
+``--before FILE`` adds the summary of an earlier run at the same size (e.g. of the code
+before a change, run with its own copy of this script) under ``"before"``, with per-key
+ratios after / before.
 
 Writes benchmarks/results/decomposition_speed.json.
 
@@ -92,10 +100,13 @@ def worker(args) -> dict:
             }
         )
     records = problem.work.records
-    substitutions = {}
+    substitutions = {}  # per subdomain: median seconds for u_hat plus median for u
     for block in {r.block for r in records if r.block.startswith("u:")}:
-        times = [r.seconds for r in records if r.block == block and r.what in ("u_hat", "u")]
-        substitutions[block] = statistics.median(times) if times else None
+        parts = [
+            [r.seconds for r in records if r.block == block and r.what == what]
+            for what in ("u_hat", "u")
+        ]
+        substitutions[block] = sum(statistics.median(t) for t in parts if t) or None
     return {
         "algorithm": args.worker,
         "dofs": int(sum(problem.solver.system.sizes.values())),
@@ -117,14 +128,14 @@ def derived(run: dict) -> dict:
     base = [s["seconds"] - sum(s["iterations"][1:]) for s in run["steps"][1:]]
     floor = None
     if run["algorithm"] != "FULL":
-        floor = 2.0 * sum(v for v in run["median_substitution_seconds"].values() if v)
+        floor = sum(v for v in run["median_substitution_seconds"].values() if v)
     out = {
         "seconds_per_change": statistics.median(change) if change else None,
         "seconds_per_step_base": statistics.median(base),
         "seconds_per_step": statistics.median(s["seconds"] for s in run["steps"][1:]),
         "seconds_first_step": run["steps"][0]["seconds"],
         "changes_per_step": sum(s["changes"] for s in run["steps"]) / len(run["steps"]),
-        "floor_two_substitutions": floor,
+        "floor_substitution": floor,
     }
     if change:
         out["seconds_per_step_2_changes"] = (
@@ -142,6 +153,7 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--algorithms", nargs="+", default=ALGORITHMS, choices=ALGORITHMS)
     parser.add_argument("--out", default=str(HERE / "decomposition_speed.json"))
+    parser.add_argument("--before", help="JSON of an earlier run at the same size, to compare")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
@@ -188,9 +200,14 @@ def summarise(args, runs: dict, out: Path, show: bool = False) -> None:
             for key in ("seconds_per_change", "seconds_per_step_2_changes", "seconds_per_step"):
                 if med.get(key) and full.get(key):
                     med[f"full_over_this_{key.removeprefix('seconds_')}"] = full[key] / med[key]
-            if med.get("floor_two_substitutions"):
+            if med.get("seconds_per_step_base") and full.get("seconds_per_step_base"):
+                med["step_base_over_full"] = (
+                    med["seconds_per_step_base"] / full["seconds_per_step_base"]
+                )
+            if med.get("floor_substitution"):
                 for key in ("seconds_per_step_base", "seconds_per_step_2_changes"):
-                    med[f"{key}_over_floor"] = med[key] / med["floor_two_substitutions"]
+                    if med.get(key):
+                        med[f"{key}_over_floor"] = med[key] / med["floor_substitution"]
     data = {
         "elements": args.elements,
         "dt": args.dt,
@@ -199,11 +216,29 @@ def summarise(args, runs: dict, out: Path, show: bool = False) -> None:
         "summary": summary,
         "runs": runs,
     }
+    if args.before:
+        data["before"] = compared(Path(args.before), args.elements, summary)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(data, indent=1))
     if show:
         for algorithm, med in summary.items():
             print(algorithm, json.dumps({k: v for k, v in med.items()}, indent=None))
+
+
+def compared(path: Path, elements: list[int], summary: dict) -> dict:
+    """An earlier run's summary and, per algorithm, this run's values over its values."""
+    before = json.loads(path.read_text())
+    if before.get("elements") != elements:
+        raise SystemExit(f"--before {path}: elements {before.get('elements')} != {elements}")
+    ratios = {}
+    for algorithm, old in before["summary"].items():
+        new = summary.get(algorithm, {})
+        ratios[algorithm] = {
+            key: new[key] / value
+            for key, value in old.items()
+            if key.startswith(("seconds_", "peak_memory")) and value and new.get(key)
+        }
+    return {"file": path.name, "summary": before["summary"], "after_over_before": ratios}
 
 
 if __name__ == "__main__":

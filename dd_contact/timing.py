@@ -42,6 +42,7 @@ from dd_contact.solvers.full import monolithic_statistics
 from dd_contact.solvers.linalg import SparseCholesky, SparseStatistics
 from dd_contact.solvers.schedule import (
     ALGORITHMS,
+    SWEEPS,
     FullSchedule,
     Operation,
     Schedule,
@@ -281,6 +282,8 @@ def record_seconds(record: WorkRecord, rates: MachineRates) -> float:
         if record.nrhs == 1:
             return rates.seconds("sparse_solve", record.entries or 0.0)
         return rates.seconds("sparse_solve_block", (record.entries or 0.0) * record.nrhs)
+    if kind in SWEEPS:  # half a substitution: one pass over the factor
+        return 0.5 * rates.seconds("sparse_solve", record.entries or 0.0)
     if kind == "schur":  # a copy of the m x m complement: memory traffic like a substitution
         return rates.seconds("dense_solve", 2.0 * n * n)
     if kind == "dense_factor":
@@ -396,6 +399,9 @@ def _record(op: Operation, stats: SparseStatistics | None) -> WorkRecord:
         return WorkRecord(op.target, op.kind, n, 0, 0.0, stats.flops, what, stats.entries, nnz)
     if op.kind == "sparse_solve":
         flops = 4.0 * stats.entries * nrhs
+        return WorkRecord(op.target, op.kind, n, nrhs, 0.0, flops, op.what, stats.entries)
+    if op.kind in SWEEPS:
+        flops = 2.0 * stats.entries
         return WorkRecord(op.target, op.kind, n, nrhs, 0.0, flops, op.what, stats.entries)
     if op.kind == "dense_factor":
         return WorkRecord(op.target, op.kind, n, 0, 0.0, n**3 / 3.0)

@@ -1,4 +1,5 @@
-"""MUMPS through dd_contact.solvers.linalg: the PETSc library, the options prefix, the counts."""
+"""MUMPS through dd_contact.solvers.linalg and .mumps_schur: the PETSc library, the options
+prefix, the counts, the Schur phases."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ from petsc4py import PETSc
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
 from dd_contact.errors import InputError
 from dd_contact.solvers import linalg
@@ -18,6 +20,7 @@ from dd_contact.solvers.linalg import (
     petsc_matrix,
     sparse_statistics,
 )
+from dd_contact.solvers.mumps_schur import SchurFactorisation
 from dd_contact.solvers.worklog import WorkLog
 
 N = 8  # the 7-point Laplacian on an N x N x N grid: N^3 rows
@@ -106,3 +109,81 @@ def test_the_analysis_predicts_the_factorisation_without_a_schur_block(options, 
     if ordering is not None:
         assert factor.ksp.getPC().getFactorMatrix().getMumpsIcntl(7) == ordering
     factor.destroy(), A.destroy()
+
+
+# -- MUMPS's Schur phases through its C interface (one substitution per right-hand side) ----
+def _augmented(singular: bool = False):
+    """[[K, C], [C^T, 0]] in COO (both triangles) for the Laplacian K and a random C."""
+    A = _laplacian(MPI.COMM_SELF)
+    ip, jj, vv = A.getValuesCSR()
+    A.destroy()
+    n, m = N**3, 20
+    K = sp.csr_array((vv, jj, ip), shape=(n, n))
+    if singular:  # dof 7 free: its row and column zero (the diagonal stored, as assembled)
+        K = sp.lil_array(K)
+        K[7, :], K[:, 7] = 0.0, 0.0
+        K = sp.csr_array(K)
+        K.data[(K.indptr[7] <= np.arange(K.nnz)) & (np.arange(K.nnz) < K.indptr[8])] = 0.0
+    C = sp.random_array((n, m), density=0.05, random_state=np.random.default_rng(3))
+    A = sp.coo_array(sp.block_array([[K, C], [C.T, sp.diags_array(np.zeros(m))]]))
+    return K.toarray(), C.toarray(), A, n, m
+
+
+def test_reduction_and_expansion_give_the_two_solves_in_one_substitution():
+    K, C, A, n, m = _augmented()
+    log = WorkLog()
+    factor = SchurFactorisation(A.row, A.col, n + m, m, log, "u:x")
+    factor.factorise(A.data)
+    Z = C.T @ np.linalg.solve(K, C)
+    np.testing.assert_allclose(factor.schur_complement, -Z, rtol=0, atol=1e-12 * abs(Z).max())
+    rng = np.random.default_rng(0)
+    for _ in range(2):  # a new right-hand side each "step"
+        b, xs = rng.standard_normal(n), rng.standard_normal(m)
+        g = factor.reduce(b)
+        expected = -C.T @ np.linalg.solve(K, b)
+        assert np.abs(g - expected).max() < 1e-12 * np.abs(expected).max()
+        u = factor.expand(xs)
+        expected = np.linalg.solve(K, b - C @ xs)
+        assert np.abs(u - expected).max() < 1e-12 * np.abs(expected).max()
+    kinds = [r.kind for r in log.records]
+    assert kinds == ["sparse_factor", "schur"] + ["sparse_forward", "sparse_backward"] * 2
+    sweep = log.records[-1]
+    assert sweep.flops == 2.0 * factor.entries and sweep.entries > n  # one pass over the factor
+    assert log.per_block()["u:x"]["substitutions"] == 2  # a forward and a backward sweep each
+    # MUMPS releases the forward sweep after an expansion: a second one needs a new reduction
+    with pytest.raises(RuntimeError, match="needs a reduce"):
+        factor.expand(xs)
+    # same values again: a numeric re-factorisation only (no analysis in the log)
+    factor.factorise(A.data)
+    assert log.records[-2].kind == "sparse_factor" and log.records[-2].nnz == 0
+    factor.destroy()
+    factor.destroy()  # idempotent
+
+
+def test_a_zero_pivot_behaves_as_in_petscs_schur_factorisation():
+    """MUMPS reports no null pivot of K with a Schur block (INFOG(28) = 0), through PETSc as
+    through its C interface, and both give the same complement (the package's scene checks,
+    e.g. bodies held only by contact, come before any factorisation)."""
+    K, _, A, n, m = _augmented(singular=True)
+    assert not K[7].any()
+    mine = SchurFactorisation(A.row, A.col, n + m, m, WorkLog(), "u:free")
+    mine.factorise(A.data)
+    M = petsc_matrix(MPI.COMM_SELF, n + m, n + m, A.row, A.col, A.data)
+    petsc = SparseCholesky(M, WorkLog(), "u:free", m)
+    assert petsc.ksp.getPC().getFactorMatrix().getMumpsInfog(28) == 0
+    np.testing.assert_array_equal(mine.schur_complement, petsc.schur_complement)
+    mine.destroy(), petsc.destroy(), M.destroy()
+
+
+def test_options_under_the_prefix_reach_the_schur_factorisation(options):
+    _, _, A, n, m = _augmented()
+    options(f"{OPTIONS_PREFIX}mat_mumps_icntl_14", 50)
+    factor = SchurFactorisation(A.row, A.col, n + m, m, WorkLog(), "u")
+    assert (factor.icntl(14), factor.icntl(24), factor.icntl(19)) == (50, 1, 1)
+    factor.destroy()
+    options(f"{OPTIONS_PREFIX}mat_mumps_icntl_19", 3)  # the Schur layout is the package's
+    with pytest.raises(InputError, match="mat_mumps_icntl_19 = 3: dd_contact sets MUMPS"):
+        SchurFactorisation(A.row, A.col, n + m, m, WorkLog(), "u")
+    options(f"{OPTIONS_PREFIX}mat_mumps_icntl_24", 0)
+    with pytest.raises(InputError, match="-dd_contact_mat_mumps_icntl_24 must be 1"):
+        SchurFactorisation(A.row, A.col, n + m, m, WorkLog(), "u")

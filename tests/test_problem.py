@@ -16,8 +16,8 @@ def _petsc_objects(solver) -> list:
     out = []
     for sub in solver.subdomains.values():
         out.append(sub.matrix.A)
-        if sub.factor is not None:
-            out.append(sub.factor.ksp)
+        if sub.factor is not None:  # SparseCholesky's KSP, or the SchurFactorisation itself
+            out.append(getattr(sub.factor, "ksp", sub.factor))
     return out
 
 

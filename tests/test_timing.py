@@ -41,6 +41,10 @@ def test_pricing_divides_the_work_by_the_rate_of_its_kind():
     assert timing.record_seconds(
         WorkRecord("u", "sparse_solve", 100, 64, 0.0, None, "", 5e6), rates
     ) == pytest.approx(64 * 5e6 / 1e9)
+    for sweep in ("sparse_forward", "sparse_backward"):  # MUMPS's Schur phases: half a solve
+        assert timing.record_seconds(
+            WorkRecord("u", sweep, 100, 1, 0.0, None, "", 5e6), rates
+        ) == pytest.approx(0.5 * r("sparse_solve", 5e6))
     assert timing.record_seconds(
         WorkRecord("w", "dense_factor", 300, 0, 0.0), rates
     ) == pytest.approx(300**3 / 3 / 1e10)

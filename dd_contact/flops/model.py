@@ -47,6 +47,7 @@ import numpy.typing as npt
 from dd_contact.blocks import Block
 from dd_contact.solvers.schedule import (
     ALGORITHMS,
+    SWEEPS,
     FullSchedule,
     Operation,
     Schedule,
@@ -239,6 +240,10 @@ class SceneSizes:
             interfaces count once, so ``max(alpha) <= gamma <= sum(alpha)``.
         whole: The undecomposed model as one banded matrix, used by ``"FULL"`` and ``"w-u"``.
         interface_name: Label of the interface in reports.
+        substitutions_per_step: Subdomain substitutions per time step: 1 (default), a
+            forward sweep for the condensed right-hand side and a backward sweep for u, as
+            the paper's Tables 2 and 3 count and the engine does; 2, u_hat and u each a
+            full substitution, as its Table 1 lists.
     """
 
     subdomains: tuple[SubdomainCounts, ...]
@@ -248,6 +253,7 @@ class SceneSizes:
     gamma: int
     whole: MeshCounts
     interface_name: str = "Gamma_I"
+    substitutions_per_step: int = 1
 
     def __post_init__(self) -> None:
         # tuples keep the frozen dataclass hashable even if lists were passed
@@ -268,6 +274,11 @@ class SceneSizes:
                         f"{sd.name}: interface_dofs {sd.interface_dofs} > interface dofs "
                         f"{self.interface_dofs}"
                     )
+        if self.substitutions_per_step not in (1, 2):
+            raise ValueError(
+                f"substitutions_per_step must be 1 (Tables 2 and 3) or 2 (Table 1), got "
+                f"{self.substitutions_per_step!r}"
+            )
         check_non_negative("n_steps", self.n_steps)
         check_non_negative("gamma", self.gamma)
         owners = [c.subdomain for c in self.contacts]
@@ -389,7 +400,8 @@ def _coupled_name(contacts: list[ContactCounts]) -> str:
 # subdomain's boundary (no contact meshes). Each variant is written as the block system the
 # engine would see, and its counts are those of the engine's own schedule
 # (dd_contact.solvers.schedule), with the paper's condensation: one substitution per
-# coupling column.
+# coupling column; a step substitutes each subdomain once (a forward and a backward sweep)
+# or twice (SceneSizes.substitutions_per_step).
 def _u(k: int) -> Block:
     return Block("u", str(k))
 
@@ -438,7 +450,8 @@ def _variant(s: SceneSizes, algorithm: str) -> tuple[Schedule | FullSchedule, li
         sizes = {b: n for b, n in sizes.items() if b.kind != "w"}
         pairs = {p for p in pairs if p[0] in sizes}
         regions = {c.name: _u(c.subdomain) for c in s.contacts}
-    schedule = Schedule(algorithm, sizes, layouts, pairs, regions, "multi-rhs")
+    split = s.substitutions_per_step == 1
+    schedule = Schedule(algorithm, sizes, layouts, pairs, regions, "multi-rhs", split)
     surfaces = []
     for g in schedule.flat:
         if g.blocks == (_V,):
@@ -453,13 +466,19 @@ def _variant(s: SceneSizes, algorithm: str) -> tuple[Schedule | FullSchedule, li
 
 
 def _tally(ops: list[Operation]) -> Counter:
-    """Decompositions and single right-hand-side substitutions per schedule target."""
+    """Decompositions and single right-hand-side substitutions per schedule target.
+
+    A forward or backward sweep (:data:`SWEEPS`) is half a substitution: counted in
+    ``"sweeps"`` and turned into substitutions by :func:`_counts`.
+    """
     counts: Counter = Counter()
     for op in ops:
         if op.kind.endswith("_factor"):
             counts[(op.target, "decompositions")] += 1
         elif op.kind.endswith("_solve"):
             counts[(op.target, "substitutions")] += op.nrhs
+        elif op.kind in SWEEPS:
+            counts[(op.target, "sweeps")] += op.nrhs
     return counts
 
 
@@ -492,6 +511,8 @@ def _counts(s: SceneSizes, algorithm: str) -> list[MeshCost]:
     out = []
     for target, name, dofs, bandwidth in meshes:
         n_dec, n_sub = counts[(target, "decompositions")], counts[(target, "substitutions")]
+        sweeps = counts[(target, "sweeps")]
+        n_sub += sweeps // 2 if sweeps % 2 == 0 else sweeps / 2
         if bandwidth is None:
             out.append(_dense(name, dofs, n_dec, n_sub))
         else:

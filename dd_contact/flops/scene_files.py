@@ -18,7 +18,16 @@ from dd_contact.flops.model import ContactCounts, MeshCounts, SceneSizes, Subdom
 
 __all__ = ["load_scene", "scene_from_dict", "scene_to_dict"]
 
-_SCENE_KEYS = {"name", "n_steps", "gamma", "interface", "subdomains", "contacts", "whole"}
+_SCENE_KEYS = {
+    "name",
+    "n_steps",
+    "gamma",
+    "interface",
+    "subdomains",
+    "contacts",
+    "whole",
+    "substitutions_per_step",
+}
 _SUBDOMAIN_KEYS = {"name", "dofs", "half_bandwidth", "interface_dofs"}
 _CONTACT_KEYS = {"name", "dofs", "subdomain", "alpha"}
 _INTERFACE_KEYS = {"name", "dofs"}
@@ -61,6 +70,8 @@ def scene_to_dict(sizes: SceneSizes, name: str | None = None) -> dict[str, Any]:
         for c in sizes.contacts
     ]
     out["whole"] = dataclasses.asdict(sizes.whole)
+    if sizes.substitutions_per_step != 1:
+        out["substitutions_per_step"] = sizes.substitutions_per_step
     return out
 
 
@@ -114,9 +125,11 @@ def scene_from_dict(data: Any, source: str = "scene") -> SceneSizes:
              "alpha": changes on this contact interface},
             ...
           ],
-          "whole": {"name": "Omega", "dofs": D, "half_bandwidth": B}
+          "whole": {"name": "Omega", "dofs": D, "half_bandwidth": B},
                      # optional: the undecomposed model for FULL and w-u; default: the sum of
                      # the subdomain dofs and the largest subdomain half-bandwidth
+          "substitutions_per_step": 1 or 2       # optional: subdomain substitutions per
+                     # step, 1 (default, the paper's Tables 2 and 3) or 2 (its Table 1)
         }
 
     Args:
@@ -223,6 +236,7 @@ def scene_from_dict(data: Any, source: str = "scene") -> SceneSizes:
             gamma=gamma,
             whole=whole,
             interface_name=interface_name,
+            substitutions_per_step=top.get("substitutions_per_step", 1),
         )
     except ValueError as err:
         raise ValueError(f"{source}: {err}") from None

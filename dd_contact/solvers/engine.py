@@ -42,6 +42,7 @@ from dd_contact.solvers.linalg import (
     coo_of,
     sparse_statistics,
 )
+from dd_contact.solvers.mumps_schur import SchurFactorisation
 from dd_contact.solvers.schedule import (
     CONDENSATIONS,
     Group,
@@ -147,7 +148,8 @@ class SubdomainCondensation:
         self.layout, self.C = coupling_layout(block, system)
         m = self.C.shape[1]
         # MUMPS's Schur complement: factorise [[K, C], [C^T, 0]] with the last m as Schur
-        # block; it gives -Z directly, and solves with K alone (zero-padded vectors).
+        # block; it gives -Z directly, and its reduction and expansion phases give the
+        # surface right-hand side and u with one forward and one backward sweep.
         self.schur = m if condensation == "schur" else 0
         rows, cols, values = coo_of(system.matrices[(block, block)])
         if self.schur:
@@ -157,26 +159,33 @@ class SubdomainCondensation:
             cols = np.concatenate([cols, cc + n, cr, diagonal])
             values = np.concatenate([values, cv, cv, np.zeros(m)])
         size = n + self.schur
-        self.matrix = PatternedMatrix(MPI.COMM_SELF, size, size, (rows, cols, values), contacts)
-        self.factor: SparseCholesky | None = None
-        self.Z, self.u_hat, self._b = None, None, None
+        base = (rows, cols, values)
+        self.matrix = PatternedMatrix(MPI.COMM_SELF, size, size, base, contacts, bool(self.schur))
+        self.factor: SparseCholesky | SchurFactorisation | None = None
+        if self.schur:  # driven through MUMPS's C interface: reduction and expansion apart
+            nnz = int(self.matrix.A.getInfo()["nz_used"])
+            rows, cols = self.matrix.take_indices()
+            self.factor = SchurFactorisation(rows, cols, size, m, log, block, nnz)
+        self.Z, self.u_hat, self._b, self._g = None, None, None, None
         self.u: np.ndarray | None = None
+        self._factorised = False
 
     @property
     def changing(self) -> bool:
         """Whether the matrix must be re-factorised (new contact values, or never done)."""
-        return self.factor is None or self.matrix.dirty
+        return not self._factorised or self.matrix.dirty
 
     def factorise(self) -> None:
         """(Re-)factorise K_hat and condense the coupling columns: Z = C^T K^-1 C."""
         self.matrix.push()
-        if self.factor is None:
-            self.factor = SparseCholesky(self.matrix.A, self.log, self.block, self.schur)
-        else:
-            self.factor.refactorise()
         if self.schur:
+            self.factor.factorise(self.matrix.values)
             self.Z = -self.factor.schur_complement
         else:
+            if self.factor is None:
+                self.factor = SparseCholesky(self.matrix.A, self.log, self.block)
+            else:
+                self.factor.refactorise()
             m = self.C.shape[1]
             self.Z = np.zeros((m, m))
             Csc = self.C.tocsc()
@@ -184,26 +193,38 @@ class SubdomainCondensation:
                 X = self.factor.solve_many(Csc[:, j0:j1].toarray(), "condense")
                 self.Z[:, j0:j1] = self.C.T @ X
         self.Z = 0.5 * (self.Z + self.Z.T)  # symmetric up to round-off; make it exact
-        self._b = None
-
-    def _solve(self, b: np.ndarray, what: str) -> np.ndarray:
-        if not self.schur:
-            return self.factor.solve_array(b, what)
-        return self.factor.solve_array(np.concatenate([b, np.zeros(self.schur)]), what)[: len(b)]
+        self._b, self._factorised = None, True
 
     def surface_rhs(self, b: np.ndarray) -> np.ndarray:
-        """-C^T u_hat for right-hand side b (u_hat is solved for only when b or K changed)."""
+        """-C^T K^-1 b, computed only when b or K changed.
+
+        With ``"schur"``: MUMPS's reduction, one forward sweep whose result MUMPS keeps for
+        :meth:`back_substitute`. With ``"multi-rhs"``: a full substitution u_hat = K^-1 b.
+        """
         if self._b is None or not np.array_equal(b, self._b):
-            self.u_hat = self._solve(b, "u_hat")
             self._b = b.copy()
+            if self.schur:
+                self._g = self.factor.reduce(b, "u_hat")
+            else:
+                self.u_hat = self.factor.solve_array(b, "u_hat")
+                self._g = -(self.C.T @ self.u_hat)
         self.u = None
-        return -(self.C.T @ self.u_hat)
+        return self._g
 
     def back_substitute(self, surface: dict[str, np.ndarray]) -> np.ndarray:
-        """U = K^-1 (b - C x_surface) (eq. 17), once per new surface solution."""
+        """U = K^-1 (b - C x_surface) (eq. 17), once per new surface solution.
+
+        With ``"schur"``: MUMPS's expansion, one backward sweep from the forward sweep of
+        :meth:`surface_rhs` (a second expansion for the same b sweeps forward again).
+        """
         if self.u is None:
             xs = np.concatenate([surface[s][J] for s, J in self.layout] or [np.zeros(0)])
-            self.u = self._solve(self._b - self.C @ xs, "u")
+            if not self.schur:
+                self.u = self.factor.solve_array(self._b - self.C @ xs, "u")
+                return self.u
+            if not self.factor.reduced:  # MUMPS released the forward sweep
+                self.factor.reduce(self._b, "u")
+            self.u = self.factor.expand(xs, "u")
         return self.u
 
     def destroy(self) -> None:

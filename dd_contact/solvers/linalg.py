@@ -448,9 +448,19 @@ class PatternedMatrix:
         size: Global size.
         base: Base (rows, cols, values), duplicates summed.
         contacts: The contact regions, their ``dofs`` in this matrix's numbering.
+        keep_indices: Keep the COO rows and columns of :attr:`values` for one
+            :meth:`take_indices` (a factorisation outside PETSc reads them).
     """
 
-    def __init__(self, comm, local_rows: int, size: int, base, contacts: Sequence[ContactRegion]):
+    def __init__(
+        self,
+        comm,
+        local_rows: int,
+        size: int,
+        base,
+        contacts: Sequence[ContactRegion],
+        keep_indices: bool = False,
+    ):
         rows, cols, vals = [base[0]], [base[1]], [base[2]]
         self._slices: dict[str, tuple[slice, np.ndarray, np.ndarray]] = {}
         position = len(base[2])
@@ -460,10 +470,17 @@ class PatternedMatrix:
             self._slices[region.name] = (slice(position, position + len(r)), r, c)
             position += len(r)
         self.values = np.concatenate(vals).astype(np.float64)
-        self.A = petsc_matrix(
-            comm, local_rows, size, np.concatenate(rows), np.concatenate(cols), self.values
-        )
+        rows, cols = np.concatenate(rows), np.concatenate(cols)
+        self.A = petsc_matrix(comm, local_rows, size, rows, cols, self.values)
+        self._indices = (rows, cols) if keep_indices else None
         self.dirty = True
+
+    def take_indices(self) -> tuple[np.ndarray, np.ndarray]:
+        """Rows and columns of :attr:`values` (COO), handed over once and then forgotten."""
+        indices, self._indices = self._indices, None
+        if indices is None:
+            raise RuntimeError("PatternedMatrix: indices not kept, or taken already")
+        return indices
 
     def set_contact(self, key: str, matrix: sp.csr_array) -> None:
         """Replace the contact matrix of region ``key`` (surface dof numbering)."""

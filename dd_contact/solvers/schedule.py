@@ -19,6 +19,7 @@ __all__ = [
     "CONDENSATIONS",
     "CONDENSATION_CHUNK",
     "ORDERS",
+    "SWEEPS",
     "FullSchedule",
     "Group",
     "Operation",
@@ -45,6 +46,11 @@ CONDENSATIONS = ("schur", "multi-rhs")
 
 #: Right-hand sides per MUMPS multi-RHS solve when condensing with ``"multi-rhs"``.
 CONDENSATION_CHUNK = 256
+
+#: Work kinds of the two halves of a subdomain substitution split by MUMPS's Schur phases:
+#: the reduction (a forward sweep, giving the surface right-hand side) and the expansion (a
+#: backward sweep, giving u). Each is half a substitution.
+SWEEPS = ("sparse_forward", "sparse_backward")
 
 
 def fitting_algorithms(
@@ -107,7 +113,9 @@ class Operation:
     Attributes:
         target: A subdomain block (sparse) or a group name (dense).
         kind: ``"sparse_factor"``, ``"schur"`` (MUMPS's Schur complement of a subdomain
-            factorisation), ``"sparse_solve"``, ``"dense_factor"`` or ``"dense_solve"``.
+            factorisation), ``"sparse_solve"``, ``"sparse_forward"`` or
+            ``"sparse_backward"`` (the halves of a substitution, :data:`SWEEPS`),
+            ``"dense_factor"`` or ``"dense_solve"``.
         size: Rows of the matrix, or of the solved vectors for sparse solves.
         nrhs: Right-hand sides (0 for factorisations).
         what: What a solve is for: ``"condense"``, ``"u_hat"``, ``"u"``, ``"y"`` (a group's
@@ -170,6 +178,10 @@ class Schedule:
         regions: Contact region -> the block it acts on (``w:`` or, for contact on a
             subdomain's own boundary, ``u:``).
         condensation: One of :data:`CONDENSATIONS`.
+        split_substitution: Substitute a subdomain once per right-hand side, split in a
+            forward sweep (the surface right-hand side) and a backward sweep (u), as
+            MUMPS's Schur phases do (the paper's Tables 2 and 3); ``False``: two full
+            substitutions, u_hat and u (its Table 1). Default: with ``"schur"``.
     """
 
     def __init__(
@@ -180,6 +192,7 @@ class Schedule:
         base_pairs: set,
         regions: dict[str, str],
         condensation: str = "schur",
+        split_substitution: bool | None = None,
     ):
         if order not in ORDERS:
             raise ValueError(f"unknown order {order!r}; valid: {', '.join(ORDERS)}")
@@ -188,6 +201,9 @@ class Schedule:
                 f"unknown condensation {condensation!r}; valid: {', '.join(CONDENSATIONS)}"
             )
         self.order, self.levels, self.condensation = order, ORDERS[order], condensation
+        if split_substitution is None:
+            split_substitution = condensation == "schur"
+        self.split_substitution = split_substitution
         blocks = {Block.parse(b): n for b, n in sizes.items()}
         self.surface = {b: n for b, n in blocks.items() if b.kind != "u"}
         self.subdomains = {b: n for b, n in blocks.items() if b.kind == "u"}
@@ -280,11 +296,18 @@ class Schedule:
         return ops
 
     def substitute_subdomain(self, block: str, what: str) -> Operation:
-        """One substitution with a subdomain's factor (``"u_hat"`` or ``"u"``)."""
+        """A substitution with a subdomain's factor for ``"u_hat"`` or ``"u"``.
+
+        Split: the forward sweep for u_hat (the surface right-hand side), the backward sweep
+        for u. Otherwise, or for a subdomain coupled to nothing (no Schur block), a full
+        substitution for each.
+        """
         n = self.subdomains[block]
-        if self.condensation == "schur":  # the vectors carry the (zero) Schur block
-            n += self.coupling_size(block)
-        return Operation(block, "sparse_solve", n, 1, what)
+        if not self.split_substitution or not self.coupling_size(block):
+            if self.condensation == "schur":  # the vectors carry the (zero) Schur block
+                n += self.coupling_size(block)
+            return Operation(block, "sparse_solve", n, 1, what)
+        return Operation(block, SWEEPS[what == "u"], n, 1, what)
 
     def factorise_group(self, g: Group) -> list[Operation]:
         """Factorise a group and, if it is eliminated, condense its coupling columns."""
@@ -326,7 +349,12 @@ class Schedule:
         ops += [self.solve_group(g) for g in self.flat if self.solves(g, stale, False)]
         if self.needs_all_surface:
             ops += self.back_substitution()
-        return ops + [self.substitute_subdomain(b, "u") for b in self.needed_u]
+        for b in self.needed_u:
+            if self.split_substitution and self.coupling_size(b) and b != block:
+                # the forward sweep was used by the last expansion: sweep forward again
+                ops.append(Operation(b, SWEEPS[0], self.subdomains[b], 1, "u"))
+            ops.append(self.substitute_subdomain(b, "u"))
+        return ops
 
 
 class FullSchedule:

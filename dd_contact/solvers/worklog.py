@@ -20,7 +20,10 @@ class WorkRecord:
     """One factorisation or solve."""
 
     block: str
-    kind: str  # "sparse_factor", "sparse_solve", "dense_factor", "dense_solve", "schur"
+    # "sparse_factor", "sparse_solve", "sparse_forward", "sparse_backward" (half a
+    # substitution each: MUMPS's Schur reduction and expansion), "dense_factor",
+    # "dense_solve", "schur"
+    kind: str
     size: int
     nrhs: int
     seconds: float
@@ -59,7 +62,8 @@ class WorkLog:
         """Per block: what was done with its matrix.
 
         Matrix kind (sparse/dense) and size, decompositions, substitutions (right-hand sides
-        summed, as the paper counts them), Schur complements, seconds and GFLOPs of each.
+        summed, as the paper counts them; a forward and a backward sweep make one),
+        Schur complements, seconds and GFLOPs of each.
         """
         out: dict[str, dict] = {}
         for r in self.records:
@@ -82,8 +86,8 @@ class WorkLog:
                 b["decompositions"] += 1
                 b["seconds_decomposition"] += r.seconds
                 b["gflops_decomposition"] += (r.flops or 0.0) / 1e9
-            elif r.kind.endswith("_solve"):
-                b["substitutions"] += r.nrhs
+            elif r.kind.endswith(("_solve", "_forward", "_backward")):
+                b["substitutions"] += r.nrhs if r.kind.endswith("_solve") else r.nrhs / 2
                 b["seconds_substitution"] += r.seconds
                 b["gflops_substitution"] += (r.flops or 0.0) / 1e9
             else:
@@ -106,7 +110,7 @@ class WorkLog:
         for name, b in self.per_block().items():
             rows.append(
                 f"{name:<24} {b['matrix']:<6} {b['size']:>8} {b['decompositions']:>14} "
-                f"{b['substitutions']:>13} {b['seconds_decomposition']:>10.3f} "
+                f"{b['substitutions']:>13g} {b['seconds_decomposition']:>10.3f} "
                 f"{b['seconds_substitution']:>9.3f} {b['gflops_decomposition']:>13.3g}"
             )
         return "\n".join(rows)

@@ -1,0 +1,309 @@
+"""A subdomain's Schur-complement factorisation driven through MUMPS's C interface.
+
+PETSc's MUMPS interface computes the Schur complement but, in a solve, always solves the
+Schur system itself between MUMPS's reduction and expansion phases. The engine needs them
+apart: the reduction gives the subdomain's condensed right-hand side ``-C^T K^-1 b`` (one
+forward sweep), the surface system is solved elsewhere, and the expansion gives
+``u = K^-1 (b - C xs)`` from the surface solution ``xs`` (one backward sweep, reusing the
+forward sweep MUMPS kept). So a time step costs one substitution per subdomain, not two.
+
+:class:`SchurFactorisation` calls ``dmumps_c`` of the MUMPS that PETSc links (the same
+library, version and defaults as :class:`~dd_contact.solvers.linalg.SparseCholesky`: the
+complements agree bit for bit) on ``COMM_SELF``, with the ``DMUMPS_STRUC_C`` layout of
+MUMPS 5.8 (``dmumps_c.h``). The layout is checked against the version string the library
+writes at initialisation. MUMPS references: Users' guide 5.8, sections 5.16 (Schur
+complement, reduction and expansion) and 6.1 (ICNTL).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import functools
+import time
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+
+from dd_contact.errors import InputError, SingularMatrixError
+from dd_contact.solvers.linalg import (
+    ICNTL_SCHUR_SOLUTION,
+    INFOG_FACTOR_ENTRIES,
+    INFOG_NULL_PIVOTS,
+    INFOG_STATUS,
+    OPTIONS_PREFIX,
+    REQUIRED_ICNTL,
+    RINFOG_FLOPS,
+    _check_required_options,
+    _libpetsc,
+    _mumps_count,
+)
+from dd_contact.solvers.worklog import WorkLog
+
+__all__ = ["MUMPS_LAYOUT_VERSION", "PACKAGE_ICNTL", "SchurFactorisation"]
+
+#: MUMPS versions whose ``DMUMPS_STRUC_C`` has the layout below (5.8.x).
+MUMPS_LAYOUT_VERSION = "5.8."
+
+_INT = ctypes.c_int32  # MUMPS_INT of a default (32-bit integer) MUMPS build
+_INT8 = ctypes.c_int64
+_REAL = ctypes.c_double
+_PINT = ctypes.POINTER(_INT)
+_PREAL = ctypes.POINTER(_REAL)
+
+
+class _DmumpsStruc(ctypes.Structure):
+    """``DMUMPS_STRUC_C`` of MUMPS 5.8 (field order and widths of ``dmumps_c.h``)."""
+
+    _fields_ = [
+        *[(name, _INT) for name in ("sym", "par", "job", "comm_fortran")],
+        ("icntl", _INT * 60),
+        ("keep", _INT * 500),
+        ("cntl", _REAL * 15),
+        ("dkeep", _REAL * 230),
+        ("keep8", _INT8 * 150),
+        *[(name, _INT) for name in ("n", "nblk", "nz_alloc", "nz")],
+        ("nnz", _INT8),
+        *[("irn", _PINT), ("jcn", _PINT), ("a", _PREAL)],  # centralised assembled matrix
+        ("nz_loc", _INT),
+        ("nnz_loc", _INT8),
+        *[("irn_loc", _PINT), ("jcn_loc", _PINT), ("a_loc", _PREAL)],
+        ("nelt", _INT),
+        *[("eltptr", _PINT), ("eltvar", _PINT), ("a_elt", _PREAL)],
+        *[(name, _PINT) for name in ("blkptr", "blkvar", "perm_in", "sym_perm", "uns_perm")],
+        *[("colsca", _PREAL), ("rowsca", _PREAL)],
+        *[("colsca_from_mumps", _INT), ("rowsca_from_mumps", _INT)],
+        *[("colsca_loc", _PREAL), ("rowsca_loc", _PREAL)],
+        *[("rowind", _PINT), ("colind", _PINT), ("pivots", _PREAL)],
+        *[(name, _PREAL) for name in ("rhs", "redrhs", "rhs_sparse", "sol_loc", "rhs_loc")],
+        ("rhsintr", _PREAL),
+        *[(name, _PINT) for name in ("irhs_sparse", "irhs_ptr", "isol_loc", "irhs_loc")],
+        *[("glob2loc_rhs", _PINT), ("glob2loc_sol", _PINT)],
+        *[(name, _INT) for name in ("nrhs", "lrhs", "lredrhs", "nz_rhs", "lsol_loc")],
+        *[(name, _INT) for name in ("nloc_rhs", "lrhs_loc", "nsol_loc")],
+        *[(name, _INT) for name in ("schur_mloc", "schur_nloc", "schur_lld")],
+        *[(name, _INT) for name in ("mblock", "nblock", "nprow", "npcol", "ld_rhsintr")],
+        *[("info", _INT * 80), ("infog", _INT * 80), ("rinfo", _REAL * 40)],
+        ("rinfog", _REAL * 40),
+        ("deficiency", _INT),
+        *[("pivnul_list", _PINT), ("mapping", _PINT), ("singular_values", _PREAL)],
+        ("size_schur", _INT),
+        *[("listvar_schur", _PINT), ("schur", _PREAL), ("wk_user", _PREAL)],
+        ("version_number", ctypes.c_char * 32),
+        ("ooc_tmpdir", ctypes.c_char * 1024),
+        ("ooc_prefix", ctypes.c_char * 256),
+        ("write_problem", ctypes.c_char * 1024),
+        ("lwk_user", _INT),
+        ("save_dir", ctypes.c_char * 1024),
+        ("save_prefix", ctypes.c_char * 256),
+        ("metis_options", _INT * 40),
+        ("instance_number", _INT),
+    ]
+
+
+# MUMPS jobs (JOB) and settings (ICNTL(k) is icntl[k - 1]).
+JOB_INIT, JOB_END, JOB_SOLVE, JOB_FACTORISE, JOB_ANALYSE_FACTORISE = -1, -2, 3, 2, 4
+SYM_SPD, HOST_WORKS = 1, 1
+SCHUR_REDUCTION, SCHUR_EXPANSION = 1, 2  # ICNTL(26)
+ICNTL_SCHUR = 19  # 1: centralised Schur complement, lower triangle by rows
+# Room after the structure, so a MUMPS with a longer one cannot write past it before its
+# version is checked.
+SLACK_BYTES = 1 << 16
+
+#: ICNTL the package sets on its Schur factorisations, index -> value: output streams off
+#: (1-4), a centralised assembled matrix (5, 18), dense right-hand sides (20, 21), the
+#: Schur complement (19), plus :data:`REQUIRED_ICNTL`. Options that change them are refused.
+PACKAGE_ICNTL = {
+    **{k: 0 for k in (1, 2, 3, 4, 5, 18, 20, 21)},
+    ICNTL_SCHUR: 1,
+    **REQUIRED_ICNTL,
+}
+
+
+@functools.cache
+def _dmumps_c():
+    function = _libpetsc().dmumps_c
+    function.argtypes = [ctypes.POINTER(_DmumpsStruc)]
+    function.restype = None
+    return function
+
+
+def _user_controls() -> tuple[dict[int, int], dict[int, float]]:
+    """ICNTL and CNTL given under :data:`OPTIONS_PREFIX` (``mat_mumps_icntl_<k>``, ...)."""
+    _check_required_options()
+    options = PETSc.Options(OPTIONS_PREFIX)
+    icntl = {
+        k: options.getInt(f"mat_mumps_icntl_{k}")
+        for k in range(1, 61)
+        if options.hasName(f"mat_mumps_icntl_{k}")
+    }
+    for k, value in icntl.items():
+        if k in PACKAGE_ICNTL and value != PACKAGE_ICNTL[k] and k not in (1, 2, 3, 4):
+            raise InputError(
+                f"-{OPTIONS_PREFIX}mat_mumps_icntl_{k} = {value}: dd_contact sets MUMPS "
+                f"ICNTL({k}) = {PACKAGE_ICNTL[k]} for its Schur factorisations; remove the option"
+            )
+    cntl = {
+        k: options.getReal(f"mat_mumps_cntl_{k}")
+        for k in range(1, 16)
+        if options.hasName(f"mat_mumps_cntl_{k}")
+    }
+    return icntl, cntl
+
+
+class SchurFactorisation:
+    """MUMPS Cholesky of ``[[K, C], [C^T, 0]]`` with the trailing ``m`` rows as Schur block.
+
+    Gives ``S = -C^T K^-1 C`` (:attr:`schur_complement`, dense, symmetric), and per
+    right-hand side b one forward sweep (:meth:`reduce`: ``-C^T K^-1 b``) and one backward
+    sweep (:meth:`expand`: ``K^-1 (b - C xs)`` for the last reduced b). Serial (COMM_SELF).
+
+    Args:
+        rows, cols, values: The matrix in COO (both triangles, duplicates summed, the Schur
+            block's zero diagonal included so its pattern is known).
+        size: Rows of the matrix, Schur block included.
+        schur: Size m of the Schur block (> 0).
+        log: Where to record the work.
+        block: Name of the block, for the log.
+        nnz: Stored entries of the matrix (both triangles), for the log of the analysis.
+    """
+
+    def __init__(self, rows, cols, size: int, schur: int, log: WorkLog, block: str, nnz: int = 0):
+        if schur <= 0:
+            raise ValueError(f"schur must be positive, got {schur}")
+        icntl, cntl = _user_controls()  # before MUMPS allocates anything
+        self.log, self.block, self.size, self.schur, self.nnz = log, block, size, schur, nnz
+        self.entries, self.schur_complement = 0.0, None
+        self._upper = rows <= cols  # MUMPS sums a_ij and a_ji: one triangle (a mask: 1 B each)
+        self._irn = (rows[self._upper] + 1).astype(np.int32)
+        self._jcn = (cols[self._upper] + 1).astype(np.int32)
+        self._a = np.zeros(len(self._irn))
+        self._listvar = np.arange(size - schur + 1, size + 1, dtype=np.int32)
+        self._S = np.zeros(schur * schur)
+        self._redrhs = np.zeros(schur)
+        self._rhs = np.zeros(size)
+        #: MUMPS holds the forward sweep of the last reduced b (an expansion releases it)
+        self.reduced = False
+        self._analysed = False
+        self._memory = ctypes.create_string_buffer(ctypes.sizeof(_DmumpsStruc) + SLACK_BYTES)
+        self._id = _DmumpsStruc.from_buffer(self._memory)
+        self._id.sym, self._id.par, self._id.job = SYM_SPD, HOST_WORKS, JOB_INIT
+        self._id.comm_fortran = MPI.COMM_SELF.py2f()
+        self._call("initialisation")
+        version = self._id.version_number.decode().strip()
+        if not version.startswith(MUMPS_LAYOUT_VERSION):
+            self.destroy()
+            raise RuntimeError(
+                f"PETSc links MUMPS {version}, the C layout here is MUMPS "
+                f"{MUMPS_LAYOUT_VERSION}x's: use condensation='multi-rhs'"
+            )
+        for k, value in {**PACKAGE_ICNTL, **icntl}.items():  # user's differ only in 1-4
+            self._id.icntl[k - 1] = value
+        for k, value in cntl.items():
+            self._id.cntl[k - 1] = value
+        self._id.n, self._id.nnz = size, len(self._a)
+        self._id.irn, self._id.jcn = _pointer(self._irn, _INT), _pointer(self._jcn, _INT)
+        self._id.a = _pointer(self._a, _REAL)
+        self._id.size_schur, self._id.schur_lld = schur, schur
+        self._id.listvar_schur = _pointer(self._listvar, _INT)
+        self._id.schur = _pointer(self._S, _REAL)
+        self._id.redrhs, self._id.lredrhs = _pointer(self._redrhs, _REAL), schur
+        self._id.rhs, self._id.nrhs, self._id.lrhs = _pointer(self._rhs, _REAL), 1, size
+
+    @property
+    def handle(self) -> int:
+        """Address of the MUMPS instance, 0 once destroyed (as a petsc4py object's handle)."""
+        return 0 if self._id is None else ctypes.addressof(self._id)
+
+    def icntl(self, k: int) -> int:
+        """MUMPS's ICNTL(k) as set on this factorisation."""
+        return int(self._id.icntl[k - 1])
+
+    def factorise(self, values: np.ndarray) -> None:
+        """(Re-)factorise with the matrix values of the COO given at construction."""
+        self._a[:] = values[self._upper]
+        self.reduced = False
+        start = time.perf_counter()
+        self._id.job = JOB_FACTORISE if self._analysed else JOB_ANALYSE_FACTORISE
+        self._call("factorisation")
+        null_pivots = self._id.infog[INFOG_NULL_PIVOTS - 1]
+        if null_pivots > 0:
+            raise SingularMatrixError(
+                f"block {self.block!r} is singular ({null_pivots} null pivots): "
+                "part of the model can move freely; check its supports, ties and contacts"
+            )
+        self.entries = float(_mumps_count(self._id.infog[INFOG_FACTOR_ENTRIES - 1]))
+        n, m = self.size - self.schur, self.schur
+        self.log.add(
+            self.block,
+            "sparse_factor",
+            n,
+            0,
+            time.perf_counter() - start,
+            self._id.rinfog[RINFOG_FLOPS - 1],
+            f"with a Schur complement of {m}",
+            self.entries,
+            0 if self._analysed else self.nnz,
+        )
+        self._analysed = True
+        start = time.perf_counter()
+        lower = self._S.reshape(m, m)  # lower triangle by rows
+        self.schur_complement = np.tril(lower) + np.tril(lower, -1).T
+        self.log.add(self.block, "schur", m, 0, time.perf_counter() - start)
+
+    def reduce(self, b: np.ndarray, what: str = "u_hat") -> np.ndarray:
+        """``-C^T K^-1 b``: MUMPS's reduction phase, one forward sweep (kept for :meth:`expand`)."""
+        n = self.size - self.schur
+        self._rhs[:n], self._rhs[n:] = b, 0.0
+        start = time.perf_counter()
+        self._solve(SCHUR_REDUCTION, "reduction")
+        self._log_sweep("sparse_forward", time.perf_counter() - start, what)
+        self.reduced = True
+        return self._redrhs.copy()
+
+    def expand(self, xs: np.ndarray, what: str = "u") -> np.ndarray:
+        """``K^-1 (b - C xs)`` for the last reduced b: MUMPS's expansion, one backward sweep."""
+        if not self.reduced:
+            raise RuntimeError(f"block {self.block!r}: expand() needs a reduce() first")
+        self._redrhs[:] = xs
+        start = time.perf_counter()
+        self._solve(SCHUR_EXPANSION, "expansion")
+        self._log_sweep("sparse_backward", time.perf_counter() - start, what)
+        self.reduced = False  # MUMPS releases the forward sweep after an expansion
+        return self._rhs[: self.size - self.schur].copy()
+
+    def _solve(self, phase: int, name: str) -> None:
+        self._id.icntl[ICNTL_SCHUR_SOLUTION - 1] = phase
+        self._id.job = JOB_SOLVE
+        self._call(name)
+
+    def _log_sweep(self, kind: str, seconds: float, what: str) -> None:
+        # one sweep: one multiply-add per factor entry (a full substitution is two sweeps)
+        n = self.size - self.schur
+        self.log.add(self.block, kind, n, 1, seconds, 2.0 * self.entries, what, self.entries)
+
+    def _call(self, phase: str) -> None:
+        _dmumps_c()(ctypes.byref(self._id))
+        status = self._id.infog[INFOG_STATUS - 1]
+        if status < 0:
+            raise SingularMatrixError(
+                f"MUMPS {phase} of block {self.block!r} failed (INFOG(1) = {status}, "
+                f"INFOG(2) = {self._id.infog[1]}); the matrix is singular or not positive "
+                "definite, or MUMPS ran out of memory (raise -dd_contact_mat_mumps_icntl_14)"
+            )
+
+    def destroy(self) -> None:
+        """Free MUMPS's memory (idempotent)."""
+        if getattr(self, "_id", None) is not None and not MPI.Is_finalized():
+            self._id.job = JOB_END
+            _dmumps_c()(ctypes.byref(self._id))
+        self._id = None
+
+    def __del__(self) -> None:
+        # as petsc4py objects: freed when collected if nobody called destroy()
+        self.destroy()
+
+
+def _pointer(array: np.ndarray, ctype):
+    return array.ctypes.data_as(ctypes.POINTER(ctype))
