@@ -15,6 +15,7 @@ agreed results in :mod:`dd_contact.post`.
 from __future__ import annotations
 
 import logging
+import warnings
 from typing import Self
 
 import dolfinx.fem as fem
@@ -32,6 +33,7 @@ from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.engine import BlockEliminationSolver
 from dd_contact.solvers.linalg import petsc_options
+from dd_contact.solvers.mumps_schur import layout_known, mumps_version
 from dd_contact.solvers.residual import ResidualCheck
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
 from dd_contact.solvers.stiff_ties import AugmentedTies
@@ -60,6 +62,15 @@ class Analysis:
             self._build(scene, algorithm, mass_coefficient, contact, condensation, expected, rates)
 
     def _build(self, scene, algorithm, mass_coefficient, contact, condensation, expected, rates):
+        if condensation == "schur" and not layout_known():
+            warnings.warn(
+                f"the MUMPS inside PETSc is {mumps_version() or 'unknown'}, not the 5.8.x "
+                "whose reduction and expansion phases dd_contact drives: condensation "
+                "'multi-rhs' is used instead (two substitutions a step, not one)",
+                RuntimeWarning,
+                stacklevel=4,
+            )
+            condensation = "multi-rhs"
         has_interface = scene.interface is not None
         has_w = any(not isinstance(c, ContactBoundary) for c in scene.contacts)
         valid = fitting_algorithms(has_interface, has_w)

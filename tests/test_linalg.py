@@ -12,6 +12,8 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
+import dd_contact as dd
+from dd_contact import analysis, verify
 from dd_contact.errors import InputError
 from dd_contact.solvers import linalg
 from dd_contact.solvers.linalg import (
@@ -187,3 +189,14 @@ def test_options_under_the_prefix_reach_the_schur_factorisation(options):
     options(f"{OPTIONS_PREFIX}mat_mumps_icntl_24", 0)
     with pytest.raises(InputError, match="-dd_contact_mat_mumps_icntl_24 must be 1"):
         SchurFactorisation(A.row, A.col, n + m, m, WorkLog(), "u")
+
+
+def test_another_mumps_falls_back_to_two_substitutions_with_a_warning(monkeypatch):
+    # The C layout is MUMPS 5.8.x's; with another MUMPS the Schur route is not used.
+    assert analysis.layout_known()  # this environment's PETSc links MUMPS 5.8.x
+    monkeypatch.setattr(analysis, "layout_known", lambda: False)
+    scene = verify.order_scene("single", False, 1e4)
+    with pytest.warns(RuntimeWarning, match="'multi-rhs' is used instead"):
+        problem = dd.StaticProblem(scene, algorithm="w-u")
+    assert problem.condensation == "multi-rhs"
+    problem.close()

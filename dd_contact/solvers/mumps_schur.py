@@ -129,6 +129,33 @@ def _dmumps_c():
     return function
 
 
+class MumpsLayoutError(RuntimeError):
+    """The MUMPS PETSc links is not the version whose C layout this module knows."""
+
+
+@functools.cache
+def mumps_version() -> str:
+    """The version of the MUMPS inside PETSc ("" if it cannot be read)."""
+    memory = ctypes.create_string_buffer(ctypes.sizeof(_DmumpsStruc) + SLACK_BYTES)
+    probe = _DmumpsStruc.from_buffer(memory)
+    probe.sym, probe.par, probe.job = SYM_SPD, HOST_WORKS, JOB_INIT
+    probe.comm_fortran = MPI.COMM_SELF.py2f()
+    _dmumps_c()(ctypes.byref(probe))
+    try:
+        version = probe.version_number.decode(errors="replace").strip("\x00 ")
+    finally:
+        for k in (1, 2, 3, 4):  # no output streams
+            probe.icntl[k - 1] = 0
+        probe.job = JOB_END
+        _dmumps_c()(ctypes.byref(probe))
+    return version
+
+
+def layout_known() -> bool:
+    """Whether :class:`SchurFactorisation` can drive this MUMPS (its version is 5.8.x)."""
+    return mumps_version().startswith(MUMPS_LAYOUT_VERSION)
+
+
 def _user_controls() -> tuple[dict[int, int], dict[int, float]]:
     """ICNTL and CNTL given under :data:`OPTIONS_PREFIX` (``mat_mumps_icntl_<k>``, ...)."""
     _check_required_options()
@@ -194,7 +221,7 @@ class SchurFactorisation:
         version = self._id.version_number.decode().strip()
         if not version.startswith(MUMPS_LAYOUT_VERSION):
             self.destroy()
-            raise RuntimeError(
+            raise MumpsLayoutError(
                 f"PETSc links MUMPS {version}, the C layout here is MUMPS "
                 f"{MUMPS_LAYOUT_VERSION}x's: use condensation='multi-rhs'"
             )
