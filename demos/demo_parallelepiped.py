@@ -159,14 +159,11 @@ if comm.rank == 0:
     demo.step_time_chart(
         out / "bar_step_times.png", [*runs, *references.values()], "Bar: wall time of each step"
     )
-    summary = {
-        "scale": str(args.scale),
-        "dofs": dofs,
-        "balance": balance,
-        "table": text,
-        "checks": {k: vars(v) for k, v in checks.items()},
-    }
-    (out / "summary.json").write_text(json.dumps(summary, indent=1, default=str))
+    summary = demo.summary(
+        [*runs, *references.values()], checks, gflops,
+        scale=str(args.scale), dofs=dofs, steps=args.steps, balance=balance, table=text,
+    )  # fmt: skip
+    (out / "summary.json").write_text(json.dumps(summary, indent=1))
     print(
         f"parallelepiped, scale {args.scale} ({dofs} dofs): {args.steps} steps of {DT * 1e3:g} ms"
     )

@@ -166,7 +166,10 @@ if comm.rank == 0:
     fig.savefig(out / "joint_pin_forces.png", dpi=110)
     plt.close(fig)
     demo.step_time_chart(out / "joint_step_times.png", runs, "Pin joint: wall time of each step")
-    summary = {"scale": args.scale, "dofs": dofs, "balance": balance, "table": text}
+    summary = demo.summary(
+        runs, checks, gflops,
+        scale=args.scale, dofs=dofs, steps=args.steps, balance=balance, table=text,
+    )  # fmt: skip
     (out / "summary.json").write_text(json.dumps(summary, indent=1))
     print(f"pin joint, scale {args.scale} ({dofs} dofs): {args.steps} steps of {DT * 1e6:g} us")
     print(f"quasi-static balance |sum of pin forces - load| / load = {balance:.1e}")

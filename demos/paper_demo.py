@@ -289,3 +289,27 @@ def plot_wall_pressures(scene: dc.Scene, path, title: str, scale: float = 50.0) 
     plotter.add_axes()
     plotter.screenshot(str(path))
     plotter.close()
+
+
+def summary(runs: list[Run], checks: dict[str, Agreement], gflops: dict[str, float], **extra):
+    """What the demo measured, as JSON-ready data (``summary.json``; the tests read it)."""
+    return {
+        **extra,
+        "runs": [
+            {
+                "algorithm": r.algorithm,
+                "chosen": r.chosen,
+                "model": r.model,
+                "changes": r.changes,
+                "factorisations": r.factorisations,
+                "substitutions": r.substitutions,
+                "seconds": r.seconds,
+                "model_gflops": gflops.get(r.chosen),
+            }
+            for r in runs
+        ],
+        "checks": {
+            name: {"early": c.early, "final": c.final, "same_history": c.same_history}
+            for name, c in checks.items()
+        },
+    }
