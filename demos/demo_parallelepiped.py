@@ -121,7 +121,7 @@ balance = np.abs(wall + clamp - applied).max() / np.abs(applied).max()
 # the blocks, the wall time of the steps, the paper's operation-count model for this scene
 # and these changes (`dd_contact.flops`), and how each run compares with FULL on the same
 # model: the largest displacement difference, relative to the largest displacement of the
-# run, after each of the first 3 steps (round-off, below 1e-8) and after the last step
+# run, after each of the first 2 steps (round-off, below 1e-8) and after the last step
 # (round-off that grows slowly with the steps), and whether the contact history (active
 # points in every step) is the same.
 

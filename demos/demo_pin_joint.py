@@ -132,7 +132,7 @@ balance = np.abs(quasi_pins.sum(axis=1) - applied).max() / LOAD
 # As for the parallelepiped (`demos/demo_parallelepiped.py`): contact state changes,
 # factorisations, substitutions, wall time, the operation-count model's GFLOPs for this
 # scene and these changes, time relative to FULL, and the agreement with FULL (after each
-# of the first 3 steps, after the last step, and the contact history).
+# of the first 2 steps, after the last step, and the contact history).
 
 # +
 scene = joint()()
