@@ -40,7 +40,10 @@ parser.add_argument("--algorithm", choices=ALGORITHMS, help="one algorithm (and 
 parser.add_argument("--steps", type=int, default=80, help="time steps of 0.1 ms")
 parser.add_argument("--out", default="demo_output/parallelepiped", help="output directory")
 args = parser.parse_args()
-scale = args.scale if args.scale in models.BAR_SCALES else float(args.scale)
+try:
+    scale = args.scale if args.scale in models.BAR_SCALES else float(args.scale)
+except ValueError:
+    parser.error(f"--scale {args.scale!r}: give tiny, small, paper or a fraction such as 0.25")
 out = Path(args.out)
 out.mkdir(parents=True, exist_ok=True)
 comm = MPI.COMM_WORLD

@@ -47,9 +47,11 @@ args = parser.parse_args()
 if args.scale in models.PIN_JOINT_SCALES:
     layout = models.pin_joint_layout(args.scale)
 else:  # c, r, t, grip rows
-    counts = dict(
-        zip(models.PIN_JOINT_SCALES["small"], map(int, args.scale.split(",")), strict=True)
-    )
+    names = list(models.PIN_JOINT_SCALES["small"])
+    try:
+        counts = dict(zip(names, map(int, args.scale.split(",")), strict=True))
+    except ValueError:
+        parser.error(f"--scale {args.scale!r}: give small, paper or four cell counts {names}")
     layout = dataclasses.replace(models.pin_joint_layout("small"), **counts)
 out = Path(args.out)
 out.mkdir(parents=True, exist_ok=True)
