@@ -8,9 +8,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
-
-from mpi4py import MPI
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -37,7 +35,6 @@ class Run:
     changes: dict[str, int]
     factorisations: int
     substitutions: int
-    snapshot: dict = field(default_factory=dict)
 
     @property
     def seconds(self) -> float:
@@ -60,19 +57,19 @@ def run_algorithm(
     dt: float,
     n_steps: int,
     snapshot_step: int | None = None,
-    snapshot: Callable[[dc.Scene, dc.TransientProblem], dict] | None = None,
+    snapshot: Callable[[dc.Scene, dc.TransientProblem], None] | None = None,
     **options,
 ) -> Run:
     """Time-step a fresh scene with one algorithm, timing each step.
 
     Energy-safe contact (``TransientProblem(energy_safe_contact=True)``): a point leaving
     contact never creates energy (docs/contact.md, "Impact"). ``snapshot(scene, problem)``
-    is called after step ``snapshot_step`` (to draw the state there); its result is kept.
+    is called after step ``snapshot_step`` (to draw the state there).
     """
     scene = make_scene()
     options = {"energy_safe_contact": True, "track_energy": False, **options}
     problem = dc.TransientProblem(scene, dt, algorithm=algorithm, expected_steps=n_steps, **options)
-    seconds, early, kept, largest = [], [], {}, 0.0
+    seconds, early, largest = [], [], 0.0
     for step in range(1, n_steps + 1):
         scene.comm.Barrier()
         start = time.perf_counter()
@@ -82,7 +79,7 @@ def run_algorithm(
         if step <= EARLY_STEPS:
             early.append(displacements(scene))
         if snapshot is not None and step == snapshot_step:
-            kept = snapshot(scene, problem)
+            snapshot(scene, problem)
     work = problem.work_summary()
     run = Run(
         algorithm,
@@ -96,7 +93,6 @@ def run_algorithm(
         problem.changes,
         sum(b["decompositions"] for b in work.values()),
         sum(b["substitutions"] for b in work.values()),
-        kept,
     )
     problem.close()
     return run
@@ -179,7 +175,7 @@ def _split(line: str) -> list[str]:
     return cells
 
 
-def check_agreement(comm: MPI.Comm, checks: dict[str, Agreement]) -> None:
+def check_agreement(checks: dict[str, Agreement]) -> None:
     """Stop the demo (SystemExit) if an algorithm does not agree with FULL."""
     wrong = {name: c for name, c in checks.items() if not c.ok}
     if wrong:
