@@ -25,9 +25,12 @@ test: venv
 	$(PY) -m pytest -q tests
 	$(VENV)/bin/mpiexec -n 2 $(PY) -m pytest -q -m mpi tests || [ $$? -eq 5 ]
 
+# The paper's two examples last: each prints where its pictures are and ends with its table.
 demo: venv
 	$(PY) demos/demo_tied_bar.py
 	$(PY) demos/demo_hertz.py
+	$(PY) demos/demo_parallelepiped.py
+	$(PY) demos/demo_pin_joint.py
 
 # The API reference from the docstrings (pdoc) in build/api; any pdoc warning fails.
 docs: venv

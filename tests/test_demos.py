@@ -1,5 +1,6 @@
 """Every demo runs at a small size, serial and on two ranks, and says what it should."""
 
+import json
 import os
 import re
 import subprocess
@@ -81,3 +82,60 @@ def test_demo_hertz(tmp_path, ranks):
     stdout = _run([MPIEXEC, "-n", str(ranks), *cmd] if ranks > 1 else cmd, tmp_path)
     assert stdout.count("contact radius a") == 1
     _check_hertz(stdout, out)
+
+
+# The paper's two examples: every algorithm run against FULL, the quasi-static force
+# balance, the contact state changes and the pictures (demos/paper_demo.py writes
+# summary.json with what the demo measured).
+PAPER_DEMOS = {
+    "parallelepiped": (
+        ["--scale", "tiny"],  # 80 steps, all five algorithms and auto: ~5 s
+        ["bar_deformed", "bar_contact_strip", "bar_forces", "bar_step_times"],
+    ),
+    "pin_joint": (
+        # 3 cells per quarter hole (the model's "tiny" has 2, refused by the contact
+        # geometry check); 30 steps reach the pins and leave them again.
+        ["--scale", "3,2,1,4", "--steps", "30", "--algorithm", "w-v-u"],
+        ["joint_deformed", "joint_pressure", "joint_contact_strip", "joint_pin_forces"],
+    ),
+}
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+@pytest.mark.parametrize("name", sorted(PAPER_DEMOS))
+def test_paper_demo_agrees_with_full_and_balances_the_load(tmp_path, name, ranks):
+    if ranks > 1 and not MPIEXEC.exists():
+        pytest.skip("no mpiexec beside the interpreter")
+    options, pictures = PAPER_DEMOS[name]
+    out = tmp_path / "out"
+    cmd = [sys.executable, ROOT / f"demos/demo_{name}.py", *options, "--out", out]
+    stdout = _run([MPIEXEC, "-n", str(ranks), *cmd] if ranks > 1 else cmd, tmp_path)
+    assert stdout.count("pictures in") == 1  # rank 0 reports alone
+    summary = json.loads((out / "summary.json").read_text())
+    runs = {r["algorithm"]: r for r in summary["runs"] if r["algorithm"] != "FULL"}
+    assert set(summary["checks"]) == set(runs)
+    expected = (
+        {"FULL", "v-w-u", "w-v-u", "w-u", "v-u", "auto"}
+        if name == "parallelepiped"
+        else {
+            "FULL",
+            "w-v-u",
+        }
+    )
+    assert {r["algorithm"] for r in summary["runs"]} == expected
+    for algorithm, check in summary["checks"].items():
+        assert max(check["early"]) < 1e-8, algorithm  # relative to the run's largest u
+        assert check["final"] < 1e-5, algorithm  # round-off grown over the run
+        assert check["same_history"], algorithm
+    # Quasi-static: the wall and clamp (bar) or the pins (joint) carry the applied load.
+    assert summary["balance"] < 1e-6
+    full = next(r for r in summary["runs"] if r["algorithm"] == "FULL")
+    if name == "parallelepiped":
+        assert full["changes"]["end"] >= 10  # closes and opens in both periods
+        assert {r["model_gflops"] > 0 for r in summary["runs"]} == {True}
+    else:
+        upper = [full["changes"][f"hole_upper{k}"] for k in range(5)]
+        lower = [full["changes"][f"hole_lower{k}"] for k in range(5)]
+        assert min(upper) >= 2 and max(lower) == 0  # the upper plate hits its pins and leaves
+    for picture in pictures:
+        assert (out / f"{picture}.png").stat().st_size > 10_000, picture

@@ -1,0 +1,184 @@
+# # The paper's multi-pin joint: two steel plates on five pins under a periodic load
+#
+# The second example of Kim, Ryu and Shin (method.md 7.2; `docs/models.md`): two steel
+# plates 10 mm thick and 300 mm wide lapped over each other and joined by a row of five
+# rigid pins of 20 mm diameter at a 60 mm pitch. Each plate is six subdomains (a hexahedral
+# O-grid block around each hole and a grip), tied through one interface mesh; each of the
+# ten hole walls is a contact interface of its own against its pin, 0.05 mm thinner than
+# the hole. The lower plate is clamped at its grip's end; the upper plate's grip end is
+# pulled and pushed along y by 20 kN sin(2 pi t / T), T = 2 ms. The upper plate crosses
+# the clearance and rattles between the two sides of the pins: the contact state of its
+# five hole walls changes many times per period, on small contact interfaces of a large
+# model, the case the method is made for.
+#
+# Every algorithm that fits the scene (FULL, v-w-u, w-v-u, and `auto`, which picks one)
+# runs the same 100 steps of 40 us (two periods) with Newmark's trapezoidal rule and
+# **energy-safe contact** (`TransientProblem(energy_safe_contact=True)`, docs/contact.md
+# "Impact": a point that leaves contact never creates energy).
+#
+# Run it with `python demos/demo_pin_joint.py`; `--scale small` (default), `paper`
+# (174,080 hexahedra) or the cell counts `c,r,t,grip` (`3,2,1,4` for the tests; the model's
+# `"tiny"`, with 2 cells per quarter hole, is refused by the contact geometry check);
+# `--algorithm NAME` runs one (and FULL).
+
+# +
+import argparse
+import dataclasses
+import json
+import time
+from pathlib import Path
+
+from mpi4py import MPI
+
+import numpy as np
+import paper_demo as demo
+
+from dd_contact import models, viz
+
+ALGORITHMS = ("FULL", "v-w-u", "w-v-u", "auto")
+parser = argparse.ArgumentParser(description=__doc__)
+parser.add_argument(
+    "--scale", default="small", help="small, paper, or c,r,t,grip rows (cells, as docs/models.md)"
+)
+parser.add_argument("--algorithm", choices=ALGORITHMS, help="one algorithm (and FULL)")
+parser.add_argument("--steps", type=int, default=100, help="time steps of 40 us")
+parser.add_argument("--out", default="demo_output/pin_joint", help="output directory")
+args = parser.parse_args()
+if args.scale in models.PIN_JOINT_SCALES:
+    layout = models.pin_joint_layout(args.scale)
+else:  # c, r, t, grip rows
+    names = list(models.PIN_JOINT_SCALES["small"])
+    try:
+        counts = dict(zip(names, map(int, args.scale.split(",")), strict=True))
+    except ValueError:
+        parser.error(f"--scale {args.scale!r}: give small, paper or four cell counts {names}")
+    layout = dataclasses.replace(models.pin_joint_layout("small"), **counts)
+out = Path(args.out)
+out.mkdir(parents=True, exist_ok=True)
+comm = MPI.COMM_WORLD
+start = time.perf_counter()
+DT, PERIOD, LOAD = 4e-5, 2e-3, 20e3  # time step [s], load period [s], load amplitude [N]
+PINS = 5
+asked = [args.algorithm] if args.algorithm else list(ALGORITHMS)
+algorithms = ["FULL", *[a for a in asked if a != "FULL"]]
+walls = [f"hole_{plate}{k}" for plate in ("upper", "lower") for k in range(PINS)]
+
+
+def joint(clearance=0.05e-3):
+    return lambda: models.pin_joint(layout, clearance=clearance, load=LOAD, period=PERIOD)
+
+
+# -
+
+# ## The runs
+#
+# The deformed joint and the pressure on the hole walls are drawn from FULL's run at the
+# first peak pull (t = 0.52 ms), when the upper plate bears on its pins.
+
+
+# +
+def draw_peak_pull(scene, problem):
+    demo.contact_fields_to_root(scene)
+    if comm.rank == 0:
+        when = f"t = {problem.t * 1e3:.2f} ms"
+        viz.plot_deformed(
+            scene, out / "joint_deformed.png", title=f"Pin joint pulled ({when}), von Mises stress"
+        )
+        demo.plot_wall_pressures(
+            scene,
+            out / "joint_pressure.png",
+            f"Contact pressure on the 10 hole walls, upper plate on top ({when})",
+        )
+
+
+runs = []
+for algorithm in algorithms:
+    peak = round(0.26 * PERIOD / DT) if algorithm == "FULL" else None
+    runs.append(
+        demo.run_algorithm(
+            joint(), algorithm, "12 subd., 10 contact i.", DT, args.steps, peak, draw_peak_pull
+        )
+    )
+full = runs[0]
+checks = {r.algorithm: demo.agreement(r, full, walls) for r in runs[1:]}
+# -
+
+# ## The quasi-static limit
+#
+# On touching pins (no clearance) in quasi-static steps the pins carry the load to the
+# ground: their total force along y equals the applied load at every step, to round-off.
+
+# +
+quasi = demo.run_algorithm(joint(0.0), "w-v-u", "quasi-static", DT, args.steps, inertia=False)
+times = np.array([r["t"] for r in quasi.history])
+applied = LOAD * np.sin(2 * np.pi * times / PERIOD)
+
+
+def pin_forces(history):
+    """Force each pin takes from the plates along +y [N] (steps x pins)."""
+    return np.array(
+        [
+            [-sum(r["force"][f"hole_{p}{k}"][1] for p in ("upper", "lower")) for k in range(PINS)]
+            for r in history
+        ]
+    )
+
+
+quasi_pins = pin_forces(quasi.history)
+balance = np.abs(quasi_pins.sum(axis=1) - applied).max() / LOAD
+# -
+
+# ## The table and the charts
+#
+# As for the parallelepiped (`demos/demo_parallelepiped.py`): contact state changes,
+# factorisations, substitutions, wall time, the operation-count model's GFLOPs for this
+# scene and these changes, time relative to FULL, and the agreement with FULL (after each
+# of the first 2 steps, after the last step, and the contact history).
+
+# +
+scene = joint()()
+gflops = demo.model_gflops(scene, args.steps, full.changes)
+text = demo.table(runs, checks, gflops)
+dofs = sum(s.num_dofs for s in scene.subdomains)
+if comm.rank == 0:
+    plt = demo.pyplot()
+    points = {c.name: c.num_dofs // 3 for c in scene.contacts}
+    demo.strip_chart(
+        out / "joint_contact_strip.png", np.array([r["t"] for r in full.history]),
+        full.active(walls), points, walls, "Hole walls in contact with their pins (FULL)",
+    )  # fmt: skip
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4), sharey=True)
+    t_ms = 1e3 * times
+    for ax, pins, what in (
+        (axes[0], pin_forces(full.history), "dynamic, 0.05 mm clearance (FULL)"),
+        (axes[1], quasi_pins, "quasi-static, touching pins"),
+    ):
+        ax.plot(t_ms, 1e-3 * applied, "k--", lw=2, label="applied load")
+        ax.plot(t_ms, 1e-3 * pins.sum(axis=1), "k-", lw=1, label="all pins")
+        for k in range(PINS):
+            ax.plot(t_ms, 1e-3 * pins[:, k], lw=1, label=f"pin {k}")
+        ax.set_title(what, fontsize=10)
+        ax.set_xlabel("time [ms]")
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("force along y [kN]")
+    axes[1].legend(fontsize=8, loc="lower left")
+    fig.suptitle("Force on each pin against the applied load")
+    fig.tight_layout()
+    fig.savefig(out / "joint_pin_forces.png", dpi=110)
+    plt.close(fig)
+    demo.step_time_chart(out / "joint_step_times.png", runs, "Pin joint: wall time of each step")
+    summary = demo.summary(
+        runs, checks, gflops,
+        scale=args.scale, dofs=dofs, steps=args.steps, balance=balance, table=text,
+    )  # fmt: skip
+    (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    print(f"pin joint, scale {args.scale} ({dofs} dofs): {args.steps} steps of {DT * 1e6:g} us")
+    print(f"quasi-static balance |sum of pin forces - load| / load = {balance:.1e}")
+    print(
+        f"pictures in {out}/: joint_deformed.png, joint_pressure.png, joint_contact_strip.png, "
+        "joint_pin_forces.png, joint_step_times.png"
+    )
+    print(f"wall time {time.perf_counter() - start:.1f} s")
+    print(text)
+demo.check_agreement(checks)
+# -
