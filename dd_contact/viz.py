@@ -224,16 +224,7 @@ def deformed_plotter(
             plotter.add_mesh(
                 surface, style="wireframe", color="red", line_width=2, name=f"contact {name}"
             )
-            active = contact.pressure.x.array > 0
-            if active.any():
-                dots = pyvista.PolyData(surface.points[active])
-                plotter.add_mesh(
-                    dots,
-                    color="red",
-                    point_size=8,
-                    render_points_as_spheres=True,
-                    name=f"active {name}",
-                )
+            _add_active_points(plotter, surface, contact.pressure.x.array > 0, name, "red", 8)
         shape = _obstacle_mesh(contact.obstacle, low, high, float(time)) if obstacles else None
         if shape is not None:
             plotter.add_mesh(shape, color="grey", opacity=0.35, name=f"obstacle {name}")
@@ -277,16 +268,7 @@ def contact_pressure_plotter(
     pressure = contact.pressure.x.array
     surfaces = {f"contact {contact.name}": surface}
     _add_field(plotter, surfaces, "pressure", [pressure], unit, "contact pressure", show_edges=True)
-    active = pressure > 0
-    if active.any():
-        dots = pyvista.PolyData(surface.points[active])
-        plotter.add_mesh(
-            dots,
-            color="black",
-            point_size=6,
-            render_points_as_spheres=True,
-            name=f"active {contact.name}",
-        )
+    _add_active_points(plotter, surface, pressure > 0, contact.name, "black", 6)
     plotter.add_text(title or f"contact pressure on {contact.name!r}", font_size=10)
     # The body's outward contact normal points at the obstacle: look back along it.
     x = contact.V.tabulate_dof_coordinates()
@@ -340,3 +322,17 @@ def plot_contact_pressure(
 ) -> Path:
     """Save a PNG of :func:`contact_pressure_plotter`'s picture; returns its path."""
     return _save(contact_pressure_plotter(contact, scale, title, unit), filename)
+
+
+def _add_active_points(plotter, surface, active: np.ndarray, name: str, color: str, size: int):
+    """The nodes in contact as dots (actor ``active <name>``), if there are any."""
+    import pyvista  # optional, as in the other drawing functions
+
+    if active.any():
+        plotter.add_mesh(
+            pyvista.PolyData(surface.points[active]),
+            color=color,
+            point_size=size,
+            render_points_as_spheres=True,
+            name=f"active {name}",
+        )
