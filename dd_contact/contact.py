@@ -224,18 +224,34 @@ def mean_cell_size(surface: dolfinx.mesh.Mesh) -> float:
 def outward_normals(surface: dolfinx.mesh.Mesh, volume: dolfinx.mesh.Mesh) -> np.ndarray:
     """Unit normal of every cell of a contact surface, oriented out of the body ``volume``.
 
-    Each cell's normal is checked by probing the body's mesh (a bounding-box tree) a little
-    behind the cell's centre: the probe lies inside the body if the normal points outward.
+    Each cell's normal is checked by probing the body's mesh (a bounding-box tree) on both
+    sides of the cell's centre, at growing depths (5 % ... 50 % of the cell's size): the
+    normal is outward where the point behind lies in the body and the one in front does not.
+    The depths matter on a curved wall meshed independently: a coarse cell's centre can lie
+    off the body by more than 5 % of its size (a chord of a hole).
     """
     poly = surface.geometry.x[cyclic_vertices(surface.geometry.dofmaps[0])]
     normal = newell_normal(poly)
     centre = poly.mean(axis=1)
     size = np.linalg.norm(poly.max(axis=1) - poly.min(axis=1), axis=1)
     tree = dolfinx.geometry.bb_tree(volume, volume.topology.dim)
-    probe = centre - 0.05 * size[:, None] * normal  # inside the body if the normal is outward
-    candidates = dolfinx.geometry.compute_collisions_points(tree, probe)
-    inside = dolfinx.geometry.compute_colliding_cells(volume, candidates, probe)
-    sign = np.array([1.0 if len(inside.links(i)) else -1.0 for i in range(len(probe))])
+
+    def inside(points: np.ndarray) -> np.ndarray:
+        candidates = dolfinx.geometry.compute_collisions_points(tree, points)
+        cells = dolfinx.geometry.compute_colliding_cells(volume, candidates, points)
+        return np.array([len(cells.links(i)) > 0 for i in range(len(points))])
+
+    sign = np.zeros(len(poly))
+    for depth in (0.05, 0.15, 0.3, 0.5):
+        todo = sign == 0
+        if not todo.any():
+            break
+        step = (depth * size[todo])[:, None] * normal[todo]
+        behind, front = inside(centre[todo] - step), inside(centre[todo] + step)
+        sign[np.flatnonzero(todo)] = np.where(
+            behind & ~front, 1.0, np.where(front & ~behind, -1.0, 0.0)
+        )
+    sign[sign == 0] = 1.0  # undecided (not next to the body): as given
     return normal * sign[:, None]
 
 
@@ -280,7 +296,8 @@ def check_contact_geometry(
     if cosine[bad] < -0.1:
         raise InputError(
             f"contact {name!r}: the obstacle's normal points into the body (at "
-            f"{np.round(centres[bad], 6)} it makes {np.degrees(np.arccos(cosine[bad])):.0f}"
+            f"{np.round(centres[bad], 6)} it makes "
+            f"{np.degrees(np.arccos(np.clip(cosine[bad], -1.0, 1.0))):.0f}"
             " degrees with the outward normal of the surface); for a Plane give the "
             "normal pointing out of the wall towards the body, and check that the body "
             "lies outside a Sphere or around a Cylinder"

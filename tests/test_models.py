@@ -349,3 +349,14 @@ def test_bad_joint_input_is_refused_by_name():
         models.pin_joint_layout("huge")
     with pytest.raises(dd.InputError, match="clearance"):
         models.pin_joint("tiny", clearance=-1.0, comm=MPI.COMM_SELF)
+
+
+def test_the_tiny_joint_is_accepted_and_carries_the_load():
+    # 2 cells per quarter hole: a wall cell's centre lies 7.6 % of the radius inside the hole
+    # (its chord), farther than the 5 % probe that oriented the surface normals, which then
+    # pointed into the plate and the joint was refused ("nan degrees").
+    scene = models.pin_joint("tiny", clearance=0.0, comm=MPI.COMM_SELF)
+    with dd.StaticProblem(scene) as problem:
+        problem.solve(t=0.5e-3)  # the peak pull: 20 kN along +y
+        total = sum(problem.contact_forces().values())
+    assert abs(total[1] + 20e3) < 1e-6 * 20e3
