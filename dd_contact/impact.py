@@ -54,12 +54,23 @@ from scipy.sparse.linalg import spsolve
 from dd_contact.assembly import BlockSystem, ContactZone
 from dd_contact.blocks import Block
 
-__all__ = ["RELEASE_TOLERANCE", "StartForces", "block_product", "massless_walls"]
+__all__ = [
+    "GEOMETRIC_STEPS",
+    "RELEASE_TOLERANCE",
+    "StartForces",
+    "block_product",
+    "massless_walls",
+]
 
 #: The kept fraction theta of a releasing point is settled when it changes by less than this
 #: fraction of itself between two solves: the energy error of the release is then below this
 #: fraction of the penalty energy the point held (f^2 / 2k, small for a stiff penalty).
 RELEASE_TOLERANCE = 1e-3
+
+#: Corrections of a step that move theta to a geometric mean; after them (the iterates have
+#: not settled) theta only decreases: a kept force below the discrete gradient's dissipates,
+#: one above it would create energy.
+GEOMETRIC_STEPS = 8
 
 
 def block_product(system: BlockSystem, row: Block, x: Mapping[Block, np.ndarray]) -> np.ndarray:
@@ -99,6 +110,7 @@ class StartForces:
         self.start = {name: a.copy() for name, a in active.items()}
         self.kept: dict[str, np.ndarray] = {}  # theta of the last correction, per contact
         self._previous: dict[str, np.ndarray] = {}
+        self._calls = 0  # corrections asked for in this step
         #: ``K x_n - f_C(x_n; A_n)`` on each owned subdomain block (ties and stiff-tie forces in).
         self.internal = {}
         for block in owned:
@@ -136,6 +148,7 @@ class StartForces:
         rhs: dict[Block, np.ndarray] = {}
         shifts: dict[Block, np.ndarray] = {}
         self.kept = {}
+        self._calls += 1
         for z in self.zones:
             name = z.contact.name
             leaving = self.start[name] & ~active[name]
@@ -183,7 +196,9 @@ class StartForces:
         g1 = np.minimum(z.operator.penetration(x[z.block][z.dofs]), 0.0)
         theta = np.divide(g0, g0 - g1, out=np.ones_like(g0), where=(g0 - g1) > 0)
         previous = self._previous.get(z.contact.name)
-        if damp and previous is not None:  # theta ~ c / theta': the mean settles it
+        if damp and previous is not None and self._calls > GEOMETRIC_STEPS:
+            theta = np.minimum(theta, previous)  # unsettled so far: the smaller force is safe
+        elif damp and previous is not None:  # theta ~ c / theta': the mean settles it
             theta = np.sqrt(theta * previous)
         if damp:
             self._previous[z.contact.name] = theta
