@@ -45,7 +45,7 @@ acceleration reported is the step's mean ``(u'_{n+1} - u'_n) / dt`` (nothing reu
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -87,6 +87,8 @@ def block_product(system: BlockSystem, row: Block, x: Mapping[Block, np.ndarray]
 class StartForces:
     """The start-of-step forces of one step on the owned subdomain rows.
 
+    The :class:`dd_contact.iteration.StepCorrection` of the step's contact iteration.
+
     Args:
         system: K with the ties (no mass, no Dirichlet conditions).
         zones: This rank's contact regions.
@@ -95,6 +97,7 @@ class StartForces:
         owned: The owned subdomain blocks.
         offset: Forces of stiff ties carried on the right-hand side at ``t_n``
             (:attr:`dd_contact.iteration.ContactSolver.rhs_offset`).
+        free: 1 on the free dofs of a block, 0 on prescribed ones (a correction is masked).
     """
 
     def __init__(
@@ -105,11 +108,13 @@ class StartForces:
         active: Mapping[str, np.ndarray],
         owned: Sequence[Block],
         offset: Mapping[Block, np.ndarray],
+        free: Callable[[Block], np.ndarray],
     ):
-        self.system, self.zones, self.x = system, zones, x
+        self.system, self.zones, self.x, self.free = system, zones, x, free
         self.start = {name: a.copy() for name, a in active.items()}
-        self.kept: dict[str, np.ndarray] = {}  # theta of the last correction, per contact
-        self._previous: dict[str, np.ndarray] = {}
+        #: theta of each contact's releasing points, as last used (and its contacts then)
+        self.kept: dict[str, np.ndarray] = {}
+        self._releasing: set[str] = set()
         self._calls = 0  # corrections asked for in this step
         #: ``K x_n - f_C(x_n; A_n)`` on each owned subdomain block (ties and stiff-tie forces in).
         self.internal = {}
@@ -120,12 +125,8 @@ class StartForces:
             self.internal[block] = force
         for z in zones:
             if z.block in self.internal:  # contact on the subdomain's own boundary
-                np.add.at(self.internal[z.block], z.dofs, self._contact_force(z, self.start))
-
-    def _contact_force(self, z: ContactZone, active: Mapping[str, np.ndarray]) -> np.ndarray:
-        """The penalty force of the active points of ``z`` on its dofs (a stiffness sign)."""
-        matrix, vector = z.contribution(active[z.contact.name])
-        return matrix @ self.x[z.block][z.dofs] - vector
+                start = self.start[z.contact.name].astype(float)
+                np.add.at(self.internal[z.block], z.dofs, self._point_forces(z, start))
 
     def correction(
         self, active: Mapping[str, np.ndarray], x: Mapping[Block, np.ndarray] | None
@@ -147,15 +148,15 @@ class StartForces:
         """
         rhs: dict[Block, np.ndarray] = {}
         shifts: dict[Block, np.ndarray] = {}
-        self.kept = {}
+        self._releasing = set()
         self._calls += 1
         for z in self.zones:
             name = z.contact.name
             leaving = self.start[name] & ~active[name]
             if not leaving.any():
                 continue
-            kept = self._kept(z, leaving, x)
-            self.kept[name] = kept
+            kept = self.kept[name] = self._kept(z, x)
+            self._releasing.add(name)
             if z.block in self.internal:  # its start force was in K x_n - f_C: give it back
                 part = np.zeros(self.system.sizes[z.block])
                 np.add.at(part, z.dofs, self._point_forces(z, np.where(leaving, 1 - kept, 0)))
@@ -173,35 +174,38 @@ class StartForces:
             w_rows[z.dofs] += matrix @ shift[z.dofs]
             rhs[z.block] = rhs.get(z.block, 0.0) - w_rows
             shifts[z.block] = shift
-        return rhs, shifts
+        return {block: vector * self.free(block) for block, vector in rhs.items()}, shifts
 
     def settled(self, active: Mapping[str, np.ndarray], x: Mapping[Block, np.ndarray]) -> bool:
         """Whether the kept fractions of the last :meth:`correction` hold for solution x."""
         for z in self.zones:
             name = z.contact.name
-            if name not in self.kept:
+            if name not in self._releasing:
                 continue
             leaving = self.start[name] & ~active[name]
-            new = self._kept(z, leaving, x, damp=False)
-            change = np.abs(new - self.kept[name]) > RELEASE_TOLERANCE * self.kept[name]
+            change = (
+                np.abs(self._theta(z, x) - self.kept[name]) > RELEASE_TOLERANCE * self.kept[name]
+            )
             if change[leaving].any():
                 return False
         return True
 
-    def _kept(self, z: ContactZone, leaving: np.ndarray, x, damp: bool = True) -> np.ndarray:
-        """``theta = g_n / (g_n - g_n+1)`` of each point (1 before any solution)."""
-        if x is None:
-            return np.ones(len(leaving))
+    def _theta(self, z: ContactZone, x: Mapping[Block, np.ndarray]) -> np.ndarray:
+        """``theta = g_n / (g_n - g_n+1)`` of each point of ``z``, g_n+1 from solution x."""
         g0 = np.maximum(z.operator.penetration(self.x[z.block][z.dofs]), 0.0)
         g1 = np.minimum(z.operator.penetration(x[z.block][z.dofs]), 0.0)
-        theta = np.divide(g0, g0 - g1, out=np.ones_like(g0), where=(g0 - g1) > 0)
-        previous = self._previous.get(z.contact.name)
-        if damp and previous is not None and self._calls > GEOMETRIC_STEPS:
-            theta = np.minimum(theta, previous)  # unsettled so far: the smaller force is safe
-        elif damp and previous is not None:  # theta ~ c / theta': the mean settles it
-            theta = np.sqrt(theta * previous)
-        if damp:
-            self._previous[z.contact.name] = theta
+        return np.divide(g0, g0 - g1, out=np.ones_like(g0), where=(g0 - g1) > 0)
+
+    def _kept(self, z: ContactZone, x: Mapping[Block, np.ndarray] | None) -> np.ndarray:
+        """The theta to use next: 1 before any solution, then settled towards :meth:`_theta`."""
+        if x is None:
+            return np.ones(z.operator.num_points)
+        theta = self._theta(z, x)
+        previous = self.kept.get(z.contact.name)
+        if previous is not None and self._calls > GEOMETRIC_STEPS:
+            return np.minimum(theta, previous)  # unsettled so far: the smaller force is safe
+        if previous is not None:  # theta ~ c / theta': the mean settles it
+            return np.sqrt(theta * previous)
         return theta
 
     def _point_forces(self, z: ContactZone, factor: np.ndarray) -> np.ndarray:
@@ -223,13 +227,8 @@ class StartForces:
         matrix, vector = z.contribution(active[z.contact.name])
         A = sp.csr_array(self.system.matrices[(w, w)]).tolil()
         A[np.ix_(z.dofs, z.dofs)] = A[np.ix_(z.dofs, z.dofs)] + matrix
-        b = np.zeros(self.system.sizes[w])
+        b = -block_product(self.system, w, {k: v for k, v in self.x.items() if k != w})
         np.add.at(b, z.dofs, vector - forces)
-        for (r, c), C in self.system.matrices.items():
-            if r == w and c != w and c in self.x:
-                b -= C @ self.x[c]
-            elif c == w and r != w and r in self.x:
-                b -= C.T @ self.x[r]
         return spsolve(sp.csc_array(A), b)
 
 

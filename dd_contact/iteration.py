@@ -70,7 +70,7 @@ MAX_RELEASES = 10
 class StepCorrection(Protocol):
     """Right-hand-side terms of a solve that depend on its outcome (rank-local)."""
 
-    def __call__(
+    def correction(
         self, active: Mapping[str, np.ndarray], x: Mapping[str, np.ndarray] | None
     ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         """Additions to the right-hand side, and shifts: the solver solves for x - shift."""
@@ -215,12 +215,10 @@ class ContactIteration:
             x = self._solve_once(solver, rhs, where)
             new = {z.contact.name: z.operator.active_set(x[z.block][z.dofs]) for z in self.zones}
             changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
-            unsettled = self._correction is not None and not changed and releases < MAX_RELEASES
-            unsettled = unsettled and not self._correction.settled(self.active, x)
-            releases += unsettled
-            if self.comm.allreduce(unsettled, op=MPI.LOR) and not self.comm.allreduce(len(changed)):
-                continue  # the same contact state; its releasing forces still move
             if not self.comm.allreduce(len(changed)):
+                if releases < MAX_RELEASES and self._unsettled(x):
+                    releases += 1  # the same contact state; its releasing forces still move
+                    continue
                 x = self._shifted(self._checked(solver, solver.finish(), where))
                 return x, iteration, changes_this_solve
             self._count_change(changed)
@@ -302,12 +300,17 @@ class ContactIteration:
                 rhs[z.block] = np.zeros(self.sizes[z.block])
             np.add.at(rhs[z.block], z.dofs, vector)
         if self._correction is not None:
-            extra, self._shift = self._correction(self.active, self._last)
+            extra, self._shift = self._correction.correction(self.active, self._last)
             for block, vector in extra.items():
                 rhs[block] = rhs[block] + vector if block in rhs else vector
         self.last_solve = (rhs, contact)
         self._last = self._shifted(solver.solve(rhs))
         return self._last
+
+    def _unsettled(self, x: dict[str, np.ndarray]) -> bool:
+        """Collective: whether the step correction of some rank has not settled on ``x``."""
+        local = self._correction is not None and not self._correction.settled(self.active, x)
+        return bool(self.comm.allreduce(local, op=MPI.LOR))
 
     def _shifted(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """The solution of the blocks the last solve was shifted on (the others as solved)."""

@@ -302,13 +302,8 @@ class TransientProblem(Analysis):
 
     def energy(self) -> dict[str, float]:
         """Collective: kinetic, elastic (with ties) and contact-penalty energy now [J]."""
-        x = {s.block: s.u.x.array for s in self.scene.subdomains}
-        if self.scene.interface is not None:
-            x[self.scene.interface.block] = self.scene.interface.v.x.array
-        for c in self.scene.contacts:
-            x.setdefault(c.block, c.w.x.array)
         velocities = {block: sub.velocity.x.array for _, sub, block in self._owned}
-        local = energy(self.model, x, velocities, self.zones)
+        local = energy(self.model, self._state_now(), velocities, self.zones)
         parts = np.array(
             self.comm.allreduce(np.array([local["kinetic"], local["elastic"], local["contact"]]))
         )
@@ -338,7 +333,8 @@ class TransientProblem(Analysis):
             if self._previous_loads[0] != self.t:  # the last step's loads are r(t_n)
                 self._previous_loads = (self.t, collective(self.comm, lambda: self._loads(self.t)))
             previous = self._previous_loads[1]
-            before = {b: s.u.x.array[: s.num_dofs].copy() for _, s, b in self._owned}
+            if self.track_energy:  # for the energy balance of the step
+                before = {b: s.u.x.array[: s.num_dofs].copy() for _, s, b in self._owned}
             start = StartForces(
                 self.model.system,
                 self.zones,
@@ -346,6 +342,7 @@ class TransientProblem(Analysis):
                 self.iteration.active,
                 [block for _, _, block in self._owned],
                 self.tie_solver.rhs_offset,
+                self.model.free,
             )
             for _, sub, block in self._owned:
                 n = sub.num_dofs
@@ -357,7 +354,7 @@ class TransientProblem(Analysis):
                     + self.model.mass[block] @ history
                 )
 
-            release = _MaskedCorrection(start, self.model.free) if self._energy_safe else None
+            release = start if self._energy_safe else None
             x, iterations, changes = self._solve(t_new, self._rhs(t_new, loads), where, release)
             for _, sub, block in self._owned:
                 n = sub.num_dofs
@@ -520,17 +517,3 @@ class TransientProblem(Analysis):
         for z in self.zones:
             if z.block in surfaces:
                 z.contact.w.x.array[:] = surfaces[z.block][z.dofs]
-
-
-class _MaskedCorrection:
-    """A step's start-force correction with the prescribed rows masked out."""
-
-    def __init__(self, start: StartForces, free: Callable[[str], np.ndarray]):
-        self.start, self.free = start, free
-
-    def __call__(self, active, x):
-        rhs, shifts = self.start.correction(active, x)
-        return {b: v * self.free(b) for b, v in rhs.items()}, shifts
-
-    def settled(self, active, x) -> bool:
-        return self.start.settled(active, x)
