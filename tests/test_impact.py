@@ -124,3 +124,16 @@ def test_a_block_dropped_flat_on_a_plane_keeps_its_energy():
     ratio = history[-1]["energy"]["total"] / (0.5 * v0**2)
     assert 0.98 <= ratio <= 1 + 1e-6
     assert problem.changes["gamma"] >= 2  # it landed and left
+
+
+def test_a_contact_penalty_too_soft_is_reported():
+    # contact_kappa = 0.01: the bar end sinks a whole cell into the wall and rebounds at
+    # 0.21 v0 (energy still kept); before, nothing said so. At contact_kappa = 1: 1 % of a
+    # cell, not reported.
+    with pytest.warns(dd.PenaltyRangeWarning, match="sink .* of a cell"):
+        soft = verify.bar_impact(n=40, cfl=0.58, contact_kappa=0.01)
+    assert soft["rebound"] < 0.5
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", dd.PenaltyRangeWarning)
+        firm = verify.bar_impact(n=40, cfl=0.58, contact_kappa=1.0)
+    assert firm["rebound"] == pytest.approx(1.0, rel=0.02)
