@@ -378,3 +378,13 @@ def test_the_bar_shaken_on_its_wall_is_not_reported_as_unresolved():
                 problem.advance()
             problem.close()
             assert problem.changes["end"] >= 2, inertia
+
+
+def test_pin_joint_takes_one_clearance_per_pin():
+    radius = 10e-3
+    scene = models.pin_joint("tiny", clearance=(1e-3, 5e-5, 1e-3, 5e-5, 1e-3), comm=MPI.COMM_SELF)
+    radii = {c.name: c.obstacle.radius for c in scene.contacts}
+    assert radii["hole_upper1"] == pytest.approx(radius - 5e-5)
+    assert radii["hole_lower0"] == pytest.approx(radius - 1e-3)
+    with pytest.raises(dd.InputError, match="clearance has 3 values for 5 pins"):
+        models.pin_joint("tiny", clearance=(1e-4,) * 3, comm=MPI.COMM_SELF)
