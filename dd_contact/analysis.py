@@ -95,6 +95,8 @@ class Analysis:
         self.scene, self.comm = scene, scene.comm
         self.work = WorkLog()
         self.model: Model = collective(self.comm, lambda: assemble(scene))
+        for z in self.model.zones:  # the surface resolution check reads static pressure
+            z.check_resolution = not mass_coefficient
         if mass_coefficient and self._energy_safe:  # massless contact walls (dd_contact.impact)
             for z in self.model.zones:
                 block = z.contact.subdomain.block

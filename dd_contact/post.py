@@ -28,6 +28,7 @@ __all__ = [
     "cell_stress",
     "contact_area",
     "energy",
+    "gather_contact_fields",
     "output_fields",
     "von_mises",
 ]
@@ -286,3 +287,23 @@ class Results:
         """The last solve's ``kind`` (``"force"`` or ``"reaction"``) per name (zero before)."""
         found = self.latest.get(kind, {})
         return {n: np.array(found.get(n, np.zeros(3))) for n in names}
+
+
+def gather_contact_fields(scene: Scene, root: int = 0) -> None:
+    """Collective: copy every contact surface's w and pressure from its owner to ``root``.
+
+    To draw or write them all there; the other ranks keep theirs.
+    """
+    comm = scene.comm
+    if comm.size == 1:
+        return
+    mine = {
+        c.name: (c.w.x.array.copy(), c.pressure.x.array.copy())
+        for c in scene.contacts
+        if scene.contact_owner(c) == comm.rank
+    }
+    everything = comm.gather(mine, root=root)
+    if comm.rank == root:
+        fields = {name: pair for part in everything for name, pair in part.items()}
+        for c in scene.contacts:
+            c.w.x.array[:], c.pressure.x.array[:] = fields[c.name]

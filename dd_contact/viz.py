@@ -29,9 +29,11 @@ from dd_contact.scene import ContactBoundary, ContactInterface, Scene
 __all__ = [
     "UNIFORM_RTOL",
     "contact_pressure_plotter",
+    "contact_pressures_plotter",
     "deformed_grid",
     "deformed_plotter",
     "plot_contact_pressure",
+    "plot_contact_pressures",
     "plot_deformed",
     "use_headless_rendering",
 ]
@@ -285,6 +287,40 @@ def contact_pressure_plotter(
     return plotter
 
 
+def contact_pressures_plotter(
+    scene: Scene,
+    scale: float = 1.0,
+    title: str = "",
+    unit: str = "Pa",
+    view: tuple[float, float, float] = (0.0, -1.0, 0.9),
+):
+    """A plotter of every contact surface of the scene, coloured by contact pressure.
+
+    One colour bar; each surface displaced by ``scale * w`` (the pin joint's ten hole walls).
+
+    Rank-local: draws the contact results this rank holds, all of them after
+    :func:`dd_contact.post.gather_contact_fields`. ``view`` is the direction the camera
+    looks from.
+
+    Returns:
+        The :class:`pyvista.Plotter`, off-screen; close it when done (actors
+        ``contact NAME``).
+    """
+    use_headless_rendering()
+    import pyvista
+
+    plotter = pyvista.Plotter(off_screen=True, window_size=_WINDOW)
+    surfaces = {f"contact {c.name}": deformed_grid(c.w, scale) for c in scene.contacts}
+    pressures = [c.pressure.x.array for c in scene.contacts]
+    _add_field(plotter, surfaces, "pressure", pressures, unit, "contact pressure", show_edges=True)
+    plotter.add_text(f"{title}  (displacement x {scale:.3g})".strip(), font_size=10)
+    plotter.view_vector(view)
+    plotter.reset_camera()
+    plotter.camera.zoom(1.4)
+    plotter.add_axes()
+    return plotter
+
+
 def _up(direction: np.ndarray) -> np.ndarray:
     """A view-up vector not parallel to the viewing direction."""
     axis = np.eye(3)[int(np.argmin(np.abs(direction)))]
@@ -322,6 +358,18 @@ def plot_contact_pressure(
 ) -> Path:
     """Save a PNG of :func:`contact_pressure_plotter`'s picture; returns its path."""
     return _save(contact_pressure_plotter(contact, scale, title, unit), filename)
+
+
+def plot_contact_pressures(
+    scene: Scene,
+    filename: str | Path,
+    scale: float = 1.0,
+    title: str = "",
+    unit: str = "Pa",
+    view: tuple[float, float, float] = (0.0, -1.0, 0.9),
+) -> Path:
+    """Save a PNG of :func:`contact_pressures_plotter`'s picture; returns its path."""
+    return _save(contact_pressures_plotter(scene, scale, title, unit, view), filename)
 
 
 def _add_active_points(plotter, surface, active: np.ndarray, name: str, color: str, size: int):

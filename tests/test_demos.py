@@ -85,8 +85,8 @@ def test_demo_hertz(tmp_path, ranks):
 
 
 # The paper's two examples: every algorithm run against FULL, the quasi-static force
-# balance, the contact state changes and the pictures (demos/paper_demo.py writes
-# summary.json with what the demo measured).
+# balance, the contact state changes and the pictures (the demos write summary.json with
+# what they measured, dd_contact.compare.summary).
 PAPER_DEMOS = {
     "parallelepiped": (
         ["--scale", "tiny"],  # 80 steps, all five algorithms and auto: ~5 s
@@ -112,7 +112,7 @@ def test_paper_demo_agrees_with_full_and_balances_the_load(tmp_path, name, ranks
     stdout = _run([MPIEXEC, "-n", str(ranks), *cmd] if ranks > 1 else cmd, tmp_path)
     assert stdout.count("pictures in") == 1  # rank 0 reports alone
     summary = json.loads((out / "summary.json").read_text())
-    runs = {r["algorithm"]: r for r in summary["runs"] if r["algorithm"] != "FULL"}
+    runs = {r["algorithm"]: r for r in summary["runs"] if not r["algorithm"].startswith("FULL")}
     assert set(summary["checks"]) == set(runs)
     expected = (
         {"FULL", "v-w-u", "w-v-u", "w-u", "v-u", "auto"}
@@ -122,10 +122,13 @@ def test_paper_demo_agrees_with_full_and_balances_the_load(tmp_path, name, ranks
             "w-v-u",
         }
     )
-    assert {r["algorithm"] for r in summary["runs"]} == expected
+    assert {r["algorithm"] for r in summary["runs"]} == expected | {"FULL, AMD"}
     for algorithm, check in summary["checks"].items():
         assert max(check["early"]) < 1e-8, algorithm  # relative to the run's largest u
-        assert check["final"] < 1e-5, algorithm  # round-off grown over the run
+        # Over the run: within 10x FULL's drift from itself with another MUMPS ordering
+        # (round-off grown over the steps, docs/compare.md), and that drift is round-off.
+        assert check["worst"] <= 10 * max(check["roundoff"], 1e-7), algorithm
+        assert check["roundoff"] < 1e-5, algorithm
         assert check["same_history"], algorithm
     # Quasi-static: the wall and clamp (bar) or the pins (joint) carry the applied load.
     assert summary["balance"] < 1e-6

@@ -132,3 +132,25 @@ def test_readme_python_blocks_run_as_written(tmp_path):
         assert (results / name).exists(), name
     assert len((results / "history.csv").read_text().splitlines()) == 1 + 10  # header, steps
     assert "v-u: 100 steps" in done.stdout
+
+
+def test_method_names_every_equation_and_the_code_that_implements_it():
+    """docs/method.md section 9: a row for each of (1)-(17) and (A1)-(A21), each naming
+    dd_contact objects that import."""
+    text = (ROOT / "docs" / "method.md").read_text().split("## 9.")[1]
+    rows = {m.group(1): m.group(2) for m in re.finditer(r"^\| \((A?\d+)\) \|(.*)$", text, re.M)}
+    assert set(rows) == {str(k) for k in range(1, 18)} | {f"A{k}" for k in range(1, 22)}
+    names = set(re.findall(r"`(dd_contact\.[\w.]+)`", text))
+    assert len(names) >= 30
+    for name in sorted(names):
+        parts = name.split(".")
+        for cut in range(len(parts), 0, -1):  # the longest importable module, then attributes
+            try:
+                obj = importlib.import_module(".".join(parts[:cut]))
+            except ImportError:
+                continue
+            for attribute in parts[cut:]:
+                obj = getattr(obj, attribute)
+            break
+        else:
+            raise AssertionError(f"{name} does not import")

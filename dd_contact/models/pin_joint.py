@@ -19,6 +19,7 @@ fixed in space: they carry the upper plate's load to the ground.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -138,9 +139,14 @@ def pin_joint_meshes(
     return PinJointMeshes(lay, subdomains, holes, plates, interface, walls)
 
 
+def _pin(hole: str, plates: dict[str, str]) -> int:
+    """The pin of a hole block (``upper3`` -> 3)."""
+    return int(hole.removeprefix(plates[hole]))
+
+
 def pin_joint(
     scale: str | PinJointLayout = "small",
-    clearance: float = 0.05e-3,
+    clearance: float | Sequence[float] = 0.05e-3,
     load: float = 20e3,
     period: float = 2e-3,
     wall_cells: int | None = None,
@@ -151,21 +157,29 @@ def pin_joint(
     Args:
         scale: ``"paper"`` (174,080 hexahedra), ``"small"`` (1,920), ``"tiny"`` (240), or a
             :class:`PinJointLayout`.
-        clearance: Hole radius minus pin radius [m] (0: the pins touch the hole walls).
+        clearance: Hole radius minus pin radius [m] (0: the pins touch the hole walls); one
+            per pin to choose which pins the upper plate strikes.
         load: Amplitude of the force on the upper plate's grip end, along +y [N].
         period: Period of the load [s]; ``load * sin(2 pi t / period)``.
         wall_cells: Cells around each contact interface (default the plate's).
         comm: Communicator.
     """
-    if not 0.0 <= clearance:
+    gaps = np.atleast_1d(np.asarray(clearance, float))
+    if not np.all(gaps >= 0.0):
         raise InputError(f"pin_joint: clearance must be >= 0, got {clearance}")
     if not period > 0.0:
         raise InputError(f"pin_joint: period must be positive, got {period}")
     model = pin_joint_meshes(scale, wall_cells)
     lay = model.layout
     radius, thick = lay.hole_diameter * MM / 2, lay.thickness * MM
-    if not clearance < radius:
+    if len(gaps) not in (1, lay.n_holes):
+        raise InputError(
+            f"pin_joint: clearance has {len(gaps)} values for {lay.n_holes} pins; give one "
+            "number, or one per pin"
+        )
+    if not np.all(gaps < radius):
         raise InputError(f"pin_joint: clearance {clearance} m leaves no pin in a {radius} m hole")
+    gaps = np.broadcast_to(gaps, (lay.n_holes,))
     width = lay.n_holes * lay.pitch * MM
     parts = {name: Subdomain(mesh, STEEL, name) for name, (mesh, _) in model.subdomains.items()}
     tags = {name: t for name, (_, t) in model.subdomains.items()}
@@ -183,7 +197,7 @@ def pin_joint(
         ContactInterface(
             model.walls[name],
             parts[name],
-            Cylinder([x, y, 0.0], [0.0, 0.0, 1.0], radius - clearance),
+            Cylinder([x, y, 0.0], [0.0, 0.0, 1.0], radius - gaps[_pin(name, model.plates)]),
             tolerance=2.0 * sagitta,
             name=f"hole_{name}",
         )
