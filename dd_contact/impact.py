@@ -27,6 +27,9 @@ The start force counts only the points in contact at both ends of the step,
   from each solution until it settles (:meth:`StartForces.settled`).
 
 So the contact never adds energy, at any penalty and any time step (``docs/contact.md``).
+Generalized-alpha weights the start forces ``alpha_f / (1 - alpha_f)`` against the end ones
+(1 here): :class:`StartForces` scales its corrections alike, and a releasing point keeps its
+share ``theta`` of that smaller start force, so it never adds energy either.
 A contact interface's surface w has no mass: its start force reaches the subdomain through
 the tie, so a leaving point changes w at ``t_n``: w is put back in equilibrium with ``A'``
 (a solve of the small contact-interface block) and the tie's start force uses that w.
