@@ -17,10 +17,12 @@ if TYPE_CHECKING:
     from dd_contact.scene import Material, Subdomain
 
 __all__ = [
+    "MASS_KINDS",
     "assemble_load",
     "assemble_mass",
     "assemble_stiffness",
     "load_forms",
+    "lump_mass",
     "strain",
     "stress",
 ]
@@ -51,6 +53,27 @@ def assemble_mass(sub: Subdomain) -> sp.csr_array:
     """M_D = int rho u . du dx."""
     u, du = ufl.TrialFunction(sub.V), ufl.TestFunction(sub.V)
     return _to_csr(sub.material.rho * ufl.inner(u, du) * ufl.dx)
+
+
+#: The mass matrices of ``TransientProblem(mass=...)``.
+MASS_KINDS = ("consistent", "lumped")
+
+
+def lump_mass(mass: sp.sparray, degree: int) -> sp.csr_array:
+    """A diagonal mass matrix with the total mass of ``mass``, every entry > 0 or 0.
+
+    Degree 1 (P1 tetrahedra, Q1 hexahedra): each row's sum (all positive). Degree 2: the
+    row sums of P2 tetrahedra are zero or negative at the vertices, so the diagonal is
+    scaled instead to the total mass (Hinton, Rock and Zienkiewicz): per cell on affine
+    cells, whose element matrices are the reference one times a volume. Rows that are
+    zero (massless contact walls) stay zero.
+    """
+    M = sp.csr_array(mass)
+    if degree == 1:
+        diagonal = np.asarray(M.sum(axis=1)).ravel()
+    else:
+        diagonal = M.diagonal() * (M.sum() / M.diagonal().sum())
+    return sp.csr_array(sp.diags_array(diagonal))
 
 
 def load_forms(sub: Subdomain) -> list[fem.Form]:

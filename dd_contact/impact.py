@@ -27,6 +27,9 @@ The start force counts only the points in contact at both ends of the step,
   from each solution until it settles (:meth:`StartForces.settled`).
 
 So the contact never adds energy, at any penalty and any time step (``docs/contact.md``).
+Generalized-alpha weights the start forces ``alpha_f / (1 - alpha_f)`` against the end ones
+(1 here): :class:`StartForces` scales its corrections alike, and a releasing point keeps its
+share ``theta`` of that smaller start force, so it never adds energy either.
 A contact interface's surface w has no mass: its start force reaches the subdomain through
 the tie, so a leaving point changes w at ``t_n``: w is put back in equilibrium with ``A'``
 (a solve of the small contact-interface block) and the tie's start force uses that w.
@@ -98,6 +101,9 @@ class StartForces:
         offset: Forces of stiff ties carried on the right-hand side at ``t_n``
             (:attr:`dd_contact.iteration.ContactSolver.rhs_offset`).
         free: 1 on the free dofs of a block, 0 on prescribed ones (a correction is masked).
+        weight: Weight of the start forces against the end ones in the step (the scheme's
+            ``start_weight``: 1 in the trapezoidal rule, ``alpha_f / (1 - alpha_f)`` in
+            generalized-alpha); the corrections carry it too.
     """
 
     def __init__(
@@ -109,8 +115,10 @@ class StartForces:
         owned: Sequence[Block],
         offset: Mapping[Block, np.ndarray],
         free: Callable[[Block], np.ndarray],
+        weight: float = 1.0,
     ):
         self.system, self.zones, self.x, self.free = system, zones, x, free
+        self.weight = weight
         self.start = {name: a.copy() for name, a in active.items()}
         #: theta of each contact's releasing points, as last used (and its contacts then)
         self.kept: dict[str, np.ndarray] = {}
@@ -174,7 +182,8 @@ class StartForces:
             w_rows[z.dofs] += matrix @ shift[z.dofs]
             rhs[z.block] = rhs.get(z.block, 0.0) - w_rows
             shifts[z.block] = shift
-        return {block: vector * self.free(block) for block, vector in rhs.items()}, shifts
+        rhs = {block: self.weight * vector * self.free(block) for block, vector in rhs.items()}
+        return rhs, {block: self.weight * shift for block, shift in shifts.items()}
 
     def settled(self, active: Mapping[str, np.ndarray], x: Mapping[Block, np.ndarray]) -> bool:
         """Whether the kept fractions of the last :meth:`correction` hold for solution x."""

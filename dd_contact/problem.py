@@ -23,6 +23,7 @@ from tqdm import tqdm
 from dd_contact import timing
 from dd_contact.analysis import Analysis
 from dd_contact.errors import EnergyGrowthWarning, InputError
+from dd_contact.forms import MASS_KINDS
 from dd_contact.impact import StartForces, block_product
 from dd_contact.io import RunOutput
 from dd_contact.iteration import ContactSettings
@@ -31,7 +32,7 @@ from dd_contact.post import energy
 from dd_contact.scene import Scene
 from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
 from dd_contact.solvers.linalg import petsc_options
-from dd_contact.timestepping import Newmark
+from dd_contact.timestepping import time_scheme
 
 __all__ = ["StaticProblem", "TransientProblem"]
 
@@ -113,7 +114,7 @@ class StaticProblem(Analysis):
 
 
 class TransientProblem(Analysis):
-    """Time stepping with contact: Newmark's trapezoidal rule, or quasi-static steps.
+    """Time stepping with contact: the trapezoidal rule, generalized-alpha, or quasi-static.
 
     The initial state is read from the scene: ``Subdomain.u`` (displacement) and
     ``Subdomain.velocity``; the initial acceleration follows from equilibrium at ``t0``.
@@ -143,6 +144,12 @@ class TransientProblem(Analysis):
             contact penalty: energy 9-12x -> 1, 59-137 state changes -> 1, contact duration
             within 1.3 % (docs/contact.md). ``False``: the classic trapezoidal contact (the
             paper's; it creates energy when points leave contact, which is reported).
+        mass: ``"consistent"`` (the default) or ``"lumped"`` (row sums for degree 1,
+            the diagonal scaled to the exact total mass for degree 2; docs/contact.md).
+        scheme: ``"trapezoidal"`` (the default: no numerical damping, energy conserved) or
+            ``"generalized-alpha"`` (damps the modes short against dt; second order).
+        rho_infinity: generalized-alpha's spectral radius for dt / period -> infinity, in
+            [0, 1] (default 0.8; 1 is the trapezoidal rule, 0 damps the most).
     """
 
     def __init__(
@@ -160,10 +167,21 @@ class TransientProblem(Analysis):
         rates: timing.MachineRates | None = None,
         petsc_options: dict | None = None,
         energy_safe_contact: bool = True,
+        mass: str = "consistent",
+        scheme: str = "trapezoidal",
+        rho_infinity: float | None = None,
     ):
-        self.newmark = Newmark(dt)
+        if mass not in MASS_KINDS:
+            raise InputError(
+                f"TransientProblem: unknown mass {mass!r}; valid: "
+                f"{', '.join(map(repr, MASS_KINDS))} (lumped: a diagonal mass matrix)"
+            )
+        self.mass_kind = mass
+        #: The time-integration scheme (coefficients and updates).
+        self.time_scheme = time_scheme(scheme, dt, rho_infinity)
+        self.scheme = scheme
         self._energy_safe = bool(energy_safe_contact)
-        self._energy_before: float | None = None  # the last step's total energy
+        self._energy_before: float | None = None  # the last step's total energy (its bound)
         self._previous_loads: tuple[float | None, dict] = (None, {})  # (t, r(t)) of a step
         self._energy_warned = False
         self.inertia = inertia
@@ -176,7 +194,7 @@ class TransientProblem(Analysis):
                 )
         else:
             scene.check_static_supports()
-        mass_coefficient = self.newmark.mass_coefficient if inertia else 0.0
+        mass_coefficient = self.time_scheme.mass_coefficient if inertia else 0.0
         changes = expected_steps if expected_changes is None else expected_changes
         super().__init__(
             scene,
@@ -256,10 +274,13 @@ class TransientProblem(Analysis):
 
         The trapezoidal rule conserves energy exactly but for contact points that change
         state; a gain beyond round-off is energy the contact created (dd_contact.impact).
+        Generalized-alpha's energy may swing up within a step while it decays overall (its
+        velocity overshoot): it is held to the energy at the start plus the loads' work.
         Skipped while prescribed displacements move (their reactions' work is not counted).
         """
         energy_before = self._energy_before
-        self._energy_before = record["energy"]["total"]
+        energy_after = record["energy"]["total"]
+        self._energy_before = energy_after
         if energy_before is None or self._energy_warned:
             return
         work, moved = 0.0, False
@@ -271,7 +292,8 @@ class TransientProblem(Analysis):
         work = self.comm.allreduce(work)
         if self.comm.allreduce(moved, op=MPI.LOR):
             return
-        energy_after = record["energy"]["total"]
+        if not self.time_scheme.conserves_energy:
+            self._energy_before = energy_before + work
         gain = energy_after - energy_before - work
         if gain > ENERGY_GROWTH_TOLERANCE * max(abs(energy_before), abs(energy_after)):
             self._energy_warned = True
@@ -299,6 +321,12 @@ class TransientProblem(Analysis):
         for c in self.scene.contacts:
             x.setdefault(c.block, c.w.x.array)
         return x
+
+    @staticmethod
+    def _kinematics(sub) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The owned displacement, velocity and acceleration of a subdomain now."""
+        n = sub.num_dofs
+        return sub.u.x.array[:n], sub.velocity.x.array[:n], sub.acceleration.x.array[:n]
 
     def energy(self) -> dict[str, float]:
         """Collective: kinetic, elastic (with ties) and contact-penalty energy now [J]."""
@@ -329,7 +357,8 @@ class TransientProblem(Analysis):
         loads = collective(self.comm, lambda: self._loads(t_new))
         external = dict(loads)
         where = f"step {self.step + 1} (t = {t_new:.6g})"
-        if self.inertia:  # the trapezoidal rule in equilibrium form (dd_contact.impact)
+        scheme = self.time_scheme
+        if self.inertia:  # the scheme in equilibrium form (dd_contact.impact)
             if self._previous_loads[0] != self.t:  # the last step's loads are r(t_n)
                 self._previous_loads = (self.t, collective(self.comm, lambda: self._loads(self.t)))
             previous = self._previous_loads[1]
@@ -343,14 +372,13 @@ class TransientProblem(Analysis):
                 [block for _, _, block in self._owned],
                 self.tie_solver.rhs_offset,
                 self.model.free,
+                scheme.start_weight,
             )
             for _, sub, block in self._owned:
-                n = sub.num_dofs
-                history = self.newmark.history(sub.u.x.array[:n], sub.velocity.x.array[:n])
+                history = scheme.history(*self._kinematics(sub))
                 loads[block] = (
                     loads[block]
-                    + previous[block]
-                    - start.internal[block]
+                    + scheme.start_weight * (previous[block] - start.internal[block])
                     + self.model.mass[block] @ history
                 )
 
@@ -358,7 +386,7 @@ class TransientProblem(Analysis):
             x, iterations, changes = self._solve(t_new, self._rhs(t_new, loads), where, release)
             for _, sub, block in self._owned:
                 n = sub.num_dofs
-                v, a = self.newmark.update(x[block], sub.u.x.array[:n], sub.velocity.x.array[:n])
+                v, a = scheme.update(x[block], *self._kinematics(sub))
                 sub.velocity.x.array[:n] = v
                 sub.acceleration.x.array[:n] = a
         else:

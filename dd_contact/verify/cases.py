@@ -51,11 +51,17 @@ def _case_hertz() -> list[Record]:
 
 
 def _case_bar_impact() -> list[Record]:
-    """Default settings (contact penalty, energy-safe steps) at two meshes and two steps."""
+    """Default settings at two meshes and two steps; the peak force with the options.
+
+    The contact plateau force is held to 2 % of rho c v0 A; the peak to 10 % with lumped
+    mass and generalized-alpha, as issue 13 asks: that fails today (the first steps
+    overshoot by 31-35 % with every option, docs/contact.md). With the options the energy
+    is held to never grow (their damping is not a loss to bound).
+    """
     out = []
     for n, cfl in ((40, 0.58), (80, 0.58), (40, 0.1)):
         r = bar_impact(n=n, cfl=cfl, contact_kappa=None)
-        case = f"bar-impact n={n} cfl={cfl}"
+        case = f"bar-impact n={n} cfl={cfl} (default settings)"
         ratio = r["energy_ratio"]
         out += [
             record(case, "contact duration", r["duration"], r["duration_ref"], 0.03),
@@ -79,6 +85,25 @@ def _case_bar_impact() -> list[Record]:
                 0.0,
                 r["changes"] <= 4,
             ),
+            record(case, "plateau contact force", r["plateau_force"], r["force_ref"], 0.02),
+        ]
+    options = {"mass": "lumped", "scheme": "generalized-alpha", "rho_infinity": 0.8}
+    for n in (40, 80):
+        r = bar_impact(n=n, cfl=0.58, contact_kappa=None, **options)
+        case = f"bar-impact n={n} cfl=0.58 (lumped mass, generalized-alpha rho_infinity=0.8)"
+        ratio = r["energy_ratio"]
+        out += [
+            Record(
+                case,
+                "energy after / before at most 1 + 1e-6",
+                ratio,
+                1.0,
+                max(0.0, ratio - 1.0),
+                1e-6,
+                ratio <= 1 + 1e-6,
+            ),
+            record(case, "plateau contact force", r["plateau_force"], r["force_ref"], 0.02),
+            record(case, "peak contact force", r["peak_force"], r["force_ref"], 0.10),
         ]
     return out
 

@@ -274,11 +274,14 @@ def bar_impact(
     comm: MPI.Comm = MPI.COMM_WORLD,
     algorithm: str = "FULL",
     energy_safe_contact: bool = True,
+    mass: str = "consistent",
+    scheme: str = "trapezoidal",
+    rho_infinity: float | None = None,
 ) -> dict:
-    """Bar impact on a rigid wall: contact duration, rebound velocity and energy.
+    """Bar impact on a rigid wall: contact duration, rebound velocity, energy and force.
 
-    The exact answer (1-D wave theory): contact lasts 2L/c, the bar leaves with velocity
-    -v0 and no strain, so kinetic energy is restored.
+    The exact answer (1-D wave theory): contact lasts 2L/c at the force rho c v0 A, the
+    bar leaves with velocity -v0 and no strain, so kinetic energy is restored.
 
     Args:
         n: Elements along the bar.
@@ -290,10 +293,15 @@ def bar_impact(
         comm: Communicator.
         algorithm: Elimination order.
         energy_safe_contact: See :class:`dd_contact.TransientProblem`.
+        mass: See :class:`dd_contact.TransientProblem`.
+        scheme: See :class:`dd_contact.TransientProblem`.
+        rho_infinity: See :class:`dd_contact.TransientProblem`.
 
     Returns:
         duration, rebound (mean velocity after / -v0), energy ratio after/before, changes,
-        factorisations, steps.
+        factorisations, steps, the contact force of every step (``forces``), its largest
+        (``peak_force``) and its median while in contact (``plateau_force``) against
+        ``force_ref`` = rho c v0 A.
     """
     L, a, v0 = BAR_IMPACT["length"], BAR_IMPACT["section"], BAR_IMPACT["v0"]
     material = Material(1.0, 0.0, 1.0)
@@ -328,6 +336,9 @@ def bar_impact(
         dt,
         algorithm=algorithm,
         energy_safe_contact=energy_safe_contact,
+        mass=mass,
+        scheme=scheme,
+        rho_infinity=rho_infinity,
     )
     # The signed penetration of the end: positive in contact, negative once the bar has left.
     penetration = []
@@ -344,21 +355,27 @@ def bar_impact(
     times = dt * np.arange(1, len(g) + 1)
     k = int(np.argmax(g < 0))  # first step apart
     duration = times[k - 1] + dt * g[k - 1] / (g[k - 1] - g[k])
-    momentum, mass = 0.0, 0.0
+    momentum, total_mass = 0.0, 0.0
     for part in parts:
         M = problem.model.mass.get(part.block)
         if M is not None:  # owned here
             ones = np.zeros(part.num_dofs)
             ones[0::3] = 1.0
             momentum += float(ones @ (M @ part.velocity.x.array))
-            mass += float(ones @ (M @ ones))
-    momentum, mass = comm.allreduce(momentum), comm.allreduce(mass)
+            total_mass += float(ones @ (M @ ones))
+    momentum, total_mass = comm.allreduce(momentum), comm.allreduce(total_mass)
     work = problem.work_summary()  # collective: every rank's work, merged
-    energy0 = 0.5 * mass * v0**2
+    energy0 = 0.5 * total_mass * v0**2
+    forces = np.array([np.linalg.norm(r["force"]["end"]) for r in problem.history])
+    pressing = forces[forces > 0]
     return {
+        "forces": forces.tolist(),
+        "peak_force": float(forces.max()),
+        "plateau_force": float(np.median(pressing)) if len(pressing) else 0.0,
+        "force_ref": material.rho * np.sqrt(material.E / material.rho) * v0 * a * a,
         "duration": float(duration),
         "duration_ref": 2.0 * L,
-        "rebound": momentum / mass / v0,
+        "rebound": momentum / total_mass / v0,
         "energy_ratio": problem.energy()["total"] / energy0,
         "changes": problem.changes["gamma"],
         "factorisations": comm.allreduce(problem.work.count("sparse_factor", "FULL"), op=MPI.MAX),
