@@ -188,6 +188,9 @@ class ContactIteration:
         self.cycles_resolved = 0
         #: Solves again for a settled contact state while a step correction settles (all steps).
         self.release_solves = 0
+        #: Per zone of this rank: the release solves in which it had points let go (the
+        #: solves' new right-hand side is on its block; :meth:`Schedule.release`).
+        self.releases = {z.contact.name: 0 for z in zones}
         self._correction, self._shift, self._last = None, {}, None
 
     def start(self, t: float) -> None:
@@ -235,7 +238,7 @@ class ContactIteration:
             if not self.comm.allreduce(len(changed)):
                 if releases < MAX_RELEASES and self._unsettled(x):
                     releases += 1  # the same contact state; its releasing forces still move
-                    self.release_solves += 1
+                    self._count_release(sets[0])
                     continue
                 changed = self._pressed_back(x, released, held_in, new)
                 if not self.comm.allreduce(len(changed)):
@@ -307,6 +310,13 @@ class ContactIteration:
         self.gamma += 1
         for name in zones:
             self.alpha[name] += 1
+
+    def _count_release(self, start: Mapping[str, np.ndarray]) -> None:
+        """One release solve (collective count), on each zone with points out since ``start``."""
+        self.release_solves += 1
+        for name, active in self.active.items():
+            if (start[name] & ~active).any():
+                self.releases[name] += 1
 
     def _check_held(self, where: str) -> None:
         """Collective: refuse an active set that leaves a body free to move (singular)."""
