@@ -3,6 +3,7 @@
 from mpi4py import MPI as _MPI  # noqa: F401  (loads libmpi before petsc4py)
 
 from dd_contact.errors import (
+    CoarseTimeStepWarning,
     ContactCycleWarning,
     ContactIterationError,
     EnergyGrowthWarning,
@@ -34,6 +35,7 @@ __all__ = [
     "ALGORITHMS",
     "DEFAULT_KAPPA",
     "KAPPA_VERIFIED",
+    "CoarseTimeStepWarning",
     "ContactBoundary",
     "ContactCycleWarning",
     "ContactInterface",

@@ -7,6 +7,7 @@ rank when any rank finds bad input (:func:`dd_contact.parallel.collective`).
 from __future__ import annotations
 
 __all__ = [
+    "CoarseTimeStepWarning",
     "ContactCycleWarning",
     "ContactIterationError",
     "EnergyGrowthWarning",
@@ -52,3 +53,7 @@ class SurfaceResolutionWarning(UserWarning):
 
 class EnergyGrowthWarning(UserWarning):
     """A time step's energy grew by more than the loads' work: the contact created energy."""
+
+
+class CoarseTimeStepWarning(UserWarning):
+    """A contact episode lasted too few time steps for an accurate rebound (energy is kept)."""

@@ -59,6 +59,7 @@ from dd_contact.blocks import Block
 
 __all__ = [
     "GEOMETRIC_STEPS",
+    "RELEASE_FLOOR",
     "RELEASE_TOLERANCE",
     "StartForces",
     "block_product",
@@ -69,6 +70,10 @@ __all__ = [
 #: fraction of itself between two solves: the energy error of the release is then below this
 #: fraction of the penalty energy the point held (f^2 / 2k, small for a stiff penalty).
 RELEASE_TOLERANCE = 1e-3
+
+#: ... or when that work is below this fraction of the elastic energy at t_n (this rank's):
+#: the points that barely touched, whose penetration is at round-off, settle by it.
+RELEASE_FLOOR = 1e-8
 
 #: Corrections of a step that move theta to a geometric mean; after them (the iterates have
 #: not settled) theta only decreases: a kept force below the discrete gradient's dissipates,
@@ -131,6 +136,8 @@ class StartForces:
             if block in offset:
                 force = force + offset[block]
             self.internal[block] = force
+        #: ``x_n K x_n / 2`` on this rank's subdomain rows: the scale of :data:`RELEASE_FLOOR`
+        self.elastic_energy = abs(sum(float(x[b] @ f) for b, f in self.internal.items())) / 2
         for z in zones:
             if z.block in self.internal:  # contact on the subdomain's own boundary
                 start = self.start[z.contact.name].astype(float)
@@ -186,30 +193,56 @@ class StartForces:
         return rhs, {block: self.weight * shift for block, shift in shifts.items()}
 
     def settled(self, active: Mapping[str, np.ndarray], x: Mapping[Block, np.ndarray]) -> bool:
-        """Whether the kept fractions of the last :meth:`correction` hold for solution x."""
+        """Whether the kept fractions of the last :meth:`correction` hold for solution x.
+
+        Each leaving point's theta from x is within RELEASE_TOLERANCE of the one used, or
+        the work its contact's leaving points would change by, ``sum |dtheta| k g_n (g_n -
+        g_n+1) / 2``, is below RELEASE_FLOOR of the elastic energy at t_n: points that
+        barely touched (g_n at round-off) settle by what their force can still do, not by
+        the round-off of their theta.
+        """
         for z in self.zones:
             name = z.contact.name
             if name not in self._releasing:
                 continue
             leaving = self.start[name] & ~active[name]
-            change = (
-                np.abs(self._theta(z, x) - self.kept[name]) > RELEASE_TOLERANCE * self.kept[name]
-            )
-            if change[leaving].any():
+            k = z.operator.points.weight / z.operator.epsilon
+            g0 = np.maximum(z.operator.penetration(self.x[z.block][z.dofs]), 0.0)
+            g1 = np.minimum(z.operator.penetration(x[z.block][z.dofs]), 0.0)
+            change = np.abs(_discrete_gradient(g0, g1) - self.kept[name])
+            if not (change[leaving] > RELEASE_TOLERANCE * self.kept[name][leaving]).any():
+                continue
+            work = k[leaving] @ (change * g0 * (g0 - g1))[leaving]
+            if work > 2 * RELEASE_FLOOR * self.elastic_energy:
                 return False
         return True
 
-    def _theta(self, z: ContactZone, x: Mapping[Block, np.ndarray]) -> np.ndarray:
-        """``theta = g_n / (g_n - g_n+1)`` of each point of ``z``, g_n+1 from solution x."""
-        g0 = np.maximum(z.operator.penetration(self.x[z.block][z.dofs]), 0.0)
-        g1 = np.minimum(z.operator.penetration(x[z.block][z.dofs]), 0.0)
-        return np.divide(g0, g0 - g1, out=np.ones_like(g0), where=(g0 - g1) > 0)
+    def pressed_back(self, x: Mapping[Block, np.ndarray]) -> dict[str, np.ndarray]:
+        """Points in contact at t_n that are deeper in the obstacle at the end of ``x``.
+
+        A point let go keeps at most its whole start force (theta <= 1); ending deeper than
+        it started, ``g_n+1 > g_n``, its penalty stores ``k g_n+1 (g_n+1 - g_n) / 2`` more
+        than that force did work for. Where that is more than RELEASE_FLOOR of the elastic
+        energy, those points are back in contact (the mean force, exact).
+        """
+        out = {}
+        for z in self.zones:
+            name = z.contact.name
+            g0 = np.maximum(z.operator.penetration(self.x[z.block][z.dofs]), 0.0)
+            g1 = z.operator.penetration(x[z.block][z.dofs])
+            deeper = self.start[name] & (g1 > g0)
+            k = z.operator.points.weight / z.operator.epsilon
+            created = k[deeper] @ (g1[deeper] * (g1[deeper] - g0[deeper]))
+            too_much = created > 2 * RELEASE_FLOOR * self.elastic_energy
+            out[name] = deeper if too_much else np.zeros_like(deeper)
+        return out
 
     def _kept(self, z: ContactZone, x: Mapping[Block, np.ndarray] | None) -> np.ndarray:
-        """The theta to use next: 1 before any solution, then settled towards :meth:`_theta`."""
+        """The theta to use next: 1 before any solution, then towards the last solution's."""
         if x is None:
             return np.ones(z.operator.num_points)
-        theta = self._theta(z, x)
+        g0 = np.maximum(z.operator.penetration(self.x[z.block][z.dofs]), 0.0)
+        theta = _discrete_gradient(g0, z.operator.penetration(x[z.block][z.dofs]))
         previous = self.kept.get(z.contact.name)
         if previous is not None and self._calls > GEOMETRIC_STEPS:
             return np.minimum(theta, previous)  # unsettled so far: the smaller force is safe
@@ -239,6 +272,18 @@ class StartForces:
         b = -block_product(self.system, w, {k: v for k, v in self.x.items() if k != w})
         np.add.at(b, z.dofs, vector - forces)
         return spsolve(sp.csc_array(A), b)
+
+
+def _discrete_gradient(g0: np.ndarray, g1: np.ndarray) -> np.ndarray:
+    """``g0 / (g0 - g1)`` where a point leaves (``g0 > 0 >= g1``), else 1.
+
+    The kept fraction whose start force ``theta k g0`` does the work of the penalty energy
+    ``k g0^2 / 2`` it held.
+    """
+    out = np.ones_like(g0)
+    leaves = (g0 > 0) & (g1 <= 0)
+    np.divide(g0, g0 - g1, out=out, where=leaves)
+    return out
 
 
 def massless_walls(mass: sp.sparray, wall: np.ndarray) -> sp.csr_array:

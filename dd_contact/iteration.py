@@ -80,6 +80,14 @@ class StepCorrection(Protocol):
         """Whether the terms used for the last solve hold for its solution ``x``."""
         ...
 
+    def pressed_back(self, x: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Per zone: points let go in this step that ``x`` shows must be in contact again.
+
+        The other points that left the step's first active set stay out for the rest of
+        the step: the correction carries their force.
+        """
+        ...
+
 
 def digest(active: np.ndarray) -> str:
     """A short fingerprint of an active set (to detect cycling)."""
@@ -178,6 +186,11 @@ class ContactIteration:
         self.gamma = 0
         self.alpha = {z.contact.name: 0 for z in zones}
         self.cycles_resolved = 0
+        #: Solves again for a settled contact state while a step correction settles (all steps).
+        self.release_solves = 0
+        #: Per zone of this rank: the release solves in which it had points let go (the
+        #: solves' new right-hand side is on its block; :meth:`Schedule.release`).
+        self.releases = {z.contact.name: 0 for z in zones}
         self._correction, self._shift, self._last = None, {}, None
 
     def start(self, t: float) -> None:
@@ -208,19 +221,30 @@ class ContactIteration:
         for z in self.zones:
             z.operator.update(t)
         seen = {self._global_digest(): 0}
+        released = {n: np.zeros_like(a) for n, a in self.active.items()}
+        held_in = {n: np.zeros_like(a) for n, a in self.active.items()}  # pressed back in
         releases = 0  # solves again for the same contact state (the correction settling)
         sets = [dict(self.active)]
         changes_this_solve = 0
         for iteration in range(1, self.settings.max_iterations + 1):
             x = self._solve_once(solver, rhs, where)
             new = {z.contact.name: z.operator.active_set(x[z.block][z.dofs]) for z in self.zones}
+            if correction is not None:  # a point let go stays out: the correction carries it
+                for name in new:
+                    let_go = sets[0][name] & self.active[name] & ~new[name]
+                    released[name] |= let_go & ~held_in[name]
+                    new[name] = (new[name] & ~released[name]) | held_in[name]
             changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
             if not self.comm.allreduce(len(changed)):
                 if releases < MAX_RELEASES and self._unsettled(x):
                     releases += 1  # the same contact state; its releasing forces still move
+                    self._count_release(sets[0])
                     continue
-                x = self._shifted(self._checked(solver, solver.finish(), where))
-                return x, iteration, changes_this_solve
+                changed = self._pressed_back(x, released, held_in, new)
+                if not self.comm.allreduce(len(changed)):
+                    x = self._shifted(self._checked(solver, solver.finish(), where))
+                    return x, iteration, changes_this_solve
+                seen = {}  # the points pressed back stay in: no cycle through them
             self._count_change(changed)
             changes_this_solve += 1
             previous = self.active
@@ -259,11 +283,40 @@ class ContactIteration:
             "load increment"
         )
 
+    def _pressed_back(self, x, released: dict, held_in: dict, new: dict) -> list[str]:
+        """The zones whose let-go points ``x`` shows deeper than at t_n: back in ``new``.
+
+        Once the correction has settled, a point it let go may end pressed in again: kept
+        out it would hold its whole start force at most, and ending deeper than it started
+        the penalty would store energy no force worked for; back in contact it gets the
+        mean force (exact, or dissipating a small end tension), and stays in for the rest
+        of the step (docs/contact.md, "Releases without cycles").
+        """
+        if self._correction is None:
+            return []
+        back = self._correction.pressed_back(x)
+        zones = []
+        for name in new:
+            again = released[name] & back[name]
+            if again.any():
+                released[name] &= ~again
+                held_in[name] |= again
+                new[name] = new[name] | again
+                zones.append(name)
+        return zones
+
     def _count_change(self, zones: list[str]) -> None:
         """One contact state change of the model (gamma), on each of ``zones`` (alpha)."""
         self.gamma += 1
         for name in zones:
             self.alpha[name] += 1
+
+    def _count_release(self, start: Mapping[str, np.ndarray]) -> None:
+        """One release solve (collective count), on each zone with points out since ``start``."""
+        self.release_solves += 1
+        for name, active in self.active.items():
+            if (start[name] & ~active).any():
+                self.releases[name] += 1
 
     def _check_held(self, where: str) -> None:
         """Collective: refuse an active set that leaves a body free to move (singular)."""

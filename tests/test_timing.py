@@ -147,16 +147,11 @@ _SCENES = [
 @pytest.mark.parametrize("condensation", ["schur", "multi-rhs"])
 @pytest.mark.parametrize(("kind", "algorithm"), _SCENES)
 def test_the_plan_is_what_the_solver_does(kind, algorithm, condensation):
-    """Set-up + steps + one change plan per change: every factorisation and solve, exactly."""
+    """Set-up + steps + a change plan per change + a release plan per release solve: every
+    factorisation and solve, exactly (default energy-safe contact)."""
     n_steps = 25
-    # The classic contact steps: the plan does not price the solves that settle an
-    # energy-safe release yet (docs/contact.md, "Impact").
     problem = dd.TransientProblem(
-        verify.order_scene(kind, True, 1e4),
-        0.01,
-        algorithm=algorithm,
-        condensation=condensation,
-        energy_safe_contact=False,
+        verify.order_scene(kind, True, 1e4), 0.01, algorithm=algorithm, condensation=condensation
     )
     full = algorithm == "FULL"
     structure = timing.scene_structure(
@@ -173,6 +168,12 @@ def test_the_plan_is_what_the_solver_does(kind, algorithm, condensation):
     planned = plan.setup + n_steps * plan.step
     for region, alpha in problem.iteration.alpha.items():
         planned += alpha * plan.changes[region]
+    # A release solve re-substitutes the same contact state: no factorisation in it.
+    releases = problem.iteration.releases
+    assert sum(releases.values()) == problem.iteration.release_solves >= 10
+    schedule = structure.schedule(algorithm)
+    for region, count in releases.items():
+        planned += count * WorkLog.planned(schedule.release(region)).records
     done = Counter((r.block, r.kind, r.what, r.size, r.nrhs) for r in problem.work.records)
     assert Counter((r.block, r.kind, r.what, r.size, r.nrhs) for r in planned) == done
 

@@ -26,6 +26,7 @@ __all__ = [
     "Schedule",
     "condensation_chunks",
     "fitting_algorithms",
+    "run_operations",
 ]
 
 #: Surface levels eliminated after the subdomains, first to last, for every order. The name
@@ -347,8 +348,28 @@ class Schedule:
         stale = self.stale_groups(self.touched(block))
         ops += [op for g in self.flat if g.name in stale for op in self.factorise_group(g)]
         ops += [self.solve_group(g) for g in self.flat if self.solves(g, stale, False)]
-        if self.needs_all_surface:
-            ops += self.back_substitution()
+        return ops + self._read_back(block)
+
+    def release(self, region: str) -> list[Operation]:
+        """One more solve of the same contact state, with a new right-hand side on ``region``.
+
+        An energy-safe release (:mod:`dd_contact.impact`) changes only the right-hand side of
+        the region's block: nothing is re-factorised. A contact interface's change is on its
+        w rows (the groups it reaches are solved again, and the last level); contact on a
+        subdomain's own boundary changes that subdomain's right-hand side (a forward sweep).
+        Split ties (``kappa`` above 1e6) carry a w release on the subdomain: not planned.
+        """
+        block = self.regions[region]
+        ops: list[Operation] = []
+        if block.kind == "u":
+            ops.append(self.substitute_subdomain(block, "u_hat"))
+        new_rhs = self.stale_groups(self.touched(block))  # a new rhs propagates as staleness
+        ops += [self.solve_group(g) for g in self.flat if self.solves(g, set(), g.name in new_rhs)]
+        return ops + self._read_back(block)
+
+    def _read_back(self, block: str) -> list[Operation]:
+        """After a surface solve for ``block``: what the contact check reads is substituted."""
+        ops = self.back_substitution() if self.needs_all_surface else []
         for b in self.needed_u:
             if self.split_substitution and self.coupling_size(b) and b != block:
                 # the forward sweep was used by the last expansion: sweep forward again
@@ -381,3 +402,29 @@ class FullSchedule:
     def change(self, region: str) -> list[Operation]:
         """A numeric re-factorisation and one more substitution."""
         return [Operation("FULL", "sparse_factor", self.size), *self.step()]
+
+    def release(self, region: str) -> list[Operation]:
+        """One more substitution (the same matrix, a new right-hand side)."""
+        return self.step()
+
+
+def run_operations(
+    schedule: Schedule | FullSchedule,
+    n_steps: int,
+    changes: dict[str, int],
+    releases: dict[str, int] | None = None,
+) -> list[Operation]:
+    """Every operation of a run: set-up, steps, and each region's changes and releases.
+
+    ``changes`` and ``releases`` per contact region: its contact state changes (the
+    iteration's ``alpha``) and release solves (``ContactIteration.releases``).
+
+    Exact when the regions change and release in different solves (a solve that changes
+    two regions at once counts in each region, as ``alpha`` does).
+    """
+    ops = schedule.setup() + n_steps * schedule.step()
+    for region, count in changes.items():
+        ops += count * schedule.change(region)
+    for region, count in (releases or {}).items():
+        ops += count * schedule.release(region)
+    return ops

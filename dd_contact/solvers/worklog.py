@@ -39,6 +39,16 @@ class WorkLog:
 
     records: list[WorkRecord] = field(default_factory=list)
 
+    @classmethod
+    def planned(cls, operations) -> WorkLog:
+        """A log of scheduled operations, with zero seconds: what a run should record.
+
+        ``operations``: :class:`~dd_contact.solvers.schedule.Operation` s, e.g. a plan.
+        """
+        return cls(
+            [WorkRecord(o.target, o.kind, o.size, o.nrhs, 0.0, what=o.what) for o in operations]
+        )
+
     def add(self, *args, **kwargs) -> None:
         """Append a :class:`WorkRecord`."""
         self.records.append(WorkRecord(*args, **kwargs))

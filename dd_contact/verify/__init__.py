@@ -3,11 +3,19 @@
 Each case returns records ``{case, quantity, value, reference, rel_error, tolerance, passed}``.
 The scene builders are public so tests, demos and benchmarks use the same models:
 :mod:`~dd_contact.verify.models` (the closed-form cases and shared scenes),
-:mod:`~dd_contact.verify.extremes` (the penalty sweep), :mod:`~dd_contact.verify.cases`
+:mod:`~dd_contact.verify.extremes` (the penalty sweep), :mod:`~dd_contact.verify.drops`
+(3-D bodies dropped on a plane), :mod:`~dd_contact.verify.cases`
 (the registry of ``dd-contact verify``).
 """
 
 from dd_contact.verify.cases import CASES, run_cases
+from dd_contact.verify.drops import (
+    box_drop_scene,
+    drop,
+    falling_block,
+    hemisphere_drop_scene,
+    sphere_drop,
+)
 from dd_contact.verify.extremes import (
     DISTORTION,
     EXTREME_CASES,
@@ -50,9 +58,13 @@ __all__ = [
     "Record",
     "bar_impact",
     "bent_bar",
+    "box_drop_scene",
     "displacements",
+    "drop",
     "extremes",
+    "falling_block",
     "free_vibration",
+    "hemisphere_drop_scene",
     "hertz",
     "order_scene",
     "orders_agreement",
@@ -60,4 +72,5 @@ __all__ = [
     "penalty_tolerance",
     "pressed_scene",
     "run_cases",
+    "sphere_drop",
 ]

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict
 
+from dd_contact.verify.drops import case_falling_block, case_sphere_drop
 from dd_contact.verify.extremes import extremes
 from dd_contact.verify.models import (
     Record,
@@ -143,6 +144,8 @@ CASES: dict[str, Callable[[], list[Record]]] = {
     "bent-bar": _case_bent_bar,
     "hertz": _case_hertz,
     "bar-impact": _case_bar_impact,
+    "falling-block": case_falling_block,
+    "sphere-drop": case_sphere_drop,
     "free-vibration": _case_free_vibration,
     "orders": _case_orders,
     "extremes": extremes,
