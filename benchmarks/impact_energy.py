@@ -5,7 +5,7 @@ Runs :func:`dd_contact.verify.bar_impact` (an elastic bar at 0.01 c onto a rigid
 with the default contact penalty over CFL 0.1 ... 1 and 40 ... 160 elements, for
 
 * ``classic``: the paper's trapezoidal contact (``energy_safe_contact=False``), consistent mass;
-* the energy-safe steps (the default) with consistent or lumped mass, and the trapezoidal
+* the energy-safe steps (the default) with consistent, lumped or averaged mass, and the trapezoidal
   rule or generalized-alpha (rho_infinity 0.8, the default, and 0, the most damping);
 
 and writes
@@ -47,6 +47,7 @@ OPTIONS = {
     "classic": {"energy_safe_contact": False},
     "consistent, trapezoidal": {},
     "lumped, trapezoidal": {"mass": "lumped"},
+    "averaged, trapezoidal": {"mass": "averaged"},
     "consistent, gen-alpha 0.8": {"scheme": "generalized-alpha", "rho_infinity": 0.8},
     "lumped, gen-alpha 0.8": {"mass": "lumped", "scheme": "generalized-alpha", "rho_infinity": 0.8},
     "lumped, gen-alpha 0": {"mass": "lumped", "scheme": "generalized-alpha", "rho_infinity": 0.0},

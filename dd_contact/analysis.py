@@ -101,11 +101,12 @@ class Analysis:
             for z in self.model.zones:
                 block = z.contact.subdomain.block
                 self.model.mass[block] = massless_walls(self.model.mass[block], z.wall)
-        if mass_coefficient and self.mass_kind == "lumped":  # after the walls: their mass moved
+        if mass_coefficient and self.mass_kind != "consistent":  # after the walls: theirs spread
             for sub in scene.subdomains:
                 if sub.block in self.model.mass:  # owned here
                     degree = sub.V.element.basix_element.degree
-                    self.model.mass[sub.block] = forms.lump_mass(self.model.mass[sub.block], degree)
+                    M = self.model.mass[sub.block]
+                    self.model.mass[sub.block] = forms.mass_of_kind(M, degree, self.mass_kind)
         system = self.model.effective(mass_coefficient)
         system.rhs = {}  # built at every solve: loads and prescribed values at its time
         self._lifting = self.model.lifting(mass_coefficient)

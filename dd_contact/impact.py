@@ -36,11 +36,13 @@ the tie, so a leaving point changes w at ``t_n``: w is put back in equilibrium w
 
 A node on a wall that contacts still has mass, and with a stiff penalty it bounces off the
 obstacle every few steps while the body stays pressed on it (the bar: 137 state changes in one
-impact, none gaining energy but the contact duration lost). Its mass is therefore moved to
-its neighbours inside the body (:func:`massless_walls`; Khenous, Laborde and Renard's mass
-redistribution): the contact wall is massless, like a contact interface's w, and the bar
-comes off after one episode. Total mass is kept; the centre of mass moves inwards by less
-than half a cell layer.
+impact, none gaining energy but the contact duration lost). The wall's mass is therefore
+spread over the rest of the body (:func:`massless_walls`, after Khenous, Laborde and Renard's
+idea of a massless contact boundary): the contact wall is massless, like a contact
+interface's w, and the bar comes off after one episode. Total mass is kept. Spread evenly
+(each row scaled) rather than moved to the wall's neighbours, the layer next to the wall
+keeps the mass of any other layer: a heavier one stops against the wall like a separate
+body and raised the bar's peak contact force to 1.33 rho c v A (even: 1.10-1.18 lumped).
 
 Velocities follow from the displacements, ``u'_{n+1} = 2 (u_{n+1} - u_n) / dt - u'_n``; the
 acceleration reported is the step's mean ``(u'_{n+1} - u'_n) / dt`` (nothing reuses it).
@@ -287,28 +289,20 @@ def _discrete_gradient(g0: np.ndarray, g1: np.ndarray) -> np.ndarray:
 
 
 def massless_walls(mass: sp.sparray, wall: np.ndarray) -> sp.csr_array:
-    """``mass`` with no mass on the ``wall`` dofs: each one's row sum moves to its neighbours.
+    """``mass`` with no mass on the ``wall`` dofs, theirs spread evenly over the others.
 
-    A wall dof's lumped mass goes to the dofs it is coupled to in ``mass`` (the same cells'
-    nodes, same component) that are not on the wall, in proportion to the coupling; their
-    couplings to it become diagonal mass of their own. A wall dof with no such neighbour
-    keeps its mass. Every dof's row sum (lumped mass) is kept or moved: total mass exactly.
+    The wall rows and columns are removed; a remaining dof's coupling to the wall becomes
+    its own diagonal mass (its row sum, its lumped mass, is kept); then every entry is
+    scaled by total / remaining mass, so the total mass is exact and no dof next to the
+    wall is heavier than its like elsewhere. All wall (nothing remains): unchanged.
     """
     M = sp.csr_array(mass)
-    n = M.shape[0]
-    on_wall = np.zeros(n, bool)
+    on_wall = np.zeros(M.shape[0], bool)
     on_wall[wall] = True
-    to_rest = sp.csr_array(M[on_wall][:, ~on_wall])
-    weight = np.asarray(to_rest.sum(axis=1)).ravel()
-    movable = np.flatnonzero(on_wall)[weight > 0]
-    moved = np.zeros(n, bool)
-    moved[movable] = True
-    share = sp.csr_array(M[moved][:, ~on_wall])
-    share = sp.diags_array(1.0 / np.asarray(share.sum(axis=1)).ravel()) @ share
-    lumped = np.asarray(M.sum(axis=1)).ravel()[moved]
-    gained = np.zeros(n)
-    gained[~on_wall] = share.T @ lumped
-    # a neighbour's row also loses its coupling to the moved dofs: it stays its own mass
-    gained += np.asarray(M[:, moved].sum(axis=1)).ravel() * ~moved
-    keep = sp.diags_array((~moved).astype(float))
-    return sp.csr_array(keep @ M @ keep + sp.diags_array(gained))
+    keep = sp.diags_array((~on_wall).astype(float))
+    coupling = np.asarray(M[:, on_wall].sum(axis=1)).ravel() * ~on_wall
+    rest = sp.csr_array(keep @ M @ keep + sp.diags_array(coupling))
+    remaining = rest.sum()
+    if remaining <= 0:
+        return M
+    return sp.csr_array(rest * (M.sum() / remaining))

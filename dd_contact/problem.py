@@ -150,8 +150,9 @@ class TransientProblem(Analysis):
             contact penalty: energy 9-12x -> 1, 59-137 state changes -> 1, contact duration
             within 1.3 % (docs/contact.md). ``False``: the classic trapezoidal contact (the
             paper's; it creates energy when points leave contact, which is reported).
-        mass: ``"consistent"`` (the default) or ``"lumped"`` (row sums for degree 1,
-            the diagonal scaled to the exact total mass for degree 2; docs/contact.md).
+        mass: ``"consistent"`` (the default), ``"lumped"`` (row sums for degree 1, the
+            diagonal scaled to the exact total mass for degree 2) or ``"averaged"`` (half
+            each: an impact's peak force overshoots least; docs/contact.md).
         scheme: ``"trapezoidal"`` (the default: no numerical damping, energy conserved) or
             ``"generalized-alpha"`` (damps the modes short against dt; second order).
         rho_infinity: generalized-alpha's spectral radius for dt / period -> infinity, in
@@ -180,7 +181,7 @@ class TransientProblem(Analysis):
         if mass not in MASS_KINDS:
             raise InputError(
                 f"TransientProblem: unknown mass {mass!r}; valid: "
-                f"{', '.join(map(repr, MASS_KINDS))} (lumped: a diagonal mass matrix)"
+                f"{', '.join(map(repr, MASS_KINDS))} (lumped: a diagonal mass matrix; averaged: half consistent, half lumped)"
             )
         self.mass_kind = mass
         #: The time-integration scheme (coefficients and updates).

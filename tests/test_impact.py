@@ -63,8 +63,13 @@ def test_massless_walls_keep_the_total_mass_and_free_the_wall():
     moved = massless_walls(sp.csr_array(M), np.array([0]))
     assert moved[[0], :].count_nonzero() == 0 and moved[:, [0]].count_nonzero() == 0
     assert moved.sum() == pytest.approx(M.sum(), rel=1e-14)  # 1.0: the bar's mass
-    # node 1 gained node 0's row sum, and its coupling to node 0 became its own mass
-    assert moved[1, 1] == pytest.approx(M[1, 1] + M[0, :].sum() + M[1, 0], rel=1e-14)
+    # node 0's mass (h / 2) spread evenly over the rest (1 - h / 2): every entry scaled,
+    # node 1's coupling to node 0 first made its own mass
+    scale = 1.0 / (1.0 - h / 2)
+    assert moved[1, 1] == pytest.approx((M[1, 1] + M[1, 0]) * scale, rel=1e-14)
+    assert moved[3, 4] == pytest.approx(M[3, 4] * scale, rel=1e-14)
+    lumped = np.asarray(moved.sum(axis=1)).ravel()
+    assert lumped[1] == pytest.approx(lumped[2] * (M[1].sum() / M[2].sum()), rel=1e-14)
 
 
 def test_energy_created_by_the_classic_contact_is_reported_and_the_safe_one_is_quiet():
