@@ -181,7 +181,8 @@ class TransientProblem(Analysis):
         if mass not in MASS_KINDS:
             raise InputError(
                 f"TransientProblem: unknown mass {mass!r}; valid: "
-                f"{', '.join(map(repr, MASS_KINDS))} (lumped: a diagonal mass matrix; averaged: half consistent, half lumped)"
+                f"{', '.join(map(repr, MASS_KINDS))} (lumped: a diagonal mass matrix; "
+                "averaged: half consistent, half lumped)"
             )
         self.mass_kind = mass
         #: The time-integration scheme (coefficients and updates).
