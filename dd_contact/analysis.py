@@ -32,7 +32,7 @@ from dd_contact.post import Results
 from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.engine import BlockEliminationSolver
-from dd_contact.solvers.linalg import petsc_options
+from dd_contact.solvers.linalg import petsc_options, release_freed_memory
 from dd_contact.solvers.mumps_schur import layout_known, mumps_version
 from dd_contact.solvers.residual import ResidualCheck
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
@@ -109,20 +109,23 @@ class Analysis:
         contacts = [z.region for z in self.zones]
         #: The prediction behind ``algorithm="auto"`` (``None`` for a named algorithm).
         self.choice: timing.Choice | None = None
+        reused = None  # the chosen solver's parts that auto built and analysed already
         if algorithm == "auto":
             structure = timing.scene_structure(
-                self.comm, system, contacts, condensation, orders=len(valid) > 1
+                self.comm, system, contacts, condensation, orders=len(valid) > 1, log=self.work
             )
             rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
             self.choice = timing.choose(structure, rates, valid, steps, changes)
             algorithm = self.choice.algorithm
+            reused = structure.parts.take(algorithm)
         self.algorithm, self.condensation = algorithm, condensation
         if algorithm == "FULL":
-            self.solver = MonolithicSolver(self.comm, system, contacts, self.work)
+            self.solver = reused or MonolithicSolver(self.comm, system, contacts, self.work)
         else:
             self.solver = BlockEliminationSolver(
-                self.comm, system, contacts, self.work, algorithm, condensation
+                self.comm, system, contacts, self.work, algorithm, condensation, reused
             )
+        release_freed_memory()  # the build's temporaries, before the factorisations' peak
         #: The solver the contact iteration drives: ``solver``, or around it the iteration
         #: that carries ties stiffer than KAPPA_SPLIT.
         self.tie_solver = self.solver

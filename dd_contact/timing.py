@@ -37,8 +37,8 @@ import scipy.linalg as sla
 
 from dd_contact.blocks import ContactRegion
 from dd_contact.parallel import ROOT, bcast_from_root
-from dd_contact.solvers.engine import subdomain_statistics, surface_structure
-from dd_contact.solvers.full import monolithic_statistics
+from dd_contact.solvers.engine import owned_subdomains, subdomain_statistics, surface_structure
+from dd_contact.solvers.full import MonolithicSolver, monolithic_statistics
 from dd_contact.solvers.linalg import SparseCholesky, SparseStatistics
 from dd_contact.solvers.schedule import (
     ALGORITHMS,
@@ -308,6 +308,7 @@ class SceneStructure:
         base_pairs: Surface block pairs with a matrix of their own.
         full: MUMPS's analysis of FULL's matrix (``None``: FULL not considered).
         condensation: How the orders condense a subdomain (``"schur"``, ``"multi-rhs"``).
+        parts: The analysed solver parts, if kept (``scene_structure(log=...)``).
     """
 
     sizes: dict[str, int]
@@ -317,6 +318,7 @@ class SceneStructure:
     base_pairs: set
     full: SparseStatistics | None
     condensation: str = "schur"
+    parts: AnalysedParts | None = None  # kept by scene_structure(log=...)
 
     def schedule(self, algorithm: str) -> Schedule | FullSchedule:
         """The schedule ``algorithm`` follows on this scene."""
@@ -334,6 +336,7 @@ def scene_structure(
     condensation: str = "schur",
     full: bool = True,
     orders: bool = True,
+    log: WorkLog | None = None,
 ) -> SceneStructure:
     """Collective: analyse the matrices each algorithm would factorise (no factorisation).
 
@@ -344,24 +347,57 @@ def scene_structure(
         condensation: As for :class:`dd_contact.solvers.engine.BlockEliminationSolver`.
         full: Analyse FULL's matrix.
         orders: Analyse the subdomain matrices of the decomposition orders.
+        log: Keep the analysed solver parts, recording into this log, for the chosen
+            algorithm to reuse (:meth:`SceneStructure.take_parts`); by default freed here.
     """
     subdomains: dict[str, SparseStatistics] = {}
     layouts: dict[str, list] = {}
+    parts = AnalysedParts()
     if orders:
-        for block, (stats, layout) in subdomain_statistics(
-            comm, system, contacts, condensation
-        ).items():
+        if log is not None:
+            parts.subdomains = owned_subdomains(comm, system, contacts, log, condensation)
+        analysed = subdomain_statistics(
+            comm, system, contacts, condensation, parts.subdomains if log is not None else None
+        )
+        for block, (stats, layout) in analysed.items():
             subdomains[block], layouts[block] = stats, layout
     pairs, regions = surface_structure(comm, system, contacts)
-    return SceneStructure(
-        dict(system.sizes),
-        regions,
-        subdomains,
-        layouts,
-        pairs,
-        monolithic_statistics(comm, system, contacts) if full else None,
-        condensation,
+    full_stats = None
+    if full and log is not None:
+        parts.full = MonolithicSolver(comm, system, contacts, log)
+        full_stats = parts.full.analyse()
+    elif full:
+        full_stats = monolithic_statistics(comm, system, contacts)
+    structure = SceneStructure(
+        dict(system.sizes), regions, subdomains, layouts, pairs, full_stats, condensation
     )
+    structure.parts = parts
+    return structure
+
+
+@dataclass
+class AnalysedParts:
+    """Solver parts built and analysed for the prediction, kept for the chosen solver.
+
+    Attributes:
+        subdomains: This rank's subdomains (:func:`~dd_contact.solvers.engine.owned_subdomains`).
+        full: FULL's solver (its matrix assembled).
+    """
+
+    subdomains: dict | None = None
+    full: Any = None
+
+    def take(self, algorithm: str) -> dict | Any:
+        """The parts ``algorithm``'s solver reuses (``None``: none kept); the rest is freed."""
+        keep = self.full if algorithm == "FULL" else self.subdomains
+        if algorithm != "FULL":
+            if self.full is not None:
+                self.full.destroy()
+        else:
+            for sub in (self.subdomains or {}).values():
+                sub.destroy()
+        self.subdomains, self.full = None, None
+        return keep
 
 
 @dataclass

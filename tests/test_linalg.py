@@ -135,9 +135,10 @@ def test_reduction_and_expansion_give_the_two_solves_in_one_substitution():
     K, C, A, n, m = _augmented()
     log = WorkLog()
     factor = SchurFactorisation(A.row, A.col, n + m, m, log, "u:x")
-    factor.factorise(A.data)
+    S = factor.factorise(A.data)
     Z = C.T @ np.linalg.solve(K, C)
-    np.testing.assert_allclose(factor.schur_complement, -Z, rtol=0, atol=1e-12 * abs(Z).max())
+    np.testing.assert_allclose(S, -Z, rtol=0, atol=1e-12 * abs(Z).max())
+    np.testing.assert_array_equal(S, S.T)  # mirrored exactly
     rng = np.random.default_rng(0)
     for _ in range(2):  # a new right-hand side each "step"
         b, xs = rng.standard_normal(n), rng.standard_normal(m)
@@ -169,12 +170,37 @@ def test_a_zero_pivot_behaves_as_in_petscs_schur_factorisation():
     K, _, A, n, m = _augmented(singular=True)
     assert not K[7].any()
     mine = SchurFactorisation(A.row, A.col, n + m, m, WorkLog(), "u:free")
-    mine.factorise(A.data)
+    S = mine.factorise(A.data)
     M = petsc_matrix(MPI.COMM_SELF, n + m, n + m, A.row, A.col, A.data)
     petsc = SparseCholesky(M, WorkLog(), "u:free", m)
     assert petsc.ksp.getPC().getFactorMatrix().getMumpsInfog(28) == 0
-    np.testing.assert_array_equal(mine.schur_complement, petsc.schur_complement)
+    np.testing.assert_array_equal(S, petsc.schur_complement)
     mine.destroy(), petsc.destroy(), M.destroy()
+
+
+def test_the_upper_triangle_alone_is_factorised_in_place_after_one_analysis():
+    """The engine's form: upper-triangle COO, MUMPS reading the caller's values (no copy),
+    the analysis done once and logged with the first factorisation, as PETSc's path does."""
+    _, _, A, n, m = _augmented()
+    M = petsc_matrix(MPI.COMM_SELF, n + m, n + m, A.row, A.col, A.data)
+    petsc_log = WorkLog()
+    petsc = SparseCholesky(M, petsc_log, "u", m)
+    stats = sparse_statistics(M, m)
+    upper = A.row <= A.col
+    values = A.data[upper].copy()
+    log = WorkLog()
+    factor = SchurFactorisation(A.row[upper], A.col[upper], n + m, m, log, "u")
+    assert factor.analyse(values) == stats  # MUMPS's analysis, as PETSc reports it
+    assert factor.analyse(values) is factor.statistics  # once
+    S = factor.factorise(values)
+    assert factor._a is values  # read in place
+    np.testing.assert_array_equal(S, petsc.schur_complement)
+    mine, theirs = log.records[0], petsc_log.records[0]
+    assert (mine.nnz, mine.flops, mine.entries) == (theirs.nnz, theirs.flops, theirs.entries)
+    assert mine.nnz == stats.nnz > 0 and mine.seconds > 0
+    factor.factorise(values)  # numeric only: no analysis in the log
+    assert [r.nnz for r in log.records if r.kind == "sparse_factor"] == [stats.nnz, 0]
+    factor.destroy(), petsc.destroy(), M.destroy()
 
 
 def test_options_under_the_prefix_reach_the_schur_factorisation(options):
