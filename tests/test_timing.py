@@ -96,6 +96,63 @@ def test_calibration_is_measured_once_and_cached(tmp_path, monkeypatch, rates):
     assert calls == [True, True]
 
 
+def test_implausible_cached_rates_are_measured_again_and_not_cached(tmp_path, monkeypatch, rates):
+    """The cached record of this machine once held an analysis of 5.5e6 entries in 1e-6 s
+    (a difference of two noisy times): such a record is measured again, not used."""
+    path = tmp_path / "rates.json"
+    bogus = timing.MachineRates(
+        {**rates.points, "sparse_analysis": [[61731.0, 1.5e-3], [5527125.0, 1e-6]]}
+    )
+    assert bogus.implausible() == ["sparse_analysis: 5.53e+12/s at 5.53e+06"]
+    assert rates.implausible() == []
+    calls = []
+    monkeypatch.setattr(
+        timing, "calibrate", lambda quick, progress=None: calls.append(quick) or bogus
+    )
+    first = timing.machine_rates(path, quick=True, progress=lambda d, t: None)
+    assert calls == [True] and not path.exists()  # measured, implausible: not cached
+    assert first is bogus
+    monkeypatch.setattr(
+        timing, "calibrate", lambda quick, progress=None: calls.append(quick) or rates
+    )
+    timing.machine_rates(path, quick=True)  # measured again, plausible now: cached
+    assert calls == [True, True] and path.exists()
+    key = next(iter(json.loads(path.read_text())))
+    path.write_text(json.dumps({key: bogus.to_dict()}))  # a bogus record in the cache
+    again = timing.machine_rates(path, quick=True)
+    assert calls == [True, True, True] and again.points == rates.points
+    assert json.loads(path.read_text())[key]["points"] == rates.points
+
+
+def test_calibration_measures_an_implausible_size_again(monkeypatch):
+    timings = iter([1e-9, 1e-9, 1e-3])  # two hiccups, then a plausible factorisation
+    monkeypatch.setattr(timing, "CALIBRATION_SIZES", {"quick": ([], [100]), "full": None})
+    real = timing._dense_points
+
+    def measured(n, rng):
+        point = real(n, rng)
+        point["dense_factor"][1] = next(timings)
+        return point
+
+    monkeypatch.setattr(timing, "_dense_points", measured)
+    shown = []
+    rates = timing.calibrate(quick=True, progress=lambda d, t: shown.append((d, t)))
+    assert rates.points["dense_factor"] == [[100**3 / 3.0, 1e-3]] and shown == [(1, 1)]
+
+
+def test_auto_calibration_shows_a_message_and_a_progress_bar(tmp_path, monkeypatch, capsys, rates):
+    def measured(quick, progress):
+        for done in (1, 2):
+            progress(done, 2)
+        return rates
+
+    monkeypatch.setattr(timing, "calibrate", measured)
+    timing.machine_rates(tmp_path / "rates.json", quick=True)
+    err = capsys.readouterr().err
+    assert err.count("measuring this machine's rates for algorithm='auto'") == 1
+    assert "calibrate: 100%" in err and "2/2" in err
+
+
 def test_calibrate_command_measures_caches_and_shows(tmp_path, monkeypatch, capsys):
     from dd_contact.cli import main
 
