@@ -53,6 +53,7 @@ from dd_contact.solvers.schedule import (
 from dd_contact.solvers.worklog import WorkLog, WorkRecord
 
 __all__ = [
+    "MISS",
     "PLAUSIBLE_RATES",
     "RATE_KINDS",
     "Choice",
@@ -63,8 +64,11 @@ __all__ = [
     "calibrate",
     "choose",
     "machine_rates",
+    "misses",
     "plan",
+    "rate_kind",
     "record_seconds",
+    "replan",
 ]
 
 #: What each measured rate is counted in.
@@ -371,6 +375,15 @@ def _dense_points(n: int, rng) -> dict[str, list[float]]:
     }
 
 
+def rate_kind(record: WorkRecord) -> str:
+    """The kind of :data:`RATE_KINDS` that prices a work record (a factorisation: its flops)."""
+    if record.kind in ("sparse_solve", "dense_solve") and record.nrhs > 1:
+        return f"{record.kind}_block"
+    if record.kind in SWEEPS:
+        return "sparse_solve"
+    return "dense_solve" if record.kind == "schur" else record.kind
+
+
 def record_seconds(record: WorkRecord, rates: MachineRates) -> float:
     """Predicted seconds of one factorisation or solve, from its size and work counts."""
     kind, n = record.kind, record.size
@@ -595,10 +608,20 @@ def predict(plan: Plan, rates: MachineRates, steps: float, changes: float) -> Pr
 
 @dataclass
 class Choice:
-    """The outcome of ``algorithm="auto"``: the prediction of every candidate."""
+    """The outcome of ``algorithm="auto"``: the prediction of every candidate.
+
+    Attributes:
+        algorithm: The chosen algorithm.
+        predictions: Per candidate.
+        replanned: The choice was made again after the first solves missed their
+            prediction by more than :data:`MISS` (:func:`replan`).
+        misses: Per rate kind, measured over predicted seconds of the first solves.
+    """
 
     algorithm: str
     predictions: dict[str, Prediction]
+    replanned: bool = False
+    misses: dict[str, float] = field(default_factory=dict)
 
     def table(self) -> str:
         """The candidates' predicted times, cheapest first."""
@@ -625,3 +648,49 @@ def choose(
     predictions = {a: predict(plan(structure, a), rates, steps, changes) for a in candidates}
     best = min(candidates, key=lambda a: (predictions[a].total, candidates.index(a)))
     return Choice(best, predictions)
+
+
+#: A prediction misses when the measured seconds are more than MISS times the predicted
+#: ones, or less than 1 / MISS times.
+MISS = 2.0
+_NOISE_SECONDS = 0.05  # kinds with less measured time than this are not judged
+
+
+def misses(records: Sequence[WorkRecord], rates: MachineRates) -> dict[str, float]:
+    """Measured over predicted seconds of ``records``, per rate kind (enough time only)."""
+    measured: dict[str, float] = {}
+    predicted: dict[str, float] = {}
+    for r in records:
+        kind = rate_kind(r)
+        measured[kind] = measured.get(kind, 0.0) + r.seconds
+        predicted[kind] = predicted.get(kind, 0.0) + record_seconds(r, rates)
+    return {
+        kind: measured[kind] / predicted[kind]
+        for kind in measured
+        if measured[kind] >= _NOISE_SECONDS and predicted[kind] > 0
+    }
+
+
+def replan(
+    choice: Choice,
+    structure: SceneStructure,
+    rates: MachineRates,
+    observed: dict[str, float],
+    steps: float,
+    changes: float,
+) -> Choice:
+    """The choice again, for ``steps`` and ``changes`` still to come, with corrected rates.
+
+    ``observed``: measured over predicted seconds per rate kind (:func:`misses`); only the
+    kinds measured are corrected. The current algorithm's set-up is done (it costs nothing
+    more), the others' is not.
+    """
+    corrected = rates.scaled(observed)
+    predictions = {}
+    for algorithm in choice.predictions:
+        p = predict(plan(structure, algorithm), corrected, steps, changes)
+        if algorithm == choice.algorithm:
+            p = Prediction(algorithm, 0.0, p.step, p.change, steps, changes)
+        predictions[algorithm] = p
+    best = min(predictions, key=lambda a: (predictions[a].total, a != choice.algorithm))
+    return Choice(best, predictions, True, dict(observed))

@@ -308,3 +308,58 @@ def test_auto_under_mpi_predicts_the_orders_as_in_serial():
         assert shared.choice.predictions[order].total == pytest.approx(
             alone.choice.predictions[order].total, rel=1e-12
         )
+
+
+def test_auto_reuses_the_analysis_and_factorises_as_the_named_algorithm(rates):
+    """auto analyses the candidates once; the chosen solver factorises as if named."""
+    runs = {}
+    for algorithm in ("auto", "w-v-u"):
+        problem = dd.TransientProblem(
+            parallelepiped("v-w-u", (24, 6, 4)), 1e-6, algorithm, rates=TWO_CORES
+        )
+        problem.run(4, progress=False, summary=False)
+        runs[algorithm] = problem
+    assert runs["auto"].algorithm == "w-v-u", runs["auto"].choice.table()
+
+    def factorisations(problem):
+        return Counter(
+            (r.block, r.kind, r.size, r.nnz > 0)  # nnz > 0: this one ran the analysis
+            for r in problem.work.records
+            if r.kind in ("sparse_factor", "dense_factor")
+        )
+
+    assert factorisations(runs["auto"]) == factorisations(runs["w-v-u"])
+    analysed = [r.block for r in runs["auto"].work.records if r.nnz > 0]
+    assert len(analysed) == len(set(analysed)) == 2  # each subdomain analysed once
+
+
+def test_auto_chooses_again_when_the_first_solves_miss_by_more_than_2x(rates, caplog):
+    """Sparse rates 1e4 x too fast make FULL look cheapest (the orders' dense work is priced
+    right); its first three solves take far longer than predicted: auto re-plans, switches."""
+    optimistic = rates.scaled({k: 1e-4 for k in timing.RATE_KINDS if k.startswith("sparse")})
+    scene = parallelepiped("v-w-u", (48, 10, 6))
+    problem = dd.TransientProblem(
+        scene, 1e-6, "auto", rates=optimistic, expected_steps=100, expected_changes=100
+    )
+    assert problem.algorithm == "FULL" and not problem.choice.replanned
+    with caplog.at_level("WARNING", logger="dd_contact.analysis"):
+        problem.run(5, progress=False, summary=False)
+    assert problem.choice.replanned and problem.algorithm != "FULL", problem.choice.table()
+    assert problem.choice.misses["sparse_factor"] > 100 * timing.MISS
+    assert "chose again for the rest of the run" in caplog.text
+    named = dd.TransientProblem(parallelepiped("v-w-u", (48, 10, 6)), 1e-6, "FULL")
+    named.run(5, progress=False, summary=False)
+    u, expected = scene.subdomains[0].u.x.array, named.scene.subdomains[0].u.x.array
+    np.testing.assert_allclose(u, expected, rtol=0, atol=1e-7 * np.abs(expected).max())
+
+
+def test_misses_are_measured_over_predicted_seconds_per_kind():
+    rates = timing.MachineRates({k: _flat(1e9) for k in timing.RATE_KINDS})
+    records = [
+        WorkRecord("d", "dense_factor", 3000, 0, 3 * 9e9 / 1e9, 9e9),  # 3 x its 9 s
+        WorkRecord("u", "sparse_forward", 10, 1, 0.2, 2e8, "u_hat", 1e8),  # 4 x 0.05 s
+        WorkRecord("w", "dense_solve", 10, 1, 0.01, 200.0),  # too little time to judge
+    ]
+    assert timing.misses(records, rates) == pytest.approx(
+        {"dense_factor": 3.0, "sparse_solve": 4.0}
+    )
