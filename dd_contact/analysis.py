@@ -115,11 +115,10 @@ class Analysis:
         reused = None  # the chosen solver's parts that auto built and analysed already
         self._system, self._solves = system, 0
         if algorithm == "auto":
-            structure = timing.scene_structure(
-                self.comm, system, contacts, condensation, orders=len(valid) > 1, log=self.work
-            )
             rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
-            self.choice = timing.choose(structure, rates, valid, steps, changes)
+            self.choice, structure = timing.auto_choice(
+                self.comm, system, contacts, condensation, valid, rates, steps, changes, self.work
+            )
             algorithm = self.choice.algorithm
             reused = structure.parts.take(algorithm)
             structure.parts = None

@@ -61,6 +61,7 @@ __all__ = [
     "Plan",
     "Prediction",
     "SceneStructure",
+    "auto_choice",
     "calibrate",
     "choose",
     "machine_rates",
@@ -622,6 +623,8 @@ class Choice:
     predictions: dict[str, Prediction]
     replanned: bool = False
     misses: dict[str, float] = field(default_factory=dict)
+    #: Candidates not analysed because they cannot win: the least their run can cost [s].
+    skipped: dict[str, float] = field(default_factory=dict)
 
     def table(self) -> str:
         """The candidates' predicted times, cheapest first."""
@@ -634,6 +637,8 @@ class Choice:
                 f"{p.algorithm:<8} {p.setup:>10.4g} {p.step:>10.4g} {p.change:>10.4g} "
                 f"{p.total:>11.5g}{mark}"
             )
+        for algorithm, least in self.skipped.items():
+            rows.append(f"{algorithm:<8} not analysed: cannot win (at least {least:.4g} s)")
         return "\n".join(rows)
 
 
@@ -694,3 +699,49 @@ def replan(
         predictions[algorithm] = p
     best = min(predictions, key=lambda a: (predictions[a].total, a != choice.algorithm))
     return Choice(best, predictions, True, dict(observed))
+
+
+#: FULL factorises a matrix that holds every subdomain's: its factorisation is taken to
+#: cost at least this fraction of the subdomains' factorisations with their Schur
+#: complements (measured 0.64-0.68 on the benchmark bar at 124k and 306k dofs).
+FULL_FACTOR_BOUND = 0.25
+
+
+def auto_choice(
+    comm: MPI.Comm,
+    system,
+    contacts: Sequence[ContactRegion],
+    condensation: str,
+    candidates: tuple[str, ...],
+    rates: MachineRates,
+    steps: float,
+    changes: float,
+    log: WorkLog,
+) -> tuple[Choice, SceneStructure]:
+    """Collective: ``algorithm="auto"``: analyse the candidates that can win, choose.
+
+    The orders are analysed first (their subdomains kept for the chosen solver); FULL,
+    whose factorisation and every re-factorisation cost at least :data:`FULL_FACTOR_BOUND`
+    of the subdomains', only if that bound is below the best order's predicted total.
+    """
+    orders = tuple(a for a in candidates if a != "FULL")
+    structure = scene_structure(
+        comm, system, contacts, condensation, full=False, orders=bool(orders), log=log
+    )
+    skipped = {}
+    if orders:
+        best = min(predict(plan(structure, a), rates, steps, changes).total for a in orders)
+        subdomains = sum(
+            rates.seconds("sparse_factor", s.flops) for s in structure.subdomains.values()
+        )
+        least = FULL_FACTOR_BOUND * (1.0 + changes) * subdomains
+        if least > best:
+            skipped["FULL"] = least
+    if "FULL" in candidates and not skipped:
+        structure.parts.full = MonolithicSolver(comm, system, contacts, log)
+        structure.full = structure.parts.full.analyse()
+    choice = choose(
+        structure, rates, tuple(a for a in candidates if a not in skipped), steps, changes
+    )
+    choice.skipped = skipped
+    return choice, structure
