@@ -659,6 +659,9 @@ def choose(
 #: ones, or less than 1 / MISS times.
 MISS = 2.0
 _NOISE_SECONDS = 0.05  # kinds with less measured time than this are not judged
+#: A re-plan switches algorithm only if the other's predicted rest of the run, its set-up
+#: included, is this many times cheaper than going on with the current one.
+SWITCH_GAIN = 1.25
 
 
 def misses(records: Sequence[WorkRecord], rates: MachineRates) -> dict[str, float]:
@@ -698,6 +701,8 @@ def replan(
             p = Prediction(algorithm, 0.0, p.step, p.change, steps, changes)
         predictions[algorithm] = p
     best = min(predictions, key=lambda a: (predictions[a].total, a != choice.algorithm))
+    if SWITCH_GAIN * predictions[best].total > predictions[choice.algorithm].total:
+        best = choice.algorithm  # a switch builds and factorises anew: only for a clear gain
     return Choice(best, predictions, True, dict(observed))
 
 

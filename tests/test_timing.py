@@ -357,6 +357,25 @@ def test_auto_chooses_again_when_the_first_solves_miss_by_more_than_2x(rates, ca
     np.testing.assert_allclose(u, expected, rtol=0, atol=1e-7 * np.abs(expected).max())
 
 
+def test_a_replan_switches_only_for_a_clear_gain():
+    structure = timing.SceneStructure({}, {}, {}, {}, set(), None)
+
+    def priced(totals):  # the rest of the run of each (one "step" of that many seconds)
+        def predict(plan, rates, steps, changes):
+            return timing.Prediction(plan, 0.0, totals[plan], 0.0, steps, changes)
+
+        return predict
+
+    choice = timing.Choice("A", {"A": None, "B": None})
+    for totals, expected in (({"A": 10.0, "B": 9.0}, "A"), ({"A": 10.0, "B": 7.0}, "B")):
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(timing, "plan", lambda structure, algorithm: algorithm)
+            mp.setattr(timing, "predict", priced(totals))
+            again = timing.replan(choice, structure, TWO_CORES, {"sparse_factor": 3.0}, 1, 0)
+        assert again.algorithm == expected and again.replanned
+        assert again.misses == {"sparse_factor": 3.0}
+
+
 def test_misses_are_measured_over_predicted_seconds_per_kind():
     rates = timing.MachineRates({k: _flat(1e9) for k in timing.RATE_KINDS})
     records = [
