@@ -226,3 +226,33 @@ def test_another_mumps_falls_back_to_two_substitutions_with_a_warning(monkeypatc
         problem = dd.StaticProblem(scene, algorithm="w-u")
     assert problem.condensation == "multi-rhs"
     problem.close()
+
+
+def test_a_schur_subdomain_keeps_one_copy_of_its_matrix_and_of_its_complement():
+    """Memory (issue 14): no PETSc matrix next to MUMPS's COO, one dense complement."""
+    problem = dd.StaticProblem(verify.order_scene("interface", False, 1e4), "w-v-u")
+    problem.solve()
+    solver = problem.solver
+    for block, sub in solver.subdomains.items():
+        assert sub.matrix.A is None  # the upper triangle's COO only
+        assert sub.factor._a is sub.matrix.values  # read by MUMPS in place
+        assert np.all(sub.factor._irn <= sub.factor._jcn)  # one triangle (1-based, int32)
+        assert sub.factor._irn.dtype == np.int32
+        assert sub.Z is solver.surface.condensed[block]  # the surface holds the same array
+        np.testing.assert_array_equal(sub.Z, sub.Z.T)
+    problem.close()
+
+
+@pytest.mark.skipif(linalg._malloc_trim() is None, reason="glibc's malloc_trim only")
+def test_release_freed_memory_returns_a_freed_heap_to_the_os():
+    def resident_mb() -> float:
+        with open("/proc/self/statm") as statm:
+            return int(statm.read().split()[1]) * 4096 / 2**20
+
+    del_large = np.ones(3_000_000)  # 24 MB, mmapped; freeing it raises glibc's mmap threshold
+    del del_large
+    chunks = [np.ones(100_000) for _ in range(1000)]  # 800 kB each: now on the heap
+    del chunks[:-1]  # the last one pins the top of the heap: free() alone cannot trim it
+    before = resident_mb()
+    linalg.release_freed_memory()
+    assert before - resident_mb() > 400  # of the ~800 MB freed
