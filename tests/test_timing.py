@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import dd_contact as dd
-from dd_contact import timing, verify
+from dd_contact import calibration, timing, verify
 from dd_contact.examples import parallelepiped, row_of_blocks
 from dd_contact.solvers.worklog import WorkRecord
 
@@ -85,7 +85,7 @@ def test_calibration_is_measured_once_and_cached(tmp_path, monkeypatch, rates):
     path = tmp_path / "rates.json"
     calls = []
     monkeypatch.setattr(
-        timing, "calibrate", lambda quick, progress=None: calls.append(quick) or rates
+        calibration, "calibrate", lambda quick, progress=None: calls.append(quick) or rates
     )
     first = timing.machine_rates(path, quick=True)
     second = timing.machine_rates(path, quick=True)
@@ -107,13 +107,13 @@ def test_implausible_cached_rates_are_measured_again_and_not_cached(tmp_path, mo
     assert rates.implausible() == []
     calls = []
     monkeypatch.setattr(
-        timing, "calibrate", lambda quick, progress=None: calls.append(quick) or bogus
+        calibration, "calibrate", lambda quick, progress=None: calls.append(quick) or bogus
     )
     first = timing.machine_rates(path, quick=True, progress=lambda d, t: None)
     assert calls == [True] and not path.exists()  # measured, implausible: not cached
     assert first is bogus
     monkeypatch.setattr(
-        timing, "calibrate", lambda quick, progress=None: calls.append(quick) or rates
+        calibration, "calibrate", lambda quick, progress=None: calls.append(quick) or rates
     )
     timing.machine_rates(path, quick=True)  # measured again, plausible now: cached
     assert calls == [True, True] and path.exists()
@@ -126,17 +126,17 @@ def test_implausible_cached_rates_are_measured_again_and_not_cached(tmp_path, mo
 
 def test_calibration_measures_an_implausible_size_again(monkeypatch):
     timings = iter([1e-9, 1e-9, 1e-3])  # two hiccups, then a plausible factorisation
-    monkeypatch.setattr(timing, "CALIBRATION_SIZES", {"quick": ([], [100]), "full": None})
-    real = timing._dense_points
+    monkeypatch.setattr(calibration, "CALIBRATION_SIZES", {"quick": ([], [100]), "full": None})
+    real = calibration._dense_points
 
     def measured(n, rng):
         point = real(n, rng)
         point["dense_factor"][1] = next(timings)
         return point
 
-    monkeypatch.setattr(timing, "_dense_points", measured)
+    monkeypatch.setattr(calibration, "_dense_points", measured)
     shown = []
-    rates = timing.calibrate(quick=True, progress=lambda d, t: shown.append((d, t)))
+    rates = calibration.calibrate(quick=True, progress=lambda d, t: shown.append((d, t)))
     assert rates.points["dense_factor"] == [[100**3 / 3.0, 1e-3]] and shown == [(1, 1)]
 
 
@@ -146,7 +146,7 @@ def test_auto_calibration_shows_a_message_and_a_progress_bar(tmp_path, monkeypat
             progress(done, 2)
         return rates
 
-    monkeypatch.setattr(timing, "calibrate", measured)
+    monkeypatch.setattr(calibration, "calibrate", measured)
     timing.machine_rates(tmp_path / "rates.json", quick=True)
     err = capsys.readouterr().err
     assert err.count("measuring this machine's rates for algorithm='auto'") == 1
