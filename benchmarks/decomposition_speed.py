@@ -23,7 +23,11 @@ log per block, and the peak memory. Derived, per algorithm (medians over runs):
   MUMPS's forward and backward sweeps, with the default Schur condensation; two full
   substitutions before it);
 * ``step_base_over_full``: an order's step without changes over FULL's (issue 14 target
-  <= 1.1).
+  <= 1.1);
+* ``whole_run_seconds``: scene, set-up and every step of one run; ``auto`` (on the w-v-u
+  scene, told the run's length and 1.25 changes a step) gets ``auto_over_best_named``: its
+  whole run over the best named algorithm's of the same number of steps (target <= 1.15);
+* ``peak_memory_mb``: the largest peak resident memory of the runs (``_runs``: each).
 
 ``--before FILE`` adds the summary of an earlier run at the same size (e.g. of the code
 before a change, run with its own copy of this script) under ``"before"``, with per-key
@@ -48,7 +52,8 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).parent / "results"
-ALGORITHMS = ["FULL", "v-w-u", "w-v-u", "w-u", "v-u"]
+ALGORITHMS = ["FULL", "v-w-u", "w-v-u", "w-u", "v-u", "auto"]
+AUTO_SCENE = "w-v-u"  # auto runs on the two-subdomain scene with a contact interface
 SLOW = ("FULL", "v-u")  # re-factorise a large sparse matrix on every change: fewer steps
 PINNED = {
     "OPENBLAS_NUM_THREADS": "1",
@@ -70,8 +75,15 @@ def worker(args) -> dict:
     from dd_contact.examples import parallelepiped
 
     start = time.perf_counter()
-    scene = parallelepiped(args.worker, tuple(args.elements), comm=MPI.COMM_SELF)
-    problem = dd.TransientProblem(scene, args.dt, algorithm=args.worker, track_energy=False)
+    auto = args.worker == "auto"
+    scene_of = AUTO_SCENE if auto else args.worker
+    scene = parallelepiped(scene_of, tuple(args.elements), comm=MPI.COMM_SELF)
+    n_steps = args.full_steps if args.worker in SLOW else args.steps
+    # auto is told the run's length; the bar changes contact about 1.25 times a step
+    expected = {"expected_steps": n_steps, "expected_changes": 1.25 * n_steps} if auto else {}
+    problem = dd.TransientProblem(
+        scene, args.dt, algorithm=args.worker, track_energy=False, **expected
+    )
     problem.start()
     setup = time.perf_counter() - start
     iterations: list[float] = []
@@ -85,7 +97,6 @@ def worker(args) -> dict:
 
     problem.iteration._solve_once = timed
     steps = []
-    n_steps = args.full_steps if args.worker in SLOW else args.steps
     for _ in range(n_steps):
         iterations.clear()
         t0 = time.perf_counter()
@@ -107,8 +118,12 @@ def worker(args) -> dict:
             for what in ("u_hat", "u")
         ]
         substitutions[block] = sum(statistics.median(t) for t in parts if t) or None
+    whole = time.perf_counter() - start
     return {
         "algorithm": args.worker,
+        "chosen": problem.algorithm,
+        "replanned": bool(getattr(problem.choice, "replanned", False)),
+        "whole_run_seconds": whole,
         "dofs": int(sum(problem.solver.system.sizes.values())),
         "blocks": dict(problem.solver.system.sizes),
         "setup_seconds": setup,
@@ -127,7 +142,7 @@ def derived(run: dict) -> dict:
     # The first step's first iteration factorises and condenses everything: set-up, not a step.
     base = [s["seconds"] - sum(s["iterations"][1:]) for s in run["steps"][1:]]
     floor = None
-    if run["algorithm"] != "FULL":
+    if run.get("chosen", run["algorithm"]) != "FULL":
         floor = sum(v for v in run["median_substitution_seconds"].values() if v)
     out = {
         "seconds_per_change": statistics.median(change) if change else None,
@@ -136,6 +151,7 @@ def derived(run: dict) -> dict:
         "seconds_first_step": run["steps"][0]["seconds"],
         "changes_per_step": sum(s["changes"] for s in run["steps"]) / len(run["steps"]),
         "floor_substitution": floor,
+        "whole_run_seconds": run.get("whole_run_seconds"),
     }
     if change:
         out["seconds_per_step_2_changes"] = (
@@ -189,13 +205,30 @@ def summarise(args, runs: dict, out: Path, show: bool = False) -> None:
             med[key] = statistics.median(values) if values else None
         med["setup_seconds"] = statistics.median(r["setup_seconds"] for r in rs)
         med["peak_memory_mb"] = max(r["peak_memory_mb"] for r in rs)
+        med["peak_memory_mb_runs"] = [round(r["peak_memory_mb"], 1) for r in rs]
         med["dofs"] = rs[0]["dofs"]
         med["runs"] = len(rs)
+        med["steps"] = len(rs[0]["steps"])
+        if algorithm == "auto":
+            med["chosen"] = sorted({r["chosen"] for r in rs})
+            med["whole_run_seconds_runs"] = [r["whole_run_seconds"] for r in rs]
         summary[algorithm] = med
+    auto = summary.get("auto")
+    if auto and auto.get("whole_run_seconds"):
+        # the best named algorithm of the same length of run (FULL and v-u run fewer steps)
+        named = {
+            a: m["whole_run_seconds"]
+            for a, m in summary.items()
+            if a != "auto" and m.get("whole_run_seconds") and m["steps"] == auto["steps"]
+        }
+        if named:
+            best = min(named, key=named.get)
+            auto["best_named"] = best
+            auto["auto_over_best_named"] = auto["whole_run_seconds"] / named[best]
     full = summary.get("FULL")
     if full:
         for algorithm, med in summary.items():
-            if algorithm == "FULL":
+            if algorithm in ("FULL", "auto"):
                 continue
             for key in ("seconds_per_change", "seconds_per_step_2_changes", "seconds_per_step"):
                 if med.get(key) and full.get(key):

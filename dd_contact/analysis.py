@@ -32,7 +32,7 @@ from dd_contact.post import Results
 from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.engine import BlockEliminationSolver
-from dd_contact.solvers.linalg import petsc_options
+from dd_contact.solvers.linalg import petsc_options, release_freed_memory
 from dd_contact.solvers.mumps_schur import layout_known, mumps_version
 from dd_contact.solvers.residual import ResidualCheck
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
@@ -41,6 +41,9 @@ from dd_contact.solvers.stiff_ties import AugmentedTies
 __all__ = ["Analysis"]
 
 logger = logging.getLogger(__name__)
+
+#: Solves after which ``algorithm="auto"`` compares its prediction with the clock.
+CHECK_SOLVES = 3
 
 
 class Analysis:
@@ -117,26 +120,19 @@ class Analysis:
         contacts = [z.region for z in self.zones]
         #: The prediction behind ``algorithm="auto"`` (``None`` for a named algorithm).
         self.choice: timing.Choice | None = None
+        reused = None  # the chosen solver's parts that auto built and analysed already
+        self._system, self._solves = system, 0
         if algorithm == "auto":
-            structure = timing.scene_structure(
-                self.comm, system, contacts, condensation, orders=len(valid) > 1
-            )
             rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
-            self.choice = timing.choose(structure, rates, valid, steps, changes)
-            algorithm = self.choice.algorithm
-        self.algorithm, self.condensation = algorithm, condensation
-        if algorithm == "FULL":
-            self.solver = MonolithicSolver(self.comm, system, contacts, self.work)
-        else:
-            self.solver = BlockEliminationSolver(
-                self.comm, system, contacts, self.work, algorithm, condensation
+            self.choice, structure = timing.auto_choice(
+                self.comm, system, contacts, condensation, valid, rates, steps, changes, self.work
             )
-        #: The solver the contact iteration drives: ``solver``, or around it the iteration
-        #: that carries ties stiffer than KAPPA_SPLIT.
-        self.tie_solver = self.solver
-        if self.comm.allreduce(len(system.stiff_ties)):
-            free = {tie.u: self.model.free(tie.u) for tie in system.stiff_ties}
-            self.tie_solver = AugmentedTies(self.comm, self.solver, system.stiff_ties, free)
+            algorithm = self.choice.algorithm
+            reused = structure.parts.take(algorithm)
+            structure.parts = None
+            self._auto = (structure, rates, steps, changes)  # for the check after CHECK_SOLVES
+        self.condensation = condensation
+        self._use(algorithm, reused)
         self.iteration = ContactIteration(
             self.comm,
             self.zones,
@@ -156,6 +152,56 @@ class Analysis:
         self._load_forms = {block: forms.load_forms(sub) for _, sub, block in self._owned}
         self._constant_loads: dict[str, np.ndarray] = {}
         self._results = Results(self.comm, scene, self.model, self.iteration.alpha)
+
+    def _use(self, algorithm: str, reused=None) -> None:
+        """Build ``algorithm``'s solver (from the parts auto analysed, if given)."""
+        system, contacts = self._system, [z.region for z in self.zones]
+        self.algorithm = algorithm
+        if algorithm == "FULL":
+            self.solver = reused or MonolithicSolver(self.comm, system, contacts, self.work)
+        else:
+            self.solver = BlockEliminationSolver(
+                self.comm, system, contacts, self.work, algorithm, self.condensation, reused
+            )
+        release_freed_memory()  # the build's temporaries, before the factorisations' peak
+        #: The solver the contact iteration drives: ``solver``, or around it the iteration
+        #: that carries ties stiffer than KAPPA_SPLIT.
+        self.tie_solver = self.solver
+        if self.comm.allreduce(len(system.stiff_ties)):
+            free = {tie.u: self.model.free(tie.u) for tie in system.stiff_ties}
+            self.tie_solver = AugmentedTies(self.comm, self.solver, system.stiff_ties, free)
+
+    def _check_choice(self) -> None:
+        """Collective: after CHECK_SOLVES solves, compare auto's prediction with the clock.
+
+        If a kind of work took more than MISS times (or less than 1/MISS of) its predicted
+        time (a loaded machine, stale rates), choose again for the rest of the expected run
+        with the rates corrected by what was measured, and switch solver if another wins.
+        """
+        structure, rates, steps, changes = self._auto
+        local = timing.misses(self.work.records, rates)
+        observed = {}  # the worst miss of any rank, the same on every rank
+        for part in self.comm.allgather(local):
+            for kind, ratio in part.items():
+                worst = observed.get(kind, 1.0)
+                observed[kind] = ratio if abs(np.log(ratio)) > abs(np.log(worst)) else worst
+        self.choice.misses = observed
+        if all(1.0 / timing.MISS <= r <= timing.MISS for r in observed.values()):
+            return
+        left = (max(steps - self._solves, 1.0), max(changes - self.iteration.gamma, 0.0))
+        choice = timing.replan(self.choice, structure, rates, observed, *left)
+        logger.warning(
+            "algorithm='auto': the first %d solves took %s x the predicted time; chose again "
+            "for the rest of the run: %s (was %s)",
+            self._solves,
+            ", ".join(f"{k} {r:.2g}" for k, r in observed.items()),
+            choice.algorithm,
+            self.algorithm,
+        )
+        self.choice = choice
+        if choice.algorithm != self.algorithm:
+            self.solver.destroy()
+            self._use(choice.algorithm)
 
     # -- pieces ----------------------------------------------------------------------------
     def _check_contact_geometry(self, t: float = 0.0) -> None:
@@ -224,7 +270,11 @@ class Analysis:
             )
         try:
             with petsc_options(self._options):
-                return self.iteration.solve(self.tie_solver, rhs, t, where, correction)
+                out = self.iteration.solve(self.tie_solver, rhs, t, where, correction)
+                self._solves += 1
+                if self.choice is not None and self._solves == CHECK_SOLVES:
+                    self._check_choice()
+                return out
         except SingularMatrixError as error:
             raise type(error)(
                 f"{error} (at {where}; {self._active_summary()}). Likely causes: a body held "

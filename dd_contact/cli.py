@@ -355,7 +355,7 @@ def _calibrate(args: argparse.Namespace) -> int:
     def progress(done: int, total: int) -> None:  # called on the root rank, as it measures
         nonlocal bar
         if bar is None:
-            seconds = "about 3 s" if args.quick else "about 30 s"
+            seconds = "about 3 s" if args.quick else "about 12 s"
             message = f"dd-contact calibrate: measuring this machine's rates ({seconds})"
             print(message, file=sys.stderr)
             bar = tqdm(total=total, desc="calibrate", unit="size", file=sys.stderr)

@@ -9,10 +9,8 @@ This module predicts *seconds* for what the solvers here actually do:
   engine runs them (both follow :mod:`dd_contact.solvers.schedule`). A :class:`Plan` lists
   the operations of the set-up, of one time step without a contact change, and of one more
   contact iteration after a change on each contact region.
-* **The machine.** :class:`MachineRates`: measured seconds for each kind of operation at a
-  few sizes (:func:`calibrate`, on cube meshes and random dense matrices, not on the
-  benchmark scenes), cached per machine (:func:`machine_rates`). The rate of an operation is
-  interpolated in log-log between the measured sizes, flat beyond them.
+* **The machine.** :class:`~dd_contact.calibration.MachineRates`: measured seconds for each
+  kind of operation at a few sizes, cached per machine (:mod:`dd_contact.calibration`).
 
 Predicted run time = set-up + steps x step + changes x (mean change over the regions).
 :func:`choose` picks the algorithm with the least predicted time.
@@ -20,26 +18,24 @@ Predicted run time = set-up + steps x step + changes x (mean change over the reg
 
 from __future__ import annotations
 
-import json
-import os
-import platform
 import statistics
-import time
-from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass, field
-from pathlib import Path
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 from mpi4py import MPI
 
-import numpy as np
-import scipy.linalg as sla
-
 from dd_contact.blocks import ContactRegion
-from dd_contact.parallel import ROOT, bcast_from_root
-from dd_contact.solvers.engine import subdomain_statistics, surface_structure
-from dd_contact.solvers.full import monolithic_statistics
-from dd_contact.solvers.linalg import SparseCholesky, SparseStatistics
+from dd_contact.calibration import (
+    PLAUSIBLE_RATES,
+    RATE_KINDS,
+    MachineRates,
+    calibrate,
+    machine_rates,
+)
+from dd_contact.solvers.engine import owned_subdomains, subdomain_statistics, surface_structure
+from dd_contact.solvers.full import MonolithicSolver, monolithic_statistics
+from dd_contact.solvers.linalg import SparseStatistics
 from dd_contact.solvers.schedule import (
     ALGORITHMS,
     SWEEPS,
@@ -50,225 +46,33 @@ from dd_contact.solvers.schedule import (
 from dd_contact.solvers.worklog import WorkLog, WorkRecord
 
 __all__ = [
+    "MISS",
+    "PLAUSIBLE_RATES",
     "RATE_KINDS",
     "Choice",
     "MachineRates",
     "Plan",
     "Prediction",
     "SceneStructure",
+    "auto_choice",
     "calibrate",
     "choose",
     "machine_rates",
+    "misses",
     "plan",
+    "rate_kind",
     "record_seconds",
+    "replan",
 ]
 
-#: What each measured rate is counted in.
-RATE_KINDS = {
-    "sparse_factor": "flops of a MUMPS numeric Cholesky factorisation",
-    "sparse_analysis": "matrix entries through MUMPS's symbolic analysis",
-    "sparse_solve": "factor entries read by one forward and backward substitution",
-    "sparse_solve_block": "factor entries x right-hand sides of a multi-RHS substitution",
-    "dense_factor": "flops of a LAPACK Cholesky factorisation (n^3/3)",
-    "dense_solve": "flops of one LAPACK substitution pair (2 n^2)",
-    "dense_solve_block": "flops of triangular solves with many columns (n^2 per column)",
-}
 
-_FORMAT = 1  # version of the cached file's layout
-
-
-# -- the machine ----------------------------------------------------------------------------
-@dataclass
-class MachineRates:
-    """Measured seconds per operation kind at a few sizes.
-
-    Attributes:
-        points: Per kind of :data:`RATE_KINDS`, ``[work, seconds]`` pairs, work ascending.
-        machine: Where and how they were measured (host, CPU, BLAS threads, date).
-    """
-
-    points: dict[str, list[list[float]]]
-    machine: dict[str, Any] = field(default_factory=dict)
-
-    def seconds(self, kind: str, work: float) -> float:
-        """Predicted seconds of ``work`` units of ``kind`` (rate interpolated in log-log)."""
-        if work <= 0:
-            return 0.0
-        pts = np.asarray(self.points[kind], dtype=float)
-        w, t = pts[:, 0], pts[:, 1]
-        rate = np.exp(np.interp(np.log(work), np.log(w), np.log(w / t)))
-        return float(work / rate)
-
-    def rate(self, kind: str, work: float) -> float:
-        """Work units per second at ``work`` units."""
-        return work / self.seconds(kind, work)
-
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-ready dict (see :meth:`from_dict`)."""
-        return {"format": _FORMAT, **asdict(self)}
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> MachineRates:
-        """Rates from :meth:`to_dict`'s output; ValueError if it is not such a record."""
-        missing = set(RATE_KINDS) - set(data.get("points", {}))
-        if data.get("format") != _FORMAT or missing:
-            raise ValueError(f"not a machine-rates record of format {_FORMAT} (missing {missing})")
-        return cls(
-            {k: [list(map(float, p)) for p in v] for k, v in data["points"].items()},
-            dict(data.get("machine", {})),
-        )
-
-
-def machine_fingerprint() -> dict[str, Any]:
-    """What the rates depend on: the host, its CPU, and the BLAS/OpenMP thread settings."""
-    cpu = platform.processor() or ""
-    try:
-        with open("/proc/cpuinfo") as info:
-            cpu = next(
-                (ln.split(":", 1)[1].strip() for ln in info if ln.startswith("model name")), cpu
-            )
-    except OSError:
-        pass
-    threads = {k: os.environ.get(k, "") for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS")}
-    return {"host": platform.node(), "cpu": cpu, "cores": os.cpu_count(), **threads}
-
-
-def _cache_file() -> Path:
-    root = os.environ.get("DD_CONTACT_CACHE") or Path.home() / ".cache" / "dd_contact"
-    return Path(root) / "machine_rates.json"
-
-
-def machine_rates(
-    path: str | os.PathLike[str] | None = None,
-    recalibrate: bool = False,
-    quick: bool = False,
-    comm: MPI.Comm | None = None,
-    progress: Callable[[int, int], None] | None = None,
-) -> MachineRates:
-    """This machine's rates: from the cache, or measured now (:func:`calibrate`) and cached.
-
-    The cache (``$DD_CONTACT_CACHE`` or ``~/.cache/dd_contact``, file ``machine_rates.json``)
-    keeps one record per machine fingerprint (host, CPU, thread settings). Collective over
-    ``comm`` (default ``MPI.COMM_SELF``: this rank alone): its root reads or measures, every
-    rank of ``comm`` gets the result. ``progress(done, total)`` is called as
-    :func:`calibrate` measures.
-    """
-    comm = MPI.COMM_SELF if comm is None else comm
-    rates = None
-    if comm.rank == ROOT:
-        file = Path(path) if path is not None else _cache_file()
-        key = json.dumps(machine_fingerprint(), sort_keys=True) + (" quick" if quick else "")
-        cached = json.loads(file.read_text()) if file.exists() else {}
-        if key in cached and not recalibrate:
-            try:
-                rates = MachineRates.from_dict(cached[key])
-            except ValueError:
-                rates = None
-        if rates is None:
-            rates = calibrate(quick=quick, progress=progress)
-            cached[key] = rates.to_dict()
-            file.parent.mkdir(parents=True, exist_ok=True)
-            file.write_text(json.dumps(cached, indent=1))
-    return bcast_from_root(comm, rates)
-
-
-def _timed(action, repeats: int = 1, cold: bool = False) -> float:
-    """Median seconds of ``action`` after one warm-up call; ``cold``: evict the caches first."""
-    action()
-    times = []
-    flush = np.ones(16_000_000) if cold else None  # 128 MB: more than any CPU cache
-    for _ in range(repeats):
-        if flush is not None:
-            flush += 1.0
-        start = time.perf_counter()
-        action()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
-
-
-def _elasticity_matrix(n: tuple[int, int, int]):
-    """Stiffness plus a little mass of a hexahedral cube mesh (an SPD elasticity matrix)."""
-    import dolfinx
-    import dolfinx.fem.petsc
-    import ufl
-
-    mesh = dolfinx.mesh.create_box(
-        MPI.COMM_SELF,
-        [[0.0, 0.0, 0.0], list(map(float, n))],
-        list(n),
-        dolfinx.mesh.CellType.hexahedron,
-    )
-    V = dolfinx.fem.functionspace(mesh, ("Lagrange", 1, (3,)))
-    u, v = ufl.TrialFunction(V), ufl.TestFunction(V)
-    eps = lambda w: ufl.sym(ufl.grad(w))  # noqa: E731
-    a = (
-        2.0 * ufl.inner(eps(u), eps(v)) + ufl.div(u) * ufl.div(v) + 1e-2 * ufl.inner(u, v)
-    ) * ufl.dx
-    A = dolfinx.fem.petsc.assemble_matrix(dolfinx.fem.form(a))
-    A.assemble()
-    return A
-
-
-def calibrate(
-    quick: bool = False, progress: Callable[[int, int], None] | None = None
-) -> MachineRates:
-    """Measure this machine's rates (about 30 s; ``quick``: about 3 s, small sizes only).
-
-    Sparse: MUMPS on elasticity matrices of cube meshes (analysis, factorisation,
-    substitutions with one and with 128 right-hand sides). Dense: LAPACK potrf, potrs and
-    triangular solves on random SPD matrices. Run with the thread settings of the real runs.
-    ``progress(done, total)``, if given, is called after each measured size.
-    """
-    points: dict[str, list[list[float]]] = {k: [] for k in RATE_KINDS}
-    cubes = (
-        [(6, 6, 6), (10, 10, 10)]
-        if quick
-        else [(6, 6, 6), (10, 10, 10), (16, 16, 16), (22, 22, 22), (28, 28, 28)]
-    )
-    dense_sizes = [50, 200, 800] if quick else [50, 200, 600, 1500, 3000]
-    total = len(cubes) + len(dense_sizes)
-    for done, n in enumerate(cubes, 1):
-        A = _elasticity_matrix(n)
-        log = WorkLog()
-        factor = SparseCholesky(A, log, "calibration")
-        first = log.records[-1]
-        A.scale(1.0 + 1e-9)  # new values: the next set-up re-factorises numerically
-        factor.refactorise()
-        numeric = log.records[-1]
-        points["sparse_factor"].append([numeric.flops, numeric.seconds])
-        points["sparse_analysis"].append([first.nnz, max(first.seconds - numeric.seconds, 1e-6)])
-        b = A.createVecRight()
-        b.set(1.0)
-        # In a time step other work runs between two substitutions with the same factor.
-        seconds = _timed(lambda: factor.solve(b), 5, cold=True)
-        points["sparse_solve"].append([factor.entries, seconds])
-        B = np.ones((A.getSize()[0], 128))
-        seconds = _timed(lambda: factor.solve_many(B), cold=True)
-        points["sparse_solve_block"].append([factor.entries * 128, seconds])
-        factor.destroy(), b.destroy(), A.destroy()
-        if progress is not None:
-            progress(done, total)
-    rng = np.random.default_rng(0)
-    for done, n in enumerate(dense_sizes, len(cubes) + 1):
-        X = rng.standard_normal((n, n))
-        S = X @ X.T + n * np.eye(n)
-        L = sla.cho_factor(S.copy(), lower=True, check_finite=False)
-        seconds = _timed(lambda: sla.cho_factor(S.copy(), lower=True, check_finite=False), 3)
-        seconds -= _timed(lambda: S.copy(), 3)
-        points["dense_factor"].append([n**3 / 3.0, max(seconds, 1e-7)])
-        v = rng.standard_normal(n)
-        seconds = _timed(lambda: sla.cho_solve(L, v, check_finite=False), 7)
-        points["dense_solve"].append([2.0 * n * n, seconds])
-        m = min(n, 256)
-        Bd = rng.standard_normal((n, m))
-        seconds = _timed(lambda: sla.solve_triangular(L[0], Bd, lower=True, check_finite=False), 3)
-        points["dense_solve_block"].append([float(n * n * m), seconds])
-        if progress is not None:
-            progress(done, total)
-    for kind in points:
-        points[kind].sort()
-    machine = {**machine_fingerprint(), "date": time.strftime("%Y-%m-%d %H:%M"), "quick": quick}
-    return MachineRates(points, machine)
+def rate_kind(record: WorkRecord) -> str:
+    """The kind of :data:`RATE_KINDS` that prices a work record (a factorisation: its flops)."""
+    if record.kind in ("sparse_solve", "dense_solve") and record.nrhs > 1:
+        return f"{record.kind}_block"
+    if record.kind in SWEEPS:
+        return "sparse_solve"
+    return "dense_solve" if record.kind == "schur" else record.kind
 
 
 def record_seconds(record: WorkRecord, rates: MachineRates) -> float:
@@ -308,6 +112,7 @@ class SceneStructure:
         base_pairs: Surface block pairs with a matrix of their own.
         full: MUMPS's analysis of FULL's matrix (``None``: FULL not considered).
         condensation: How the orders condense a subdomain (``"schur"``, ``"multi-rhs"``).
+        parts: The analysed solver parts, if kept (``scene_structure(log=...)``).
     """
 
     sizes: dict[str, int]
@@ -317,6 +122,7 @@ class SceneStructure:
     base_pairs: set
     full: SparseStatistics | None
     condensation: str = "schur"
+    parts: AnalysedParts | None = None  # kept by scene_structure(log=...)
 
     def schedule(self, algorithm: str) -> Schedule | FullSchedule:
         """The schedule ``algorithm`` follows on this scene."""
@@ -334,6 +140,7 @@ def scene_structure(
     condensation: str = "schur",
     full: bool = True,
     orders: bool = True,
+    log: WorkLog | None = None,
 ) -> SceneStructure:
     """Collective: analyse the matrices each algorithm would factorise (no factorisation).
 
@@ -344,24 +151,57 @@ def scene_structure(
         condensation: As for :class:`dd_contact.solvers.engine.BlockEliminationSolver`.
         full: Analyse FULL's matrix.
         orders: Analyse the subdomain matrices of the decomposition orders.
+        log: Keep the analysed solver parts, recording into this log, for the chosen
+            algorithm to reuse (:meth:`SceneStructure.take_parts`); by default freed here.
     """
     subdomains: dict[str, SparseStatistics] = {}
     layouts: dict[str, list] = {}
+    parts = AnalysedParts()
     if orders:
-        for block, (stats, layout) in subdomain_statistics(
-            comm, system, contacts, condensation
-        ).items():
+        if log is not None:
+            parts.subdomains = owned_subdomains(comm, system, contacts, log, condensation)
+        analysed = subdomain_statistics(
+            comm, system, contacts, condensation, parts.subdomains if log is not None else None
+        )
+        for block, (stats, layout) in analysed.items():
             subdomains[block], layouts[block] = stats, layout
     pairs, regions = surface_structure(comm, system, contacts)
-    return SceneStructure(
-        dict(system.sizes),
-        regions,
-        subdomains,
-        layouts,
-        pairs,
-        monolithic_statistics(comm, system, contacts) if full else None,
-        condensation,
+    full_stats = None
+    if full and log is not None:
+        parts.full = MonolithicSolver(comm, system, contacts, log)
+        full_stats = parts.full.analyse()
+    elif full:
+        full_stats = monolithic_statistics(comm, system, contacts)
+    structure = SceneStructure(
+        dict(system.sizes), regions, subdomains, layouts, pairs, full_stats, condensation
     )
+    structure.parts = parts
+    return structure
+
+
+@dataclass
+class AnalysedParts:
+    """Solver parts built and analysed for the prediction, kept for the chosen solver.
+
+    Attributes:
+        subdomains: This rank's subdomains (:func:`~dd_contact.solvers.engine.owned_subdomains`).
+        full: FULL's solver (its matrix assembled).
+    """
+
+    subdomains: dict | None = None
+    full: Any = None
+
+    def take(self, algorithm: str) -> dict | Any:
+        """The parts ``algorithm``'s solver reuses (``None``: none kept); the rest is freed."""
+        keep = self.full if algorithm == "FULL" else self.subdomains
+        if algorithm != "FULL":
+            if self.full is not None:
+                self.full.destroy()
+        else:
+            for sub in (self.subdomains or {}).values():
+                sub.destroy()
+        self.subdomains, self.full = None, None
+        return keep
 
 
 @dataclass
@@ -459,10 +299,22 @@ def predict(plan: Plan, rates: MachineRates, steps: float, changes: float) -> Pr
 
 @dataclass
 class Choice:
-    """The outcome of ``algorithm="auto"``: the prediction of every candidate."""
+    """The outcome of ``algorithm="auto"``: the prediction of every candidate.
+
+    Attributes:
+        algorithm: The chosen algorithm.
+        predictions: Per candidate.
+        replanned: The choice was made again after the first solves missed their
+            prediction by more than :data:`MISS` (:func:`replan`).
+        misses: Per rate kind, measured over predicted seconds of the first solves.
+    """
 
     algorithm: str
     predictions: dict[str, Prediction]
+    replanned: bool = False
+    misses: dict[str, float] = field(default_factory=dict)
+    #: Candidates not analysed because they cannot win: the least their run can cost [s].
+    skipped: dict[str, float] = field(default_factory=dict)
 
     def table(self) -> str:
         """The candidates' predicted times, cheapest first."""
@@ -475,6 +327,8 @@ class Choice:
                 f"{p.algorithm:<8} {p.setup:>10.4g} {p.step:>10.4g} {p.change:>10.4g} "
                 f"{p.total:>11.5g}{mark}"
             )
+        for algorithm, least in self.skipped.items():
+            rows.append(f"{algorithm:<8} not analysed: cannot win (at least {least:.4g} s)")
         return "\n".join(rows)
 
 
@@ -489,3 +343,100 @@ def choose(
     predictions = {a: predict(plan(structure, a), rates, steps, changes) for a in candidates}
     best = min(candidates, key=lambda a: (predictions[a].total, candidates.index(a)))
     return Choice(best, predictions)
+
+
+#: A prediction misses when the measured seconds are more than MISS times the predicted
+#: ones, or less than 1 / MISS times.
+MISS = 2.0
+_NOISE_SECONDS = 0.05  # kinds with less measured time than this are not judged
+#: A re-plan switches algorithm only if the other's predicted rest of the run, its set-up
+#: included, is this many times cheaper than going on with the current one.
+SWITCH_GAIN = 1.25
+
+
+def misses(records: Sequence[WorkRecord], rates: MachineRates) -> dict[str, float]:
+    """Measured over predicted seconds of ``records``, per rate kind (enough time only)."""
+    measured: dict[str, float] = {}
+    predicted: dict[str, float] = {}
+    for r in records:
+        kind = rate_kind(r)
+        measured[kind] = measured.get(kind, 0.0) + r.seconds
+        predicted[kind] = predicted.get(kind, 0.0) + record_seconds(r, rates)
+    return {
+        kind: measured[kind] / predicted[kind]
+        for kind in measured
+        if measured[kind] >= _NOISE_SECONDS and predicted[kind] > 0
+    }
+
+
+def replan(
+    choice: Choice,
+    structure: SceneStructure,
+    rates: MachineRates,
+    observed: dict[str, float],
+    steps: float,
+    changes: float,
+) -> Choice:
+    """The choice again, for ``steps`` and ``changes`` still to come, with corrected rates.
+
+    ``observed``: measured over predicted seconds per rate kind (:func:`misses`); only the
+    kinds measured are corrected. The current algorithm's set-up is done (it costs nothing
+    more), the others' is not.
+    """
+    corrected = rates.scaled(observed)
+    predictions = {}
+    for algorithm in choice.predictions:
+        p = predict(plan(structure, algorithm), corrected, steps, changes)
+        if algorithm == choice.algorithm:
+            p = Prediction(algorithm, 0.0, p.step, p.change, steps, changes)
+        predictions[algorithm] = p
+    best = min(predictions, key=lambda a: (predictions[a].total, a != choice.algorithm))
+    if SWITCH_GAIN * predictions[best].total > predictions[choice.algorithm].total:
+        best = choice.algorithm  # a switch builds and factorises anew: only for a clear gain
+    return Choice(best, predictions, True, dict(observed))
+
+
+#: FULL factorises a matrix that holds every subdomain's: its factorisation is taken to
+#: cost at least this fraction of the subdomains' factorisations with their Schur
+#: complements (measured 0.64-0.68 on the benchmark bar at 124k and 306k dofs).
+FULL_FACTOR_BOUND = 0.25
+
+
+def auto_choice(
+    comm: MPI.Comm,
+    system,
+    contacts: Sequence[ContactRegion],
+    condensation: str,
+    candidates: tuple[str, ...],
+    rates: MachineRates,
+    steps: float,
+    changes: float,
+    log: WorkLog,
+) -> tuple[Choice, SceneStructure]:
+    """Collective: ``algorithm="auto"``: analyse the candidates that can win, choose.
+
+    The orders are analysed first (their subdomains kept for the chosen solver); FULL,
+    whose factorisation and every re-factorisation cost at least :data:`FULL_FACTOR_BOUND`
+    of the subdomains', only if that bound is below the best order's predicted total.
+    """
+    orders = tuple(a for a in candidates if a != "FULL")
+    structure = scene_structure(
+        comm, system, contacts, condensation, full=False, orders=bool(orders), log=log
+    )
+    skipped = {}
+    if orders:
+        best = min(predict(plan(structure, a), rates, steps, changes).total for a in orders)
+        subdomains = sum(
+            rates.seconds("sparse_factor", s.flops) for s in structure.subdomains.values()
+        )
+        least = FULL_FACTOR_BOUND * (1.0 + changes) * subdomains
+        if least > best:
+            skipped["FULL"] = least
+    if "FULL" in candidates and not skipped:
+        structure.parts.full = MonolithicSolver(comm, system, contacts, log)
+        structure.full = structure.parts.full.analyse()
+    choice = choose(
+        structure, rates, tuple(a for a in candidates if a not in skipped), steps, changes
+    )
+    choice.skipped = skipped
+    return choice, structure

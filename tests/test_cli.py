@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 import dd_contact
-from dd_contact import cli, flops, timing, verify
+from dd_contact import calibration, cli, flops, timing, verify
 
 FIELDS = {"case", "quantity", "value", "reference", "rel_error", "tolerance", "passed"}
 
@@ -82,7 +82,7 @@ def test_calibrate_shows_progress_on_stderr(monkeypatch, tmp_path, capsys):
             progress(done, 4)
         return rates
 
-    monkeypatch.setattr(timing, "calibrate", measure)
+    monkeypatch.setattr(calibration, "calibrate", measure)
     assert cli.main(["calibrate", "--quick"]) == 0
     captured = capsys.readouterr()
     lines = captured.err.splitlines()

@@ -135,9 +135,10 @@ def test_reduction_and_expansion_give_the_two_solves_in_one_substitution():
     K, C, A, n, m = _augmented()
     log = WorkLog()
     factor = SchurFactorisation(A.row, A.col, n + m, m, log, "u:x")
-    factor.factorise(A.data)
+    S = factor.factorise(A.data)
     Z = C.T @ np.linalg.solve(K, C)
-    np.testing.assert_allclose(factor.schur_complement, -Z, rtol=0, atol=1e-12 * abs(Z).max())
+    np.testing.assert_allclose(S, -Z, rtol=0, atol=1e-12 * abs(Z).max())
+    np.testing.assert_array_equal(S, S.T)  # mirrored exactly
     rng = np.random.default_rng(0)
     for _ in range(2):  # a new right-hand side each "step"
         b, xs = rng.standard_normal(n), rng.standard_normal(m)
@@ -169,12 +170,37 @@ def test_a_zero_pivot_behaves_as_in_petscs_schur_factorisation():
     K, _, A, n, m = _augmented(singular=True)
     assert not K[7].any()
     mine = SchurFactorisation(A.row, A.col, n + m, m, WorkLog(), "u:free")
-    mine.factorise(A.data)
+    S = mine.factorise(A.data)
     M = petsc_matrix(MPI.COMM_SELF, n + m, n + m, A.row, A.col, A.data)
     petsc = SparseCholesky(M, WorkLog(), "u:free", m)
     assert petsc.ksp.getPC().getFactorMatrix().getMumpsInfog(28) == 0
-    np.testing.assert_array_equal(mine.schur_complement, petsc.schur_complement)
+    np.testing.assert_array_equal(S, petsc.schur_complement)
     mine.destroy(), petsc.destroy(), M.destroy()
+
+
+def test_the_upper_triangle_alone_is_factorised_in_place_after_one_analysis():
+    """The engine's form: upper-triangle COO, MUMPS reading the caller's values (no copy),
+    the analysis done once and logged with the first factorisation, as PETSc's path does."""
+    _, _, A, n, m = _augmented()
+    M = petsc_matrix(MPI.COMM_SELF, n + m, n + m, A.row, A.col, A.data)
+    petsc_log = WorkLog()
+    petsc = SparseCholesky(M, petsc_log, "u", m)
+    stats = sparse_statistics(M, m)
+    upper = A.row <= A.col
+    values = A.data[upper].copy()
+    log = WorkLog()
+    factor = SchurFactorisation(A.row[upper], A.col[upper], n + m, m, log, "u")
+    assert factor.analyse(values) == stats  # MUMPS's analysis, as PETSc reports it
+    assert factor.analyse(values) is factor.statistics  # once
+    S = factor.factorise(values)
+    assert factor._a is values  # read in place
+    np.testing.assert_array_equal(S, petsc.schur_complement)
+    mine, theirs = log.records[0], petsc_log.records[0]
+    assert (mine.nnz, mine.flops, mine.entries) == (theirs.nnz, theirs.flops, theirs.entries)
+    assert mine.nnz == stats.nnz > 0 and mine.seconds > 0
+    factor.factorise(values)  # numeric only: no analysis in the log
+    assert [r.nnz for r in log.records if r.kind == "sparse_factor"] == [stats.nnz, 0]
+    factor.destroy(), petsc.destroy(), M.destroy()
 
 
 def test_options_under_the_prefix_reach_the_schur_factorisation(options):
@@ -200,3 +226,33 @@ def test_another_mumps_falls_back_to_two_substitutions_with_a_warning(monkeypatc
         problem = dd.StaticProblem(scene, algorithm="w-u")
     assert problem.condensation == "multi-rhs"
     problem.close()
+
+
+def test_a_schur_subdomain_keeps_one_copy_of_its_matrix_and_of_its_complement():
+    """Memory (issue 14): no PETSc matrix next to MUMPS's COO, one dense complement."""
+    problem = dd.StaticProblem(verify.order_scene("interface", False, 1e4), "w-v-u")
+    problem.solve()
+    solver = problem.solver
+    for block, sub in solver.subdomains.items():
+        assert sub.matrix.A is None  # the upper triangle's COO only
+        assert sub.factor._a is sub.matrix.values  # read by MUMPS in place
+        assert np.all(sub.factor._irn <= sub.factor._jcn)  # one triangle (1-based, int32)
+        assert sub.factor._irn.dtype == np.int32
+        assert sub.Z is solver.surface.condensed[block]  # the surface holds the same array
+        np.testing.assert_array_equal(sub.Z, sub.Z.T)
+    problem.close()
+
+
+@pytest.mark.skipif(linalg._malloc_trim() is None, reason="glibc's malloc_trim only")
+def test_release_freed_memory_returns_a_freed_heap_to_the_os():
+    def resident_mb() -> float:
+        with open("/proc/self/statm") as statm:
+            return int(statm.read().split()[1]) * 4096 / 2**20
+
+    del_large = np.ones(3_000_000)  # 24 MB, mmapped; freeing it raises glibc's mmap threshold
+    del del_large
+    chunks = [np.ones(100_000) for _ in range(1000)]  # 800 kB each: now on the heap
+    del chunks[:-1]  # the last one pins the top of the heap: free() alone cannot trim it
+    before = resident_mb()
+    linalg.release_freed_memory()
+    assert before - resident_mb() > 400  # of the ~800 MB freed

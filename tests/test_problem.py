@@ -15,7 +15,8 @@ def _petsc_objects(solver) -> list:
         return [solver.matrix.A]
     out = []
     for sub in solver.subdomains.values():
-        out.append(sub.matrix.A)
+        if sub.matrix.A is not None:  # none with the Schur factorisation (upper COO only)
+            out.append(sub.matrix.A)
         if sub.factor is not None:  # SparseCholesky's KSP, or the SchurFactorisation itself
             out.append(getattr(sub.factor, "ksp", sub.factor))
     return out

@@ -11,10 +11,9 @@ import numpy as np
 import pytest
 
 import dd_contact as dd
-from dd_contact import timing, verify
+from dd_contact import calibration, timing, verify
 from dd_contact.examples import parallelepiped, row_of_blocks
-from dd_contact.solvers.linalg import SparseCholesky, sparse_statistics
-from dd_contact.solvers.worklog import WorkLog, WorkRecord
+from dd_contact.solvers.worklog import WorkRecord
 
 
 @pytest.fixture(scope="module")
@@ -86,7 +85,7 @@ def test_calibration_is_measured_once_and_cached(tmp_path, monkeypatch, rates):
     path = tmp_path / "rates.json"
     calls = []
     monkeypatch.setattr(
-        timing, "calibrate", lambda quick, progress=None: calls.append(quick) or rates
+        calibration, "calibrate", lambda quick, progress=None: calls.append(quick) or rates
     )
     first = timing.machine_rates(path, quick=True)
     second = timing.machine_rates(path, quick=True)
@@ -95,6 +94,63 @@ def test_calibration_is_measured_once_and_cached(tmp_path, monkeypatch, rates):
     assert json.loads(path.read_text())  # one record, keyed by the machine's fingerprint
     timing.machine_rates(path, quick=True, recalibrate=True)
     assert calls == [True, True]
+
+
+def test_implausible_cached_rates_are_measured_again_and_not_cached(tmp_path, monkeypatch, rates):
+    """The cached record of this machine once held an analysis of 5.5e6 entries in 1e-6 s
+    (a difference of two noisy times): such a record is measured again, not used."""
+    path = tmp_path / "rates.json"
+    bogus = timing.MachineRates(
+        {**rates.points, "sparse_analysis": [[61731.0, 1.5e-3], [5527125.0, 1e-6]]}
+    )
+    assert bogus.implausible() == ["sparse_analysis: 5.53e+12/s at 5.53e+06"]
+    assert rates.implausible() == []
+    calls = []
+    monkeypatch.setattr(
+        calibration, "calibrate", lambda quick, progress=None: calls.append(quick) or bogus
+    )
+    first = timing.machine_rates(path, quick=True, progress=lambda d, t: None)
+    assert calls == [True] and not path.exists()  # measured, implausible: not cached
+    assert first is bogus
+    monkeypatch.setattr(
+        calibration, "calibrate", lambda quick, progress=None: calls.append(quick) or rates
+    )
+    timing.machine_rates(path, quick=True)  # measured again, plausible now: cached
+    assert calls == [True, True] and path.exists()
+    key = next(iter(json.loads(path.read_text())))
+    path.write_text(json.dumps({key: bogus.to_dict()}))  # a bogus record in the cache
+    again = timing.machine_rates(path, quick=True)
+    assert calls == [True, True, True] and again.points == rates.points
+    assert json.loads(path.read_text())[key]["points"] == rates.points
+
+
+def test_calibration_measures_an_implausible_size_again(monkeypatch):
+    timings = iter([1e-9, 1e-9, 1e-3])  # two hiccups, then a plausible factorisation
+    monkeypatch.setattr(calibration, "CALIBRATION_SIZES", {"quick": ([], [100]), "full": None})
+    real = calibration._dense_points
+
+    def measured(n, rng):
+        point = real(n, rng)
+        point["dense_factor"][1] = next(timings)
+        return point
+
+    monkeypatch.setattr(calibration, "_dense_points", measured)
+    shown = []
+    rates = calibration.calibrate(quick=True, progress=lambda d, t: shown.append((d, t)))
+    assert rates.points["dense_factor"] == [[100**3 / 3.0, 1e-3]] and shown == [(1, 1)]
+
+
+def test_auto_calibration_shows_a_message_and_a_progress_bar(tmp_path, monkeypatch, capsys, rates):
+    def measured(quick, progress):
+        for done in (1, 2):
+            progress(done, 2)
+        return rates
+
+    monkeypatch.setattr(calibration, "calibrate", measured)
+    timing.machine_rates(tmp_path / "rates.json", quick=True)
+    err = capsys.readouterr().err
+    assert err.count("measuring this machine's rates for algorithm='auto'") == 1
+    assert "calibrate: 100%" in err and "2/2" in err
 
 
 def test_calibrate_command_measures_caches_and_shows(tmp_path, monkeypatch, capsys):
@@ -124,14 +180,11 @@ def test_analysis_predicts_the_factorisation_exactly():
     scene = parallelepiped("w-u", (12, 4, 3), comm=MPI.COMM_SELF)
     problem = dd.TransientProblem(scene, 1e-6, algorithm="w-u")
     sub = next(iter(problem.solver.subdomains.values()))
-    sub.matrix.push()
-    stats = sparse_statistics(sub.matrix.A, sub.schur)
-    log = WorkLog()
-    factor = SparseCholesky(sub.matrix.A, log, "u", sub.schur)
-    record = log.records[0]
+    stats = sub.analyse()  # the factorisation's own analysis, done ahead
+    problem.run(1, progress=False, summary=False)
+    (record,) = [r for r in problem.work.records if r.kind == "sparse_factor"]
     assert (stats.flops, stats.entries, stats.size) == (record.flops, record.entries, record.size)
     assert stats.schur == sub.schur > 0 and record.nnz == stats.nnz > 0
-    factor.destroy()
 
 
 _SCENES = [
@@ -193,7 +246,10 @@ def test_one_contact_interface_on_a_large_subdomain_chooses_w_v_u_or_w_u():
     assert split.algorithm == "w-v-u", split.choice.table()
     whole = dd.TransientProblem(parallelepiped("w-u", (48, 10, 6)), 1e-6, "auto", rates=rates)
     assert whole.algorithm == "w-u", whole.choice.table()
-    assert set(whole.choice.predictions) == {"FULL", "w-u"}
+    # 1000 changes: FULL re-factorising the whole bar cannot win, so it is not analysed
+    assert set(whole.choice.predictions) == {"w-u"} and set(whole.choice.skipped) == {"FULL"}
+    assert whole.choice.skipped["FULL"] > whole.choice.predictions["w-u"].total
+    assert "FULL     not analysed: cannot win" in whole.choice.table()
 
 
 def test_many_active_contact_interfaces_choose_v_w_u():
@@ -202,7 +258,7 @@ def test_many_active_contact_interfaces_choose_v_w_u():
     problem = dd.TransientProblem(row_of_blocks(5), 2e-4, algorithm="auto", rates=rates)
     assert problem.algorithm == "v-w-u", problem.choice.table()
     p = problem.choice.predictions
-    assert set(p) == {"FULL", "v-w-u", "w-v-u"}
+    assert set(p) | set(problem.choice.skipped) == {"FULL", "v-w-u", "w-v-u"}
     assert p["w-v-u"].change > 3 * p["v-w-u"].change
 
 
@@ -210,12 +266,13 @@ def test_without_contact_interfaces_auto_chooses_among_the_orders_without_w():
     rates = TWO_CORES
     scene = parallelepiped("v-u", (48, 10, 6))
     changing = dd.TransientProblem(scene, 1e-6, algorithm="auto", rates=rates)
-    assert set(changing.choice.predictions) == {"FULL", "v-u"}
+    assert set(changing.choice.predictions) | set(changing.choice.skipped) == {"FULL", "v-u"}
     # v-u re-factorises the contact subdomain only, FULL the whole bar ...
     assert changing.algorithm == "v-u", changing.choice.table()
     # ... but without changes FULL's one substitution per step beats v-u's two per subdomain.
     still = dd.TransientProblem(scene, 1e-6, "auto", expected_changes=0, rates=rates)
     assert still.algorithm == "FULL", still.choice.table()
+    assert set(still.choice.predictions) == {"FULL", "v-u"} and not still.choice.skipped
 
 
 def test_auto_solves_like_the_named_algorithm(rates):
@@ -256,3 +313,77 @@ def test_auto_under_mpi_predicts_the_orders_as_in_serial():
         assert shared.choice.predictions[order].total == pytest.approx(
             alone.choice.predictions[order].total, rel=1e-12
         )
+
+
+def test_auto_reuses_the_analysis_and_factorises_as_the_named_algorithm(rates):
+    """auto analyses the candidates once; the chosen solver factorises as if named."""
+    runs = {}
+    for algorithm in ("auto", "w-v-u"):
+        problem = dd.TransientProblem(
+            parallelepiped("v-w-u", (24, 6, 4)), 1e-6, algorithm, rates=TWO_CORES
+        )
+        problem.run(4, progress=False, summary=False)
+        runs[algorithm] = problem
+    assert runs["auto"].algorithm == "w-v-u", runs["auto"].choice.table()
+
+    def factorisations(problem):
+        return Counter(
+            (r.block, r.kind, r.size, r.nnz > 0)  # nnz > 0: this one ran the analysis
+            for r in problem.work.records
+            if r.kind in ("sparse_factor", "dense_factor")
+        )
+
+    assert factorisations(runs["auto"]) == factorisations(runs["w-v-u"])
+    analysed = [r.block for r in runs["auto"].work.records if r.nnz > 0]
+    assert len(analysed) == len(set(analysed)) == 2  # each subdomain analysed once
+
+
+def test_auto_chooses_again_when_the_first_solves_miss_by_more_than_2x(rates, caplog):
+    """Sparse rates 1e4 x too fast make FULL look cheapest (the orders' dense work is priced
+    right); its first three solves take far longer than predicted: auto re-plans, switches."""
+    optimistic = rates.scaled({k: 1e-4 for k in timing.RATE_KINDS if k.startswith("sparse")})
+    scene = parallelepiped("v-w-u", (48, 10, 6))
+    problem = dd.TransientProblem(
+        scene, 1e-6, "auto", rates=optimistic, expected_steps=100, expected_changes=100
+    )
+    assert problem.algorithm == "FULL" and not problem.choice.replanned
+    with caplog.at_level("WARNING", logger="dd_contact.analysis"):
+        problem.run(5, progress=False, summary=False)
+    assert problem.choice.replanned and problem.algorithm != "FULL", problem.choice.table()
+    assert problem.choice.misses["sparse_factor"] > 100 * timing.MISS
+    assert "chose again for the rest of the run" in caplog.text
+    named = dd.TransientProblem(parallelepiped("v-w-u", (48, 10, 6)), 1e-6, "FULL")
+    named.run(5, progress=False, summary=False)
+    u, expected = scene.subdomains[0].u.x.array, named.scene.subdomains[0].u.x.array
+    np.testing.assert_allclose(u, expected, rtol=0, atol=1e-7 * np.abs(expected).max())
+
+
+def test_a_replan_switches_only_for_a_clear_gain():
+    structure = timing.SceneStructure({}, {}, {}, {}, set(), None)
+
+    def priced(totals):  # the rest of the run of each (one "step" of that many seconds)
+        def predict(plan, rates, steps, changes):
+            return timing.Prediction(plan, 0.0, totals[plan], 0.0, steps, changes)
+
+        return predict
+
+    choice = timing.Choice("A", {"A": None, "B": None})
+    for totals, expected in (({"A": 10.0, "B": 9.0}, "A"), ({"A": 10.0, "B": 7.0}, "B")):
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(timing, "plan", lambda structure, algorithm: algorithm)
+            mp.setattr(timing, "predict", priced(totals))
+            again = timing.replan(choice, structure, TWO_CORES, {"sparse_factor": 3.0}, 1, 0)
+        assert again.algorithm == expected and again.replanned
+        assert again.misses == {"sparse_factor": 3.0}
+
+
+def test_misses_are_measured_over_predicted_seconds_per_kind():
+    rates = timing.MachineRates({k: _flat(1e9) for k in timing.RATE_KINDS})
+    records = [
+        WorkRecord("d", "dense_factor", 3000, 0, 3 * 9e9 / 1e9, 9e9),  # 3 x its 9 s
+        WorkRecord("u", "sparse_forward", 10, 1, 0.2, 2e8, "u_hat", 1e8),  # 4 x 0.05 s
+        WorkRecord("w", "dense_solve", 10, 1, 0.01, 200.0),  # too little time to judge
+    ]
+    assert timing.misses(records, rates) == pytest.approx(
+        {"dense_factor": 3.0, "sparse_solve": 4.0}
+    )

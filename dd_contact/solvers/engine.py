@@ -56,6 +56,7 @@ __all__ = [
     "SubdomainCondensation",
     "coupling_layout",
     "order_schedule",
+    "owned_subdomains",
     "subdomain_statistics",
     "surface_structure",
 ]
@@ -160,12 +161,13 @@ class SubdomainCondensation:
             values = np.concatenate([values, cv, cv, np.zeros(m)])
         size = n + self.schur
         base = (rows, cols, values)
+        # Driven through MUMPS's C interface (reduction and expansion apart), the Schur
+        # factorisation needs no PETSc matrix: the upper triangle's COO only.
         self.matrix = PatternedMatrix(MPI.COMM_SELF, size, size, base, contacts, bool(self.schur))
         self.factor: SparseCholesky | SchurFactorisation | None = None
-        if self.schur:  # driven through MUMPS's C interface: reduction and expansion apart
-            nnz = int(self.matrix.A.getInfo()["nz_used"])
+        if self.schur:
             rows, cols = self.matrix.take_indices()
-            self.factor = SchurFactorisation(rows, cols, size, m, log, block, nnz)
+            self.factor = SchurFactorisation(rows, cols, size, m, log, block)
         self.Z, self.u_hat, self._b, self._g = None, None, None, None
         self.u: np.ndarray | None = None
         self._factorised = False
@@ -175,12 +177,22 @@ class SubdomainCondensation:
         """Whether the matrix must be re-factorised (new contact values, or never done)."""
         return not self._factorised or self.matrix.dirty
 
+    def analyse(self) -> SparseStatistics:
+        """MUMPS's symbolic analysis of the matrix :meth:`factorise` factorises.
+
+        With ``"schur"`` the analysis is the factorisation's own (not repeated by it).
+        """
+        if self.schur:
+            return self.factor.analyse(self.matrix.values)
+        self.matrix.push()
+        return sparse_statistics(self.matrix.A)
+
     def factorise(self) -> None:
         """(Re-)factorise K_hat and condense the coupling columns: Z = C^T K^-1 C."""
         self.matrix.push()
         if self.schur:
-            self.factor.factorise(self.matrix.values)
-            self.Z = -self.factor.schur_complement
+            self.Z = self.factor.factorise(self.matrix.values)  # S = -Z, exactly symmetric
+            np.negative(self.Z, out=self.Z)
         else:
             if self.factor is None:
                 self.factor = SparseCholesky(self.matrix.A, self.log, self.block)
@@ -192,7 +204,7 @@ class SubdomainCondensation:
             for j0, j1 in condensation_chunks(m):
                 X = self.factor.solve_many(Csc[:, j0:j1].toarray(), "condense")
                 self.Z[:, j0:j1] = self.C.T @ X
-        self.Z = 0.5 * (self.Z + self.Z.T)  # symmetric up to round-off; make it exact
+            self.Z = 0.5 * (self.Z + self.Z.T)  # symmetric up to round-off; make it exact
         self._b, self._factorised = None, True
 
     def surface_rhs(self, b: np.ndarray) -> np.ndarray:
@@ -231,7 +243,24 @@ class SubdomainCondensation:
         """Free the PETSc objects."""
         if self.factor is not None:
             self.factor.destroy()
-        self.matrix.A.destroy()
+        self.matrix.destroy()
+
+
+def owned_subdomains(
+    comm: MPI.Comm,
+    system: BlockSystem,
+    contacts: Sequence[ContactRegion],
+    log: WorkLog,
+    condensation: str,
+) -> dict[Block, SubdomainCondensation]:
+    """The subdomains this rank owns, each ready to factorise (nothing factorised yet)."""
+    return {
+        block: SubdomainCondensation(
+            block, system, [r for r in contacts if r.block == block], log, condensation
+        )
+        for block, owner in system.owners.items()
+        if block.kind == "u" and owner == comm.rank
+    }
 
 
 def subdomain_statistics(
@@ -239,19 +268,21 @@ def subdomain_statistics(
     system: BlockSystem,
     contacts: Sequence[ContactRegion],
     condensation: str = "schur",
+    subdomains: dict[Block, SubdomainCondensation] | None = None,
 ) -> dict[Block, tuple[SparseStatistics, list]]:
     """Collective: each subdomain's analysed matrix and coupling layout.
 
     The matrix is the one the engine factorises: with its Schur block if
     ``condensation="schur"``. Returns ``block -> (statistics, layout)`` on every rank.
+    ``subdomains``: this rank's, built already (:func:`owned_subdomains`, analysed here and
+    kept for a solver); by default built and freed here.
     """
-    mine = {}
-    for block, owner in system.owners.items():
-        if block.kind == "u" and owner == comm.rank:
-            on_block = [region for region in contacts if region.block == block]
-            sub = SubdomainCondensation(block, system, on_block, WorkLog(), condensation)
-            sub.matrix.push()
-            mine[block] = (sparse_statistics(sub.matrix.A, sub.schur), sub.layout)
+    owned = subdomains
+    if owned is None:
+        owned = owned_subdomains(comm, system, contacts, WorkLog(), condensation)
+    mine = {block: (sub.analyse(), sub.layout) for block, sub in owned.items()}
+    if subdomains is None:
+        for sub in owned.values():
             sub.destroy()
     return gathered(comm, mine)
 
@@ -441,6 +472,9 @@ class BlockEliminationSolver:
             Schur complement of ``[[K, C], [C^T, 0]]`` within the factorisation; measured
             about 3x faster at 150k dofs) or ``"multi-rhs"`` (one substitution per coupling
             column, in blocks of 256, as the paper counts it).
+        subdomains: This rank's subdomains built (and maybe analysed) already, with this
+            ``log`` and ``condensation`` (:func:`owned_subdomains`; ``algorithm="auto"``
+            reuses the ones it analysed); by default built here.
     """
 
     def __init__(
@@ -451,16 +485,13 @@ class BlockEliminationSolver:
         log: WorkLog,
         order: str,
         condensation: str = "schur",
+        subdomains: dict[Block, SubdomainCondensation] | None = None,
     ):
         self.comm, self.system, self.log, self.order = comm, system, log, order
         self._regions = {region.name: region for region in contacts}
-        self.subdomains: dict[Block, SubdomainCondensation] = {}
-        for block, owner in system.owners.items():
-            if block.kind == "u" and owner == comm.rank:
-                on_block = [region for region in contacts if region.block == block]
-                self.subdomains[block] = SubdomainCondensation(
-                    block, system, on_block, log, condensation
-                )
+        if subdomains is None:
+            subdomains = owned_subdomains(comm, system, contacts, log, condensation)
+        self.subdomains: dict[Block, SubdomainCondensation] = subdomains
         layouts = {b: sub.layout for b, sub in self.subdomains.items()}
         self.schedule = order_schedule(comm, system, contacts, order, condensation, layouts)
         self._needed_u = set(self.schedule.needed_u) & set(self.subdomains)

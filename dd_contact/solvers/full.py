@@ -87,7 +87,7 @@ class MonolithicSolver:
 
     def _refactorise(self) -> None:
         """Collective: push new values to PETSc and factorise (once per contact change)."""
-        if not self.comm.allreduce(self.matrix.dirty, op=MPI.LOR):
+        if self._factor is not None and not self.comm.allreduce(self.matrix.dirty, op=MPI.LOR):
             return
         self.matrix.push()
         if self._factor is None:
@@ -123,11 +123,16 @@ class MonolithicSolver:
         """Nothing is subtracted from the right-hand side."""
         return {}
 
+    def analyse(self) -> SparseStatistics:
+        """Collective: MUMPS's analysis of the matrix (contact patterns included)."""
+        self.matrix.push()
+        return sparse_statistics(self.matrix.A)
+
     def destroy(self) -> None:
         """Free PETSc objects."""
         if self._factor is not None:
             self._factor.destroy()
-        self.matrix.A.destroy()
+        self.matrix.destroy()
 
 
 def monolithic_statistics(
@@ -135,7 +140,6 @@ def monolithic_statistics(
 ) -> SparseStatistics:
     """Collective: MUMPS's analysis of the matrix FULL factorises (contact patterns included)."""
     solver = MonolithicSolver(comm, system, contacts, WorkLog())
-    solver.matrix.push()
-    stats = sparse_statistics(solver.matrix.A)
+    stats = solver.analyse()
     solver.destroy()
     return stats

@@ -30,11 +30,14 @@ from dd_contact.errors import InputError, SingularMatrixError
 from dd_contact.solvers.linalg import (
     ICNTL_SCHUR_SOLUTION,
     INFOG_FACTOR_ENTRIES,
+    INFOG_FACTOR_ENTRIES_ESTIMATED,
     INFOG_NULL_PIVOTS,
     INFOG_STATUS,
     OPTIONS_PREFIX,
     REQUIRED_ICNTL,
     RINFOG_FLOPS,
+    RINFOG_FLOPS_ESTIMATED,
+    SparseStatistics,
     _check_required_options,
     _libpetsc,
     _mumps_count,
@@ -103,7 +106,7 @@ class _DmumpsStruc(ctypes.Structure):
 
 
 # MUMPS jobs (JOB) and settings (ICNTL(k) is icntl[k - 1]).
-JOB_INIT, JOB_END, JOB_SOLVE, JOB_FACTORISE, JOB_ANALYSE_FACTORISE = -1, -2, 3, 2, 4
+JOB_INIT, JOB_END, JOB_ANALYSE, JOB_FACTORISE, JOB_SOLVE = -1, -2, 1, 2, 3
 SYM_SPD, HOST_WORKS = 1, 1
 SCHUR_REDUCTION, SCHUR_EXPANSION = 1, 2  # ICNTL(26)
 ICNTL_SCHUR = 19  # 1: centralised Schur complement, lower triangle by rows
@@ -182,37 +185,43 @@ def _user_controls() -> tuple[dict[int, int], dict[int, float]]:
 class SchurFactorisation:
     """MUMPS Cholesky of ``[[K, C], [C^T, 0]]`` with the trailing ``m`` rows as Schur block.
 
-    Gives ``S = -C^T K^-1 C`` (:attr:`schur_complement`, dense, symmetric), and per
-    right-hand side b one forward sweep (:meth:`reduce`: ``-C^T K^-1 b``) and one backward
-    sweep (:meth:`expand`: ``K^-1 (b - C xs)`` for the last reduced b). Serial (COMM_SELF).
+    :meth:`factorise` returns ``S = -C^T K^-1 C`` (dense, symmetric, a new array the caller
+    owns: the factorisation keeps no copy), and per right-hand side b one forward sweep
+    (:meth:`reduce`: ``-C^T K^-1 b``) and one backward sweep (:meth:`expand`:
+    ``K^-1 (b - C xs)`` for the last reduced b). Serial (COMM_SELF).
 
     Args:
-        rows, cols, values: The matrix in COO (both triangles, duplicates summed, the Schur
-            block's zero diagonal included so its pattern is known).
+        rows, cols: The matrix pattern in COO, duplicates allowed (summed), the Schur block's
+            zero diagonal included so its pattern is known. The upper triangle alone
+            (``rows <= cols``) is used as given: MUMPS then reads the values passed to
+            :meth:`factorise` in place, without a copy. Both triangles are accepted too.
         size: Rows of the matrix, Schur block included.
         schur: Size m of the Schur block (> 0).
         log: Where to record the work.
         block: Name of the block, for the log.
-        nnz: Stored entries of the matrix (both triangles), for the log of the analysis.
     """
 
-    def __init__(self, rows, cols, size: int, schur: int, log: WorkLog, block: str, nnz: int = 0):
+    def __init__(self, rows, cols, size: int, schur: int, log: WorkLog, block: str):
         if schur <= 0:
             raise ValueError(f"schur must be positive, got {schur}")
         icntl, cntl = _user_controls()  # before MUMPS allocates anything
-        self.log, self.block, self.size, self.schur, self.nnz = log, block, size, schur, nnz
-        self.entries, self.schur_complement = 0.0, None
-        self._upper = rows <= cols  # MUMPS sums a_ij and a_ji: one triangle (a mask: 1 B each)
-        self._irn = (rows[self._upper] + 1).astype(np.int32)
-        self._jcn = (cols[self._upper] + 1).astype(np.int32)
-        self._a = np.zeros(len(self._irn))
+        self.log, self.block, self.size, self.schur = log, block, size, schur
+        self.nnz = _stored_entries(rows, cols, size)
+        self.entries = 0.0
+        upper = rows <= cols  # MUMPS sums a_ij and a_ji: one triangle only
+        self._upper = None if upper.all() else upper  # a mask (1 byte an entry) if needed
+        if self._upper is not None:
+            rows, cols = rows[upper], cols[upper]
+        self._irn = (rows + 1).astype(np.int32)
+        self._jcn = (cols + 1).astype(np.int32)
+        self._a = np.zeros(len(self._irn)) if self._upper is not None else None  # values
         self._listvar = np.arange(size - schur + 1, size + 1, dtype=np.int32)
-        self._S = np.zeros(schur * schur)
         self._redrhs = np.zeros(schur)
         self._rhs = np.zeros(size)
         #: MUMPS holds the forward sweep of the last reduced b (an expansion releases it)
         self.reduced = False
-        self._analysed = False
+        self.statistics: SparseStatistics | None = None  # of the analysis, once done
+        self._analysis_seconds: float | None = None  # not logged yet
         self._memory = ctypes.create_string_buffer(ctypes.sizeof(_DmumpsStruc) + SLACK_BYTES)
         self._id = _DmumpsStruc.from_buffer(self._memory)
         self._id.sym, self._id.par, self._id.job = SYM_SPD, HOST_WORKS, JOB_INIT
@@ -229,12 +238,10 @@ class SchurFactorisation:
             self._id.icntl[k - 1] = value
         for k, value in cntl.items():
             self._id.cntl[k - 1] = value
-        self._id.n, self._id.nnz = size, len(self._a)
+        self._id.n, self._id.nnz = size, len(self._irn)
         self._id.irn, self._id.jcn = _pointer(self._irn, _INT), _pointer(self._jcn, _INT)
-        self._id.a = _pointer(self._a, _REAL)
         self._id.size_schur, self._id.schur_lld = schur, schur
         self._id.listvar_schur = _pointer(self._listvar, _INT)
-        self._id.schur = _pointer(self._S, _REAL)
         self._id.redrhs, self._id.lredrhs = _pointer(self._redrhs, _REAL), schur
         self._id.rhs, self._id.nrhs, self._id.lrhs = _pointer(self._rhs, _REAL), 1, size
 
@@ -247,13 +254,54 @@ class SchurFactorisation:
         """MUMPS's ICNTL(k) as set on this factorisation."""
         return int(self._id.icntl[k - 1])
 
-    def factorise(self, values: np.ndarray) -> None:
-        """(Re-)factorise with the matrix values of the COO given at construction."""
-        self._a[:] = values[self._upper]
+    def _set_values(self, values: np.ndarray) -> None:
+        """Point MUMPS at ``values`` (in place if they are the upper triangle's, as given)."""
+        if self._upper is not None:
+            self._a[:] = values[self._upper]
+        elif values.dtype == np.float64 and values.flags.c_contiguous:
+            self._a = values  # MUMPS reads the caller's array: no copy
+        else:
+            self._a = np.ascontiguousarray(values, dtype=np.float64)
+        self._id.a = _pointer(self._a, _REAL)
+
+    def analyse(self, values: np.ndarray) -> SparseStatistics:
+        """MUMPS's symbolic analysis (once): the factorisation's flops and factor entries.
+
+        The next :meth:`factorise` is numeric only; its log record carries the analysis's
+        seconds and matrix entries, as if both had run together.
+        """
+        if self.statistics is None:
+            self._set_values(values)
+            start = time.perf_counter()
+            self._id.job = JOB_ANALYSE
+            self._call("analysis")
+            self._analysis_seconds = time.perf_counter() - start
+            self.statistics = SparseStatistics(
+                self.size - self.schur,
+                self.nnz,
+                float(self._id.rinfog[RINFOG_FLOPS_ESTIMATED - 1]),
+                float(_mumps_count(self._id.infog[INFOG_FACTOR_ENTRIES_ESTIMATED - 1])),
+                self.schur,
+            )
+        return self.statistics
+
+    def factorise(self, values: np.ndarray) -> np.ndarray:
+        """(Re-)factorise with these values of the COO given at construction.
+
+        Returns the Schur complement ``S`` (m x m, symmetric; a new array, not kept here).
+        """
+        self.analyse(values)
+        self._set_values(values)
         self.reduced = False
+        m = self.schur
+        S = np.empty((m, m))  # MUMPS writes the lower triangle by rows
+        self._id.schur = _pointer(S, _REAL)
         start = time.perf_counter()
-        self._id.job = JOB_FACTORISE if self._analysed else JOB_ANALYSE_FACTORISE
-        self._call("factorisation")
+        self._id.job = JOB_FACTORISE
+        try:
+            self._call("factorisation")
+        finally:
+            self._id.schur = _PREAL()  # the array is the caller's from now on
         null_pivots = self._id.infog[INFOG_NULL_PIVOTS - 1]
         if null_pivots > 0:
             raise SingularMatrixError(
@@ -261,23 +309,22 @@ class SchurFactorisation:
                 "part of the model can move freely; check its supports, ties and contacts"
             )
         self.entries = float(_mumps_count(self._id.infog[INFOG_FACTOR_ENTRIES - 1]))
-        n, m = self.size - self.schur, self.schur
+        analysis, self._analysis_seconds = self._analysis_seconds, None
         self.log.add(
             self.block,
             "sparse_factor",
-            n,
+            self.size - m,
             0,
-            time.perf_counter() - start,
+            time.perf_counter() - start + (analysis or 0.0),
             self._id.rinfog[RINFOG_FLOPS - 1],
             f"with a Schur complement of {m}",
             self.entries,
-            0 if self._analysed else self.nnz,
+            0 if analysis is None else self.nnz,
         )
-        self._analysed = True
         start = time.perf_counter()
-        lower = self._S.reshape(m, m)  # lower triangle by rows
-        self.schur_complement = np.tril(lower) + np.tril(lower, -1).T
+        _mirror_lower(S)
         self.log.add(self.block, "schur", m, 0, time.perf_counter() - start)
+        return S
 
     def reduce(self, b: np.ndarray, what: str = "u_hat") -> np.ndarray:
         """``-C^T K^-1 b``: MUMPS's reduction phase, one forward sweep (kept for :meth:`expand`)."""
@@ -330,6 +377,27 @@ class SchurFactorisation:
     def __del__(self) -> None:
         # as petsc4py objects: freed when collected if nobody called destroy()
         self.destroy()
+
+
+def _stored_entries(rows: np.ndarray, cols: np.ndarray, size: int) -> int:
+    """Distinct entries of a symmetric pattern given by one or both triangles (both counted)."""
+    low, high = np.minimum(rows, cols).astype(np.int64), np.maximum(rows, cols)
+    upper = np.unique(low * size + high)
+    diagonal = np.count_nonzero(upper % (size + 1) == 0)  # i * size + i
+    return int(2 * len(upper) - diagonal)
+
+
+def _mirror_lower(S: np.ndarray, rows: int = 256) -> None:
+    """Copy the lower triangle of a square array onto its upper one, in place.
+
+    By blocks of rows: no temporary of the array's size.
+    """
+    m = S.shape[0]
+    for r0 in range(0, m, rows):
+        r1 = min(r0 + rows, m)
+        D = S[r0:r1, r0:r1]
+        D[...] = np.tril(D) + np.tril(D, -1).T
+        S[r0:r1, r1:] = S[r1:, r0:r1].T
 
 
 def _pointer(array: np.ndarray, ctype):
