@@ -13,7 +13,7 @@ import pytest
 import dd_contact as dd
 from dd_contact import calibration, timing, verify
 from dd_contact.examples import parallelepiped, row_of_blocks
-from dd_contact.solvers.worklog import WorkRecord
+from dd_contact.solvers.worklog import WorkLog, WorkRecord
 
 
 @pytest.fixture(scope="module")
