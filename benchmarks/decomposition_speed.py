@@ -29,6 +29,11 @@ log per block, and the peak memory. Derived, per algorithm (medians over runs):
   whole run over the best named algorithm's of the same number of steps (target <= 1.15);
 * ``peak_memory_mb``: the largest peak resident memory of the runs (``_runs``: each).
 
+``--algorithms "w-u classic" ...`` runs an algorithm with the paper's contact
+(``energy_safe_contact=False``); beside its energy-safe run it gives
+``safe_over_classic_per_change`` and ``safe_over_classic_per_step_base`` (issue 13: the
+energy-safe steps' price, measured in one session).
+
 ``--before FILE`` adds the summary of an earlier run at the same size (e.g. of the code
 before a change, run with its own copy of this script) under ``"before"``, with per-key
 ratios after / before.
@@ -53,6 +58,9 @@ from pathlib import Path
 
 HERE = Path(__file__).parent / "results"
 ALGORITHMS = ["FULL", "v-w-u", "w-v-u", "w-u", "v-u", "auto"]
+#: "<algorithm> classic": the same run with the paper's contact (energy_safe_contact=False),
+#: to price the energy-safe steps (issue 13) in the same session
+CLASSIC = [f"{a} classic" for a in ALGORITHMS if a != "auto"]
 AUTO_SCENE = "w-v-u"  # auto runs on the two-subdomain scene with a contact interface
 SLOW = ("FULL", "v-u")  # re-factorise a large sparse matrix on every change: fewer steps
 PINNED = {
@@ -75,14 +83,20 @@ def worker(args) -> dict:
     from dd_contact.examples import parallelepiped
 
     start = time.perf_counter()
-    auto = args.worker == "auto"
-    scene_of = AUTO_SCENE if auto else args.worker
+    algorithm, *mode = args.worker.split()
+    auto = algorithm == "auto"
+    scene_of = AUTO_SCENE if auto else algorithm
     scene = parallelepiped(scene_of, tuple(args.elements), comm=MPI.COMM_SELF)
-    n_steps = args.full_steps if args.worker in SLOW else args.steps
+    n_steps = args.full_steps if algorithm in SLOW else args.steps
     # auto is told the run's length; the bar changes contact about 1.25 times a step
     expected = {"expected_steps": n_steps, "expected_changes": 1.25 * n_steps} if auto else {}
     problem = dd.TransientProblem(
-        scene, args.dt, algorithm=args.worker, track_energy=False, **expected
+        scene,
+        args.dt,
+        algorithm=algorithm,
+        track_energy=False,
+        energy_safe_contact=mode != ["classic"],
+        **expected,
     )
     problem.start()
     setup = time.perf_counter() - start
@@ -167,7 +181,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=8, help="steps of each decomposition run")
     parser.add_argument("--full-steps", type=int, default=3, help="steps of FULL and v-u runs")
     parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--algorithms", nargs="+", default=ALGORITHMS, choices=ALGORITHMS)
+    parser.add_argument("--algorithms", nargs="+", default=ALGORITHMS, choices=ALGORITHMS + CLASSIC)
     parser.add_argument("--out", default=str(HERE / "decomposition_speed.json"))
     parser.add_argument("--before", help="JSON of an earlier run at the same size, to compare")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
@@ -241,6 +255,11 @@ def summarise(args, runs: dict, out: Path, show: bool = False) -> None:
                 for key in ("seconds_per_step_base", "seconds_per_step_2_changes"):
                     if med.get(key):
                         med[f"{key}_over_floor"] = med[key] / med["floor_substitution"]
+    for algorithm, med in summary.items():  # the energy-safe steps over the classic ones
+        classic = summary.get(f"{algorithm} classic")
+        for key in ("seconds_per_change", "seconds_per_step_base"):
+            if classic and med.get(key) and classic.get(key):
+                med[f"safe_over_classic_{key.removeprefix('seconds_')}"] = med[key] / classic[key]
     data = {
         "elements": args.elements,
         "dt": args.dt,
