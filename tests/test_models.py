@@ -420,3 +420,12 @@ def test_pin_joint_takes_one_clearance_per_pin():
     assert radii["hole_lower0"] == pytest.approx(radius - 1e-3)
     with pytest.raises(dd.InputError, match="clearance has 3 values for 5 pins"):
         models.pin_joint("tiny", clearance=(1e-4,) * 3, comm=MPI.COMM_SELF)
+
+
+def test_pin_joint_puts_contact_interfaces_on_the_chosen_pins_only():
+    scene = models.pin_joint("tiny", contact_pins=[2], comm=MPI.COMM_SELF)
+    assert sorted(c.name for c in scene.contacts) == ["hole_lower2", "hole_upper2"]
+    assert len(models.pin_joint("tiny", comm=MPI.COMM_SELF).contacts) == 10
+    for bad in ([], [5], [1.5]):
+        with pytest.raises(dd.InputError, match="contact_pins"):
+            models.pin_joint("tiny", contact_pins=bad, comm=MPI.COMM_SELF)

@@ -157,6 +157,7 @@ def pin_joint(
     period: float = 2e-3,
     wall_cells: int | None = None,
     lower: str = "pulled",
+    contact_pins: Sequence[int] | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
 ) -> Scene:
     """The multi-pin joint: 12 subdomains, 1 interface, 10 contact interfaces, 5 pins.
@@ -172,6 +173,9 @@ def pin_joint(
         lower: ``"pulled"``: the lower plate's grip end takes the load reversed (along -y),
             guided in x and z like the upper one's, so both plates bear on the pins;
             ``"clamped"``: it is clamped, and only the upper plate's walls touch the pins.
+        contact_pins: The pins whose holes carry contact interfaces (both plates' walls;
+            default all): the paper's "holes in contact" (docs/cost.md), the other holes
+            are free.
         comm: Communicator.
     """
     if lower not in LOWER_PLATE_SUPPORTS:
@@ -195,6 +199,12 @@ def pin_joint(
     if not np.all(gaps < radius):
         raise InputError(f"pin_joint: clearance {clearance} m leaves no pin in a {radius} m hole")
     gaps = np.broadcast_to(gaps, (lay.n_holes,))
+    pins = range(lay.n_holes) if contact_pins is None else sorted(set(contact_pins))
+    if not pins or not all(isinstance(k, int | np.integer) and 0 <= k < lay.n_holes for k in pins):
+        raise InputError(
+            f"pin_joint: contact_pins {contact_pins} must be pin numbers 0..{lay.n_holes - 1} "
+            "(at least one), the pins whose holes carry contact interfaces"
+        )
     width = lay.n_holes * lay.pitch * MM
     parts = {name: Subdomain(mesh, STEEL, name) for name, (mesh, _) in model.subdomains.items()}
     tags = {name: t for name, (_, t) in model.subdomains.items()}
@@ -224,5 +234,6 @@ def pin_joint(
             name=f"hole_{name}",
         )
         for name, (x, y) in model.holes.items()
+        if _pin(name, model.plates) in pins
     ]
     return Scene(comm, list(parts.values()), interface, contacts=contacts)
