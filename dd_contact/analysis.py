@@ -98,7 +98,7 @@ class Analysis:
         self.scene, self.comm = scene, scene.comm
         self.work = WorkLog()
         self.model: Model = collective(self.comm, lambda: assemble(scene))
-        for z in self.model.zones:  # the surface resolution check reads static pressure
+        for z in self.model.zones:  # the pressure-swing check reads static pressure only
             z.check_resolution = not mass_coefficient
         if mass_coefficient and self._energy_safe:  # massless contact walls (dd_contact.impact)
             for z in self.model.zones:

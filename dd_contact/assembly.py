@@ -27,7 +27,13 @@ from scipy.spatial import cKDTree
 
 from dd_contact import coupling, forms
 from dd_contact.blocks import Block, ContactRegion
-from dd_contact.contact import ContactOperator, contact_points, mean_cell_size, patch_average
+from dd_contact.contact import (
+    ContactOperator,
+    contact_points,
+    largest_turn,
+    mean_cell_size,
+    patch_average,
+)
 from dd_contact.errors import InputError, PenaltyRangeWarning, SurfaceResolutionWarning
 from dd_contact.scene import (
     KAPPA_ASSEMBLED,
@@ -275,6 +281,15 @@ def _check_covered(surface, what: str, coverage: np.ndarray, comm: MPI.Comm | No
 #: than the wall along the curvature).
 OSCILLATION_LIMIT = 0.075
 
+#: Cell size of a curved wall along its curvature over its contact surface's above which the
+#: surface counts as finer than its wall (resolution_warning): the pressures measured with
+#: 10-12 surface cells per quarter hole on a wall of 8 (ratio 1.25-1.5) and 48 on 24 (2.0)
+#: were 5-170 % high; 3, 7 or 8 on 8 (ratio 0.375-1.0) within 2.5 % of the facet copy.
+FINER_LIMIT = 1.1
+#: Turn between neighbouring wall facets [rad] below which a wall counts as flat: its
+#: facets then lie within h * turn / 8 (1e-4 h) of any surface on it.
+FLAT_TURN = 1e-3
+
 #: Penetration (fraction of the contact surface's cell size) above which a contact penalty
 #: counts as too soft: the answer then carries that much penalty error, which a stiffer
 #: contact_kappa removes. The bar impact at contact_kappa = 1 sinks 1 % of a cell, at 0.01
@@ -301,7 +316,8 @@ class ContactZone:
         check_resolution: Whether :meth:`pressure` checks the recovered pressure's swing.
             Off in time stepping with inertia: an impact's pressure is rough from node to
             node on any surface, a facet copy's too (the bar: 1.01 MPa between 0.28 and
-            0.48), and the check is calibrated on static pressure.
+            0.48), and the check is calibrated on static pressure. A surface finer than its
+            curved wall is reported at assembly in any problem (:func:`resolution_warning`).
     """
 
     contact: ContactInterface | ContactBoundary
@@ -461,6 +477,34 @@ class Model:
         return mask
 
 
+def resolution_warning(
+    contact: ContactInterface, volume: dolfinx.mesh.Mesh, facets: np.ndarray
+) -> bool:
+    """Warn (and say so) if a contact interface is finer than its curved wall.
+
+    A surface with more cells along a wall's curvature than the wall has gives pressures
+    5-170 % high (docs/contact.md). Geometry alone decides, so the check holds in dynamics,
+    where an impact's pressure is rough on any surface: cells turn from one to the next by
+    the curvature times their size across it (:func:`contact.largest_turn`), so the wall's
+    turn over the surface's is how many surface cells lie along one wall cell.
+    """
+    wall = largest_turn(volume.geometry.x, dolfinx.mesh.entities_to_geometry(volume, 2, facets))
+    surface = largest_turn(contact.mesh.geometry.x, contact.mesh.geometry.dofmaps[0])
+    if wall < FLAT_TURN or wall <= FINER_LIMIT * surface:
+        return False
+    warnings.warn(
+        f"contact interface {contact.name!r} is finer than its wall along the wall's "
+        f"curvature ({wall / max(surface, 1e-300):.2g} of its cells along one wall facet, "
+        f"whose neighbours turn by {np.degrees(wall):.3g} degrees): its pressure peaks are "
+        "unreliable (measured 5-170 % high) and it can stiffen the wall (force +5.6 % under a "
+        "prescribed displacement); mesh the contact surface no finer than the wall along the "
+        "curvature, or use ContactInterface.from_boundary",
+        SurfaceResolutionWarning,
+        stacklevel=2,
+    )
+    return True
+
+
 def _contact_zone(
     scene: Scene, system: BlockSystem, contact: ContactInterface | ContactBoundary, k: int
 ) -> tuple[ContactZone, np.ndarray | None]:
@@ -473,6 +517,7 @@ def _contact_zone(
         dofs = (3 * contact.node_map[:, None] + np.arange(3)).ravel()
         coverage = recovery = None
         wall = dofs
+        reported = False
     else:
         ops = _tie_operators(contact, sub, "contact interface")
         block = contact.block
@@ -483,6 +528,7 @@ def _contact_zone(
         # A surface that does not copy its wall carries a node-to-node pressure oscillation
         # that the wall does not feel (measured up to +25 % on tetrahedra): recover it.
         recovery = patch_average(ops.P4) if ops.projected else None
+        reported = ops.projected and resolution_warning(contact, sub.mesh, ops.facets)
         nodes = dolfinx.fem.locate_dofs_topological(sub.V, 2, ops.facets)
         wall = (3 * nodes[:, None] + np.arange(3)).ravel()
     eps_c = contact.contact_penalty.epsilon_for(height, sub.material.E)
@@ -496,6 +542,7 @@ def _contact_zone(
         free, prescribed = ~np.isin(dofs, fixed), prescribed_full[dofs]
     length = mean_cell_size(contact.mesh)
     zone = ContactZone(contact, block, dofs, operator, free, prescribed, length, recovery, wall)
+    zone.warned = reported  # the pressure-swing check need not say it again
     return zone, coverage
 
 

@@ -54,6 +54,7 @@ __all__ = [
     "ContactPoints",
     "check_contact_geometry",
     "contact_points",
+    "largest_turn",
     "mean_cell_size",
     "outward_normals",
 ]
@@ -212,6 +213,27 @@ def patch_average(mass: sp.sparray) -> sp.csr_array:
     scale = np.where(inside, 1.0 / np.where(inside, weight, 1.0), 0.0)
     outside = sp.diags_array((~inside).astype(float))
     return sp.csr_array(sp.diags_array(scale) @ mass + outside)
+
+
+def largest_turn(x: np.ndarray, cells: np.ndarray) -> float:
+    """The largest angle [rad] between the planes of two cells that share an edge.
+
+    ``x`` are node coordinates, ``cells`` first-order triangles or tensor-ordered quads
+    (node indices into ``x``). On a curved surface it is the curvature times the cell size
+    across the curvature, so the ratio of two meshes' turns on the same wall is the ratio of
+    their cell sizes along the curvature (along the axis of a cylinder cells do not turn).
+    """
+    poly = cyclic_vertices(cells)
+    normal = newell_normal(x[poly])
+    corners = poly.shape[1]
+    edges = np.sort(np.stack([poly, np.roll(poly, -1, axis=1)], axis=2).reshape(-1, 2), axis=1)
+    owner = np.repeat(np.arange(len(poly)), corners)
+    order = np.lexsort((edges[:, 1], edges[:, 0]))
+    edges, owner = edges[order], owner[order]
+    shared = np.all(edges[1:] == edges[:-1], axis=1)
+    a, b = normal[owner[:-1][shared]], normal[owner[1:][shared]]
+    cosine = np.clip(np.abs(np.sum(a * b, axis=1)), 0.0, 1.0)  # orientation need not agree
+    return float(np.arccos(cosine).max(initial=0.0))
 
 
 # -- the start of a run: refuse geometry the contact term cannot handle -------------------

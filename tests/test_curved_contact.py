@@ -20,7 +20,8 @@ import pytest
 import ufl
 
 import dd_contact as dd
-from dd_contact.contact import patch_average
+from dd_contact import meshes
+from dd_contact.contact import largest_turn, patch_average
 
 R, LENGTH, WIDTH, HOLE_X, HALF_T = 5e-3, 60e-3, 30e-3, 15e-3, 2e-3
 LOAD = 25e6 * 2 * R * HALF_T  # a mean bearing pressure of 25 MPa on the half thickness
@@ -158,6 +159,63 @@ def test_a_contact_surface_finer_than_its_wall_is_reported(facet_copy):
         force, peak = pull_onto_pin(wall_mesh(12, 2, 0.0))
     assert force == pytest.approx(1.0, rel=1e-2)  # the force is still right
     assert peak > 1.2 * facet_copy[1]  # the peak is what the warning is about
+
+
+def shake_on_pin(wall: dolfinx.mesh.Mesh, mesh: dolfinx.mesh.Mesh | None = None) -> int:
+    """The plate of :func:`pull_onto_pin` with mass, struck onto the pin: 4 Newmark steps;
+    the active points at the end."""
+    plate = dd.Subdomain(mesh or plate_mesh(), dd.Material(210e9, 0.3, 7850.0), "plate")
+    plate.fix(lambda x: np.isclose(x[2], 0.0), components=[2])
+    plate.fix(lambda x: np.isclose(x[0], LENGTH), components=[1])
+    plate.add_traction(lambda x: np.isclose(x[0], LENGTH), [LOAD / (WIDTH * HALF_T), 0, 0])
+    pin = dd.Cylinder([HOLE_X, 0, 0], [0, 0, 1], R)
+    zone = dd.ContactInterface(wall, plate, pin, tolerance=5e-4, name="hole")
+    scene = dd.Scene(MPI.COMM_SELF, [plate], contacts=[zone])
+    with dd.TransientProblem(scene, 2e-6, inertia=True, track_energy=False) as problem:
+        for _ in range(4):
+            problem.advance()
+        return problem.results["active"]["hole"]
+
+
+@pytest.mark.parametrize(
+    ("cells", "layers", "phase", "hexahedra", "finer"),
+    [
+        (8, 2, 0.5, True, False),  # as many cells around as the wall, shifted
+        (7, 2, 0.0, True, False),
+        (3, 1, 0.3, True, False),
+        (8, 4, 0.5, True, False),  # finer along the axis only: -1.6 %
+        (10, 2, 0.0, True, True),  # +5 % and more
+        (12, 2, 0.0, True, True),  # +35 %
+        (12, 3, 0.5, False, False),
+        (11, 3, 0.0, False, False),
+        (16, 3, 0.0, False, True),
+    ],
+)
+def test_a_surface_finer_than_its_wall_is_reported_in_dynamics_too(
+    cells, layers, phase, hexahedra, finer
+):
+    """The check is geometric (made when the scene is assembled), so an impact, whose
+    pressure is rough on any surface, neither hides nor fakes it."""
+    plate = plate_mesh() if hexahedra else plate_mesh(*TET_PLATE, hexahedra=False)
+    wall = wall_mesh(cells, layers, phase, quads=hexahedra)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        active = shake_on_pin(wall, plate)
+    reported = [w for w in caught if issubclass(w.category, dd.SurfaceResolutionWarning)]
+    assert len(reported) == int(finer)
+    assert active > 0  # the plate did strike the pin
+    if finer:
+        assert "finer than its wall along the wall's curvature" in str(reported[0].message)
+
+
+def test_largest_turn_is_the_angle_between_neighbouring_cells():
+    around = 16
+    pin = meshes.cylinder_surface(MPI.COMM_SELF, (0.0, 0.0, 0.0), 1.0, 0.5, around, 2)
+    turn = largest_turn(pin.geometry.x, pin.geometry.dofmaps[0])
+    assert turn == pytest.approx(2 * np.pi / around, rel=1e-9)
+    flat = dolfinx.mesh.create_unit_square(MPI.COMM_SELF, 3, 2)
+    x = np.c_[flat.geometry.x[:, :2], np.zeros(len(flat.geometry.x))]
+    assert largest_turn(x, flat.geometry.dofmaps[0]) < 1e-12
 
 
 def test_patch_average_keeps_linear_fields_and_damps_a_node_to_node_swing():

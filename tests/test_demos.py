@@ -139,6 +139,6 @@ def test_paper_demo_agrees_with_full_and_balances_the_load(tmp_path, name, ranks
     else:
         upper = [full["changes"][f"hole_upper{k}"] for k in range(5)]
         lower = [full["changes"][f"hole_lower{k}"] for k in range(5)]
-        assert min(upper) >= 2 and max(lower) == 0  # the upper plate hits its pins and leaves
+        assert min(upper) >= 2 and min(lower) >= 2  # both plates hit their pins and leave
     for picture in pictures:
         assert (out / f"{picture}.png").stat().st_size > 10_000, picture

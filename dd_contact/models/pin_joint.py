@@ -11,9 +11,12 @@ interface of its own (a cylinder mesh with nodes on the circle, turned half a ce
 the wall's nodes) against its pin, a :class:`~dd_contact.Cylinder` ``clearance`` thinner
 than the hole.
 
-The lower plate is clamped at its grip's end; the upper one is pulled and pushed along y at
-its grip's end by ``load * sin(2 pi t / period)``, that end guided in x and z. The pins are
-fixed in space: they carry the upper plate's load to the ground.
+The upper plate is pulled and pushed along y at its grip's end by ``load * sin(2 pi t /
+period)``, that end guided in x and z. The lower plate (``lower="pulled"``, the default)
+takes the opposite load at its grip's end, guided the same way: the joint in tension, the
+pins passing the load from one plate to the other, so both plates bear on them. With
+``lower="clamped"`` the lower plate is clamped at its grip's end and nothing pushes it onto
+the pins, which then carry the upper plate's load to the ground alone.
 """
 
 from __future__ import annotations
@@ -35,6 +38,7 @@ from dd_contact.obstacles import Cylinder
 from dd_contact.scene import ContactInterface, Interface, Scene, Subdomain
 
 __all__ = [
+    "LOWER_PLATE_SUPPORTS",
     "PIN_JOINT_SCALES",
     "PinJointMeshes",
     "pin_joint",
@@ -50,6 +54,8 @@ PIN_JOINT_SCALES = {
 }
 #: mm of PinJointLayout to m.
 MM = 1e-3
+#: How the lower plate is held: pulled by the upper plate's load reversed, or clamped.
+LOWER_PLATE_SUPPORTS = ("pulled", "clamped")
 
 
 def pin_joint_layout(scale: str | PinJointLayout = "small") -> PinJointLayout:
@@ -150,6 +156,8 @@ def pin_joint(
     load: float = 20e3,
     period: float = 2e-3,
     wall_cells: int | None = None,
+    lower: str = "pulled",
+    contact_pins: Sequence[int] | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
 ) -> Scene:
     """The multi-pin joint: 12 subdomains, 1 interface, 10 contact interfaces, 5 pins.
@@ -162,8 +170,19 @@ def pin_joint(
         load: Amplitude of the force on the upper plate's grip end, along +y [N].
         period: Period of the load [s]; ``load * sin(2 pi t / period)``.
         wall_cells: Cells around each contact interface (default the plate's).
+        lower: ``"pulled"``: the lower plate's grip end takes the load reversed (along -y),
+            guided in x and z like the upper one's, so both plates bear on the pins;
+            ``"clamped"``: it is clamped, and only the upper plate's walls touch the pins.
+        contact_pins: The pins whose holes carry contact interfaces (both plates' walls;
+            default all): the paper's "holes in contact" (docs/cost.md), the other holes
+            are free.
         comm: Communicator.
     """
+    if lower not in LOWER_PLATE_SUPPORTS:
+        raise InputError(
+            f"pin_joint: lower={lower!r} is not a support of the lower plate; give one of "
+            f"{LOWER_PLATE_SUPPORTS}"
+        )
     gaps = np.atleast_1d(np.asarray(clearance, float))
     if not np.all(gaps >= 0.0):
         raise InputError(f"pin_joint: clearance must be >= 0, got {clearance}")
@@ -180,16 +199,29 @@ def pin_joint(
     if not np.all(gaps < radius):
         raise InputError(f"pin_joint: clearance {clearance} m leaves no pin in a {radius} m hole")
     gaps = np.broadcast_to(gaps, (lay.n_holes,))
+    pins = range(lay.n_holes) if contact_pins is None else sorted(set(contact_pins))
+    if not pins or not all(isinstance(k, int | np.integer) and 0 <= k < lay.n_holes for k in pins):
+        raise InputError(
+            f"pin_joint: contact_pins {contact_pins} must be pin numbers 0..{lay.n_holes - 1} "
+            "(at least one), the pins whose holes carry contact interfaces"
+        )
     width = lay.n_holes * lay.pitch * MM
     parts = {name: Subdomain(mesh, STEEL, name) for name, (mesh, _) in model.subdomains.items()}
     tags = {name: t for name, (_, t) in model.subdomains.items()}
-    parts["lower_grip"].fix((tags["lower_grip"], FACE_TAGS["y0"]))
+    stress = load / (width * thick)
+
+    def pull(sign):
+        return lambda t: [0.0, sign * stress * np.sin(2 * np.pi * t / period), 0.0]
+
     upper_end = (tags["upper_grip"], FACE_TAGS["y1"])
     parts["upper_grip"].fix(upper_end, components=[0, 2])
-    stress = load / (width * thick)
-    parts["upper_grip"].add_traction(
-        upper_end, lambda t: [0.0, stress * np.sin(2 * np.pi * t / period), 0.0]
-    )
+    parts["upper_grip"].add_traction(upper_end, pull(1.0))
+    lower_end = (tags["lower_grip"], FACE_TAGS["y0"])
+    if lower == "clamped":
+        parts["lower_grip"].fix(lower_end)
+    else:  # the support's reaction, which the pins pass to the upper plate
+        parts["lower_grip"].fix(lower_end, components=[0, 2])
+        parts["lower_grip"].add_traction(lower_end, pull(-1.0))
     interface = Interface(model.interface, list(parts.values()), name="cuts")
     # The wall's nodes lie on the circle, off the plate's facet chords by up to a sagitta.
     sagitta = radius * (1.0 - np.cos(np.pi / (4 * lay.n_circumferential)))
@@ -202,5 +234,6 @@ def pin_joint(
             name=f"hole_{name}",
         )
         for name, (x, y) in model.holes.items()
+        if _pin(name, model.plates) in pins
     ]
     return Scene(comm, list(parts.values()), interface, contacts=contacts)
