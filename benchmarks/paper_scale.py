@@ -254,12 +254,23 @@ def watched(command: list[str], env: dict, limit_gib: float, log: Path) -> tuple
         "load_average_max": max(loads) if loads else None,
     }
     if killed:
-        return {"failed": f"killed above the memory limit ({killed[0]:.1f} GiB)"}, samples
+        reason = f"killed above the memory limit ({killed[0]:.1f} GiB)"
+        return {"failed": reason, "steps_done": steps_logged(log)}, samples
     lines = [line for line in stdout.splitlines() if line.startswith("{")]
     if process.returncode != 0 or not lines:
         tail = log.read_text().splitlines()[-5:]
-        return {"failed": f"exit code {process.returncode}: {' | '.join(tail)}"}, samples
+        reason = f"exit code {process.returncode}: {' | '.join(tail)}"
+        return {"failed": reason, "steps_done": steps_logged(log)}, samples
     return json.loads(lines[-1]), samples
+
+
+def steps_logged(log: Path) -> list[dict]:
+    """The steps a worker finished before it stopped (its progress lines on stderr)."""
+    steps = []
+    for line in log.read_text().splitlines():
+        if line.startswith('{"progress"'):
+            steps.append(json.loads(line)["progress"])
+    return steps
 
 
 def derived(run: dict) -> dict:
@@ -279,28 +290,93 @@ def derived(run: dict) -> dict:
     }
 
 
-def summary(runs: dict) -> dict:
-    """Per run key: derived values; per order, ratios to FULL at the paper's study."""
+def summary(data: dict) -> dict:
+    """Per run key (model|scale|algorithm): derived values, and per order the ratios to FULL
+    at the same scale (measured) or, at the paper's size, to FULL extrapolated."""
     from dd_contact.flops.paper import PAPER_BAR
 
+    runs = {k.removesuffix("|run"): r for k, r in data["runs"].items() if k.endswith("|run")}
     out = {key: derived(run) for key, run in runs.items() if "steps" in run}
+    full_paper = extrapolated_full(data)
+    n, changes = PAPER_BAR.steps, PAPER_BAR.changes  # N_TS and D of Table 3
+
+    def whole(x):
+        return x["setup_seconds"] + n * x["seconds_per_step"] + changes * x["seconds_per_change"]
+
     for key, d in out.items():
-        model, scale, algorithm = key.split("|")[:3]
+        model, scale, algorithm = key.split("|")
         full = out.get(f"{model}|{scale}|FULL")
+        if full is None and scale.startswith("paper") and model == "parallelepiped":
+            full, d["full_extrapolated"] = full_paper, True
         if algorithm == "FULL" or not full or full["seconds_per_change"] is None:
             continue
-        n, changes = PAPER_BAR.steps, PAPER_BAR.changes  # N_TS and D of Table 3
-
-        def whole(x):
-            return (
-                x["setup_seconds"] + n * x["seconds_per_step"] + changes * x["seconds_per_change"]
-            )
-
+        if d["seconds_per_change"] is None:
+            continue
         d["full_over_this_per_change"] = full["seconds_per_change"] / d["seconds_per_change"]
         d["this_over_full_per_step"] = d["seconds_per_step"] / full["seconds_per_step"]
         d["percent_of_full_paper_study"] = 100.0 * whole(d) / whole(full)
         d["paper_percent_flops"] = PAPER_PERCENT.get(algorithm)
+    if full_paper:
+        out["parallelepiped|paper|FULL (extrapolated)"] = full_paper
     return out
+
+
+def cells(model: str, scale: str) -> int:
+    """Hexahedra of the bar at a scale of this script (``paper``, ``1/4``, ``nx,ny,nz``)."""
+    if model != "parallelepiped":
+        raise ValueError("cells: the bar only")
+    nx, ny, nz = (400, 100, 10) if scale == "paper" else _bar_scale(scale)
+    return nx * ny * nz
+
+
+def extrapolated_full(data: dict, model: str = "parallelepiped") -> dict | None:
+    """FULL at the paper's size from its measured run at a smaller size (marked extrapolated).
+
+    MUMPS's analysis of FULL's matrix at the analysed sizes (``--analyse``) gives factor
+    flops and entries; a power law in the cell count through them carries the measured
+    set-up and change time (flops) and the step time and memory (entries) to the paper.
+    """
+    import numpy as np
+
+    analysed = {
+        key.split("|")[1]: run
+        for key, run in data["runs"].items()
+        if key.startswith(f"{model}|") and key.endswith("|FULL|analysis") and "failed" not in run
+    }
+    measured = {
+        key.split("|")[1]: run
+        for key, run in data["runs"].items()
+        if key.startswith(f"{model}|") and key.endswith("|FULL|run") and "steps" in run
+    }
+    if len(analysed) < 2 or not measured:
+        return None
+    n = np.log([cells(model, s) for s in analysed])
+    fits = {}
+    for what in ("factor_gflop", "factor_entries"):
+        y = np.log([sum(r[what].values()) for r in analysed.values()])
+        fits[what] = np.polyfit(n, y, 1)  # slope, intercept
+
+    def law(what: str, scale: str) -> float:
+        slope, intercept = fits[what]
+        return float(np.exp(intercept + slope * np.log(cells(model, scale))))
+
+    scale, run = max(measured.items(), key=lambda item: cells(model, item[0]))
+    d = derived(run)
+    flops = law("factor_gflop", "paper") / law("factor_gflop", scale)
+    entries = law("factor_entries", "paper") / law("factor_entries", scale)
+    return {
+        "extrapolated": True,
+        "from_scale": scale,
+        "exponent_flops": float(fits["factor_gflop"][0]),
+        "exponent_entries": float(fits["factor_entries"][0]),
+        "factor_gflop": law("factor_gflop", "paper"),
+        "factor_entries": law("factor_entries", "paper"),
+        "setup_seconds": d["setup_seconds"] * flops,
+        "seconds_per_change": d["seconds_per_change"] * flops,
+        "seconds_per_step": d["seconds_per_step"] * entries,
+        "peak_rss_gib": d["peak_rss_gib"] * entries,
+        "load_average_mean": run.get("load_average_mean"),
+    }
 
 
 def markdown(data: dict) -> str:
@@ -311,16 +387,22 @@ def markdown(data: dict) -> str:
     )
     rows = [head, "|" + "---|" * 12]
     for key, d in data.get("summary", {}).items():
-        model, scale, algorithm = key.split("|")[:3]
-        run = data["runs"][key + "|run"]
+        model, scale, algorithm = key.split("|")
+        run = data["runs"].get(key + "|run", {})
+        dofs = run.get(
+            "dofs",
+            data["runs"].get(f"{model}|{scale.removesuffix('+ooc')}|w-v-u|run", {}).get("dofs"),
+        )
         percent = d.get("percent_of_full_paper_study")
         paper = d.get("paper_percent_flops")
         change = d["seconds_per_change"]
+        load = d.get("load_average_mean", run.get("load_average_mean"))
         rows.append(
-            f"| {model}, {scale} | {algorithm} | {run['dofs']:,} | {d['steps']} | {d['changes']} "
-            f"| {d['setup_seconds']:.0f} | {d['seconds_per_step']:.2f} "
+            f"| {model}, {scale} | {algorithm} | {dofs or '-'} | {d.get('steps', '-')} "
+            f"| {d.get('changes', '-')} | {d['setup_seconds']:.0f} | {d['seconds_per_step']:.2f} "
             f"| {'-' if change is None else f'{change:.3g}'} | {d['peak_rss_gib']:.1f} "
-            f"| {run['load_average_mean']:.1f} | {'-' if percent is None else f'{percent:.3f} %'} "
+            f"| {'-' if load is None else f'{load:.1f}'} "
+            f"| {'-' if percent is None else f'{percent:.3f} %'} "
             f"| {'-' if paper is None else f'{paper:.3f} %'} |"
         )
     return "\n".join(rows)
@@ -338,6 +420,7 @@ def main() -> None:
     parser.add_argument("--tag", default="", help="suffix of the scale in the run key, e.g. '+ooc'")
     parser.add_argument("--analyse", action="store_true", help="MUMPS analysis only")
     parser.add_argument("--table", action="store_true", help="print the file as markdown")
+    parser.add_argument("--merge", nargs="+", help="add the runs of these JSON files (resumed)")
     parser.add_argument("--out", default=str(HERE / "paper_scale.json"))
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     parser.add_argument("--dt", type=float, help=argparse.SUPPRESS)
@@ -355,6 +438,12 @@ def main() -> None:
         print(markdown(data))
         return
     runs = data.setdefault("runs", {})
+    if args.merge:
+        for other in args.merge:
+            runs.update(json.loads(Path(other).read_text())["runs"])
+        data["summary"] = summary(data)
+        out.write_text(json.dumps(data, indent=1))
+        return
     env = {**os.environ, **PINNED}
     for algorithm in args.algorithms or DEMO[args.model]["algorithms"]:
         kind = "analysis" if args.analyse else "run"
@@ -375,9 +464,7 @@ def main() -> None:
         record, samples = watched(command, env, args.memory_limit, log)
         record.update(samples, wall_seconds=time.perf_counter() - started)
         runs[key] = record
-        data["summary"] = summary(
-            {k.removesuffix("|run"): r for k, r in runs.items() if k.endswith("|run")}
-        )
+        data["summary"] = summary(data)
         data["note"] = (
             "each run its own process, BLAS pinned to one thread; a shared 2-core machine "
             "(load average recorded per run); FULL runs the orders' split scene"

@@ -12,6 +12,13 @@ worker's record (set-up, every step and contact iteration, peak memory per rank)
 summary with the speed-ups 1 rank / 2 ranks per step (without its change iterations), per
 change and of the set-up.
 
+``weak_scaling`` adds a model of a bar of P such subdomains on P machines (a subdomain per
+machine, each on a sub-communicator; docs/solvers.md "A subdomain larger than one machine"):
+per step the measured subdomain work of one rank (constant under weak scaling) plus the dense
+surface system of the P - 1 interfaces and the contact interface, priced with this machine's
+measured dense rates (``dd_contact.timing``), solved on one core (today's engine) or spread
+over the P machines (ScaLAPACK, at an assumed 50 % parallel efficiency).
+
 Run: python benchmarks/two_ranks.py [--elements 250,36,10] [--steps 8] [--repeats 1]
 """
 
@@ -60,6 +67,7 @@ def main() -> None:
             record.update(samples, wall_seconds=time.perf_counter() - started)
             runs[key] = record
             data["summary"] = summary(runs)
+            data["weak_scaling"] = weak_scaling(data["summary"], runs)
             out.write_text(json.dumps(data, indent=1))
             print(json.dumps(data["summary"]), flush=True)
 
@@ -86,6 +94,48 @@ def summary(runs: dict) -> dict:
             if one.get(key) and two.get(key)
         }
     return out
+
+
+def weak_scaling(summary: dict, runs: dict, efficiency: float = 0.5) -> dict | None:
+    """Per-step and set-up seconds of P subdomains on P machines (a model; see the docstring)."""
+    one = summary.get("1_ranks")
+    if not one:
+        return None
+    from dd_contact import timing
+
+    blocks = next(r["blocks"] for r in runs.values() if "blocks" in r)
+    interface = next(n for b, n in blocks.items() if b.startswith("v:"))
+    contact = sum(n for b, n in blocks.items() if b.startswith("w:"))
+    subdomains = sum(1 for b in blocks if b.startswith("u:"))
+    rates = timing.machine_rates()
+    sub_step = one["seconds_per_step"] / subdomains  # one subdomain's share of a step
+    sub_setup = one["setup_seconds"] / subdomains
+    rows = []
+    for machines in (2, 8, 32, 128):
+        m = (machines - 1) * interface + contact  # the dense surface system
+        factor = rates.seconds("dense_factor", m**3 / 3.0)
+        solve = rates.seconds("dense_solve", 2.0 * m * m)
+        spread = machines * efficiency
+        rows.append(
+            {
+                "machines": machines,
+                "dofs": machines * (sum(blocks.values()) - contact) // subdomains,
+                "surface_dofs": m,
+                "step_one_core_s": sub_step + solve,
+                "step_scalapack_s": sub_step + solve / spread,
+                "setup_one_core_s": sub_setup + factor,
+                "setup_scalapack_s": sub_setup + factor / spread,
+                "step_efficiency_scalapack": sub_step / (sub_step + solve / spread),
+            }
+        )
+    return {
+        "subdomain_step_s": sub_step,
+        "subdomain_setup_s": sub_setup,
+        "interface_dofs": interface,
+        "contact_dofs": contact,
+        "parallel_efficiency_assumed": efficiency,
+        "rows": rows,
+    }
 
 
 if __name__ == "__main__":
