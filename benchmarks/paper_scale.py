@@ -26,7 +26,13 @@ Writes benchmarks/results/paper_scale.json after every finished run and resumes 
 
 Run: python benchmarks/paper_scale.py --model parallelepiped --scale paper
      [--algorithms w-v-u w-u v-w-u FULL] [--steps 20] [--full-changes 2]
-     python benchmarks/paper_scale.py --analyse --model parallelepiped --scale 0.5
+     python benchmarks/paper_scale.py --analyse --model parallelepiped --scale 1/4
+
+The recorded results came from: ``--scale paper --algorithms w-v-u --petsc-options
+'{"mat_mumps_icntl_22": 1}' --tag +ooc`` (out-of-core; in core it passed 16 GiB), ``--scale
+1/4`` (all four), ``--analyse --scale 1/8`` and ``1/4`` (FULL's extrapolation), merged into
+paper_scale.json with ``--merge``; the pin joint with ``--model pin_joint --out
+benchmarks/results/paper_scale_pin_joint.json``. ``--table`` prints the summary.
 """
 
 from __future__ import annotations
