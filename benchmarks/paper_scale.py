@@ -1,0 +1,485 @@
+"""The paper's two examples at the paper's size on this machine (issue 14 item 4, issue 15).
+
+Runs ``models.parallelepiped`` (400 x 100 x 10 hexahedra, 1,336,533 dofs at ``paper``) and
+``models.pin_joint`` (174,080 hexahedra at ``paper``) with the demos' loads and time steps,
+each algorithm in its own process with every BLAS pinned to one thread. The parent watches
+the resident memory of the worker and its children every half second, kills a run that
+passes ``--memory-limit`` (the machine is shared), and samples the load average.
+
+Per run it records: dofs, set-up time (scene, assembly, first factorisations: the first
+step's first contact iteration), time per contact change (every contact iteration after
+the first of a step), time per step without its change iterations, peak memory (the
+worker's own ``ru_maxrss`` and the sampled whole-tree RSS), contact changes, the load
+average over the run, and MUMPS's analysis (factor entries, flops) of what it factorises.
+FULL runs until ``--full-changes`` contact changes are done.
+
+``--analyse`` runs MUMPS's symbolic analysis only (no factorisation): factor entries, flops
+and the timing model's prediction (``dd_contact.timing``) of set-up, step and change, used
+to size the runs and to extrapolate FULL where it cannot run ("extrapolated").
+
+The summary puts, per order, the whole-run time of the paper's study (Table 3: N_TS steps,
+D changes; ``flops.paper.PAPER_BAR``) from the measured rates over FULL's, next to the
+paper's FLOP ratios 0.600 / 0.153 / 0.146 %.
+
+Writes benchmarks/results/paper_scale.json after every finished run and resumes from it
+(a run already in the file is skipped).
+
+Run: python benchmarks/paper_scale.py --model parallelepiped --scale paper
+     [--algorithms w-v-u w-u v-w-u FULL] [--steps 20] [--full-changes 2]
+     python benchmarks/paper_scale.py --analyse --model parallelepiped --scale 1/4
+
+The recorded results came from: ``--scale paper --algorithms w-v-u --petsc-options
+'{"mat_mumps_icntl_22": 1}' --tag +ooc`` (out-of-core; in core it passed 16 GiB), ``--scale
+1/4`` (all four), ``--analyse --scale 1/8`` and ``1/4`` (FULL's extrapolation), merged into
+paper_scale.json with ``--merge``; the pin joint with ``--model pin_joint --out
+benchmarks/results/paper_scale_pin_joint.json``. ``--table`` prints the summary.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+HERE = Path(__file__).parent / "results"
+PINNED = {
+    "OPENBLAS_NUM_THREADS": "1",
+    "OMP_NUM_THREADS": "1",
+    "MKL_NUM_THREADS": "1",
+    "BLIS_NUM_THREADS": "1",
+}
+#: The demos' loads and time steps (demos/demo_parallelepiped.py, demos/demo_pin_joint.py).
+DEMO = {
+    "parallelepiped": {"dt": 1e-4, "algorithms": ["w-v-u", "w-u", "v-w-u", "FULL"]},
+    "pin_joint": {"dt": 4e-5, "algorithms": ["w-v-u", "v-w-u", "FULL"]},
+    # benchmarks/decomposition_speed.py's bar pressed on a tilted wall (benchmarks/two_ranks.py)
+    "bar": {"dt": 1e-6, "algorithms": ["w-v-u"]},
+}
+#: The paper's Table 3: an order's FLOPs in % of FULL's for the bar's study.
+PAPER_PERCENT = {"v-w-u": 0.600, "w-v-u": 0.153, "w-u": 0.146}
+GIB = 1024.0**3
+
+
+# ------------------------------------------------------------------------------ the worker
+def scene_for(model: str, scale: str, algorithm: str | None, comm):
+    """The model's scene at ``scale`` for ``algorithm`` (FULL runs the orders' split scene)."""
+    from dd_contact import examples, models
+
+    if model == "bar":
+        return examples.parallelepiped(algorithm, _bar_scale(scale), comm=comm)
+
+    if model == "parallelepiped":
+        size = scale if scale in models.BAR_SCALES else _bar_scale(scale)
+        layout = "w-u" if algorithm == "w-u" else None
+        return models.parallelepiped(size, algorithm=layout, comm=comm)
+    if scale in models.PIN_JOINT_SCALES:
+        return models.pin_joint(scale, comm=comm)
+    return models.pin_joint(_joint_layout(scale), comm=comm)
+
+
+def _bar_scale(scale: str):
+    """A fraction of the paper's cells (``"1/8"``: nz kept, nx and ny scaled) or nx,ny,nz."""
+    if "," in scale:
+        return tuple(int(n) for n in scale.split(","))
+    num, _, den = scale.partition("/")
+    fraction = float(num) / float(den or 1)
+    return (round(400 * fraction**0.5), round(100 * fraction**0.5), 10)
+
+
+def _joint_layout(scale: str):
+    """Cell counts ``c,r,t,grip`` of the pin joint (as demos/demo_pin_joint.py)."""
+    import dataclasses
+
+    from dd_contact import models
+
+    names = list(models.PIN_JOINT_SCALES["small"])
+    counts = dict(zip(names, map(int, scale.split(",")), strict=True))
+    return dataclasses.replace(models.pin_joint_layout("small"), **counts)
+
+
+def _analysis(problem) -> dict:
+    """MUMPS's analysis of what the run factorises, and the timing model's prediction."""
+    from dd_contact import timing
+    from dd_contact.solvers.linalg import petsc_options
+
+    full = problem.algorithm == "FULL"
+    with petsc_options(problem._options):  # the analysis reads the factorisations' options
+        structure = timing.scene_structure(
+            problem.comm,
+            problem.solver.system,
+            [z.region for z in problem.zones],
+            problem.condensation,
+            full=full,
+            orders=not full,
+        )
+    rates = timing.machine_rates(comm=problem.comm)
+    p = timing.predict(timing.plan(structure, problem.algorithm), rates, 1, 1)
+    stats = {"FULL": structure.full} if full else structure.subdomains
+    return {
+        "factor_entries": {k: s.entries for k, s in stats.items()},
+        "factor_gflop": {k: s.flops / 1e9 for k, s in stats.items()},
+        "predicted_seconds": {"setup": p.setup, "step": p.step, "change": p.change},
+    }
+
+
+def worker(args) -> dict:
+    """One run of one algorithm (its own process, BLAS pinned); collective over the ranks."""
+    from mpi4py import MPI
+
+    import dd_contact as dc
+
+    comm = MPI.COMM_WORLD
+    start = time.perf_counter()
+    scene = scene_for(args.model, args.scale, args.worker, comm)
+    options = dict(json.loads(args.petsc_options)) if args.petsc_options else None
+    problem = dc.TransientProblem(
+        scene, args.dt, algorithm=args.worker, track_energy=False, petsc_options=options
+    )
+    built = time.perf_counter() - start
+    record: dict = {
+        "model": args.model,
+        "scale": args.scale,
+        "algorithm": args.worker,
+        "ranks": comm.size,
+        "dofs": int(sum(problem.solver.system.sizes.values())),
+        "blocks": {str(k): int(v) for k, v in problem.solver.system.sizes.items()},
+        "petsc_options": options,
+        "build_seconds": built,
+    }
+    if args.analyse:
+        record.update(_analysis(problem))
+        record["peak_rss_gib"] = comm.allgather(_peak_rss_gib())
+        problem.close()
+        return record
+    iterations: list[float] = []
+    solve_once = problem.iteration._solve_once
+
+    def timed(*a):
+        comm.Barrier()
+        t0 = time.perf_counter()
+        out = solve_once(*a)
+        iterations.append(time.perf_counter() - t0)
+        return out
+
+    problem.iteration._solve_once = timed  # the benchmark's probe: one time per iteration
+    steps = []
+    changes_wanted = args.full_changes if args.worker == "FULL" else None
+    for _ in range(args.steps):
+        iterations.clear()
+        comm.Barrier()
+        t0 = time.perf_counter()
+        result = problem.advance()
+        steps.append(
+            {
+                "seconds": time.perf_counter() - t0,
+                "changes": int(result["changes"]),
+                "iterations": list(iterations),
+                "active": {k: int(v) for k, v in result["active"].items()},
+            }
+        )
+        print(json.dumps({"progress": steps[-1]}), file=sys.stderr, flush=True)
+        done = sum(s["changes"] for s in steps)
+        if changes_wanted is not None and done >= changes_wanted and len(steps) >= 2:
+            break
+    record.update(
+        {
+            "steps": steps,
+            "changes": int(sum(s["changes"] for s in steps)),
+            "work": problem.work_summary(),
+            "peak_rss_gib": comm.allgather(_peak_rss_gib()),
+        }
+    )
+    problem.close()
+    return record
+
+
+def _peak_rss_gib() -> float:
+    """This process's peak resident memory [GiB] (Linux reports kB)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0**2
+
+
+# ------------------------------------------------------------------------------ the parent
+def tree_rss_gib(pid: int) -> float:
+    """Resident memory of a process and all its descendants [GiB] (from /proc)."""
+    children: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                fields = Path(f"/proc/{entry}/stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            children.setdefault(int(fields[1]), []).append(int(entry))
+    total, todo = 0, [pid]
+    while todo:
+        p = todo.pop()
+        todo += children.get(p, [])
+        try:
+            for line in Path(f"/proc/{p}/status").read_text().splitlines():
+                if line.startswith("VmRSS:"):
+                    total += int(line.split()[1])
+        except OSError:
+            continue
+    return total / 1024.0**2
+
+
+def watched(command: list[str], env: dict, limit_gib: float, log: Path) -> tuple[dict, dict]:
+    """Run a worker, sampling its tree's memory and the load average; kill it above the limit.
+
+    Returns the worker's JSON record (or ``{"failed": reason}``) and the samples' summary.
+    """
+    peak, loads, killed = [0.0], [], []
+    with open(log, "w") as err:
+        process = subprocess.Popen(
+            command, env=env, stdout=subprocess.PIPE, stderr=err, text=True, start_new_session=True
+        )
+
+        def watch():
+            while process.poll() is None:
+                rss = tree_rss_gib(process.pid)
+                peak[0] = max(peak[0], rss)
+                loads.append(os.getloadavg()[0])
+                if rss > limit_gib and not killed:
+                    killed.append(rss)
+                    os.killpg(process.pid, 9)  # our own worker's process group
+                time.sleep(0.5)
+
+        watcher = threading.Thread(target=watch, daemon=True)
+        watcher.start()
+        stdout, _ = process.communicate()
+        watcher.join()
+    samples = {
+        "peak_tree_rss_gib": peak[0],
+        "load_average_mean": statistics.fmean(loads) if loads else None,
+        "load_average_max": max(loads) if loads else None,
+    }
+    if killed:
+        reason = f"killed above the memory limit ({killed[0]:.1f} GiB)"
+        return {"failed": reason, "steps_done": steps_logged(log)}, samples
+    lines = [line for line in stdout.splitlines() if line.startswith("{")]
+    if process.returncode != 0 or not lines:
+        tail = log.read_text().splitlines()[-5:]
+        reason = f"exit code {process.returncode}: {' | '.join(tail)}"
+        return {"failed": reason, "steps_done": steps_logged(log)}, samples
+    return json.loads(lines[-1]), samples
+
+
+def steps_logged(log: Path) -> list[dict]:
+    """The steps a worker finished before it stopped (its progress lines on stderr)."""
+    steps = []
+    for line in log.read_text().splitlines():
+        if line.startswith('{"progress"'):
+            steps.append(json.loads(line)["progress"])
+    return steps
+
+
+def derived(run: dict) -> dict:
+    """Set-up, per change and per step (medians) of one run."""
+    steps = run["steps"]
+    first = steps[0]["iterations"][0] if steps and steps[0]["iterations"] else 0.0
+    change = [t for s in steps for t in s["iterations"][1:]]
+    base = [s["seconds"] - sum(s["iterations"][1:]) for s in steps[1:]]
+    return {
+        "setup_seconds": run["build_seconds"] + first,
+        "seconds_per_change": statistics.median(change) if change else None,
+        "seconds_per_step": statistics.median(base) if base else None,
+        "changes": run["changes"],
+        "steps": len(steps),
+        "total_seconds": run["build_seconds"] + sum(s["seconds"] for s in steps),
+        "peak_rss_gib": max(run["peak_rss_gib"]),
+    }
+
+
+def summary(data: dict) -> dict:
+    """Per run key (model|scale|algorithm): derived values, and per order the ratios to FULL
+    at the same scale (measured) or, at the paper's size, to FULL extrapolated."""
+    from dd_contact.flops.paper import PAPER_BAR
+
+    runs = {k.removesuffix("|run"): r for k, r in data["runs"].items() if k.endswith("|run")}
+    out = {key: derived(run) for key, run in runs.items() if "steps" in run}
+    full_paper = extrapolated_full(data)
+    n, changes = PAPER_BAR.steps, PAPER_BAR.changes  # N_TS and D of Table 3
+
+    def whole(x):
+        return x["setup_seconds"] + n * x["seconds_per_step"] + changes * x["seconds_per_change"]
+
+    for key, d in out.items():
+        model, scale, algorithm = key.split("|")
+        full = out.get(f"{model}|{scale}|FULL")
+        if full is None and scale.startswith("paper") and model == "parallelepiped":
+            full, d["full_extrapolated"] = full_paper, True
+        if algorithm == "FULL" or not full or full["seconds_per_change"] is None:
+            continue
+        if d["seconds_per_change"] is None:
+            continue
+        d["full_over_this_per_change"] = full["seconds_per_change"] / d["seconds_per_change"]
+        d["this_over_full_per_step"] = d["seconds_per_step"] / full["seconds_per_step"]
+        d["percent_of_full_paper_study"] = 100.0 * whole(d) / whole(full)
+        d["paper_percent_flops"] = PAPER_PERCENT.get(algorithm)
+    if full_paper:
+        out["parallelepiped|paper|FULL (extrapolated)"] = full_paper
+    return out
+
+
+def cells(model: str, scale: str) -> int:
+    """Hexahedra of the bar at a scale of this script (``paper``, ``1/4``, ``nx,ny,nz``)."""
+    if model != "parallelepiped":
+        raise ValueError("cells: the bar only")
+    nx, ny, nz = (400, 100, 10) if scale == "paper" else _bar_scale(scale)
+    return nx * ny * nz
+
+
+def extrapolated_full(data: dict, model: str = "parallelepiped") -> dict | None:
+    """FULL at the paper's size from its measured run at a smaller size (marked extrapolated).
+
+    MUMPS's analysis of FULL's matrix at the analysed sizes (``--analyse``) gives factor
+    flops and entries; a power law in the cell count through them carries the measured
+    set-up and change time (flops) and the step time and memory (entries) to the paper.
+    """
+    import numpy as np
+
+    analysed = {
+        key.split("|")[1]: run
+        for key, run in data["runs"].items()
+        if key.startswith(f"{model}|") and key.endswith("|FULL|analysis") and "failed" not in run
+    }
+    measured = {
+        key.split("|")[1]: run
+        for key, run in data["runs"].items()
+        if key.startswith(f"{model}|") and key.endswith("|FULL|run") and "steps" in run
+    }
+    if len(analysed) < 2 or not measured:
+        return None
+    n = np.log([cells(model, s) for s in analysed])
+    fits = {}
+    for what in ("factor_gflop", "factor_entries"):
+        y = np.log([sum(r[what].values()) for r in analysed.values()])
+        fits[what] = np.polyfit(n, y, 1)  # slope, intercept
+
+    def law(what: str, scale: str) -> float:
+        slope, intercept = fits[what]
+        return float(np.exp(intercept + slope * np.log(cells(model, scale))))
+
+    scale, run = max(measured.items(), key=lambda item: cells(model, item[0]))
+    d = derived(run)
+    flops = law("factor_gflop", "paper") / law("factor_gflop", scale)
+    entries = law("factor_entries", "paper") / law("factor_entries", scale)
+    return {
+        "extrapolated": True,
+        "from_scale": scale,
+        "exponent_flops": float(fits["factor_gflop"][0]),
+        "exponent_entries": float(fits["factor_entries"][0]),
+        "factor_gflop": law("factor_gflop", "paper"),
+        "factor_entries": law("factor_entries", "paper"),
+        "setup_seconds": d["setup_seconds"] * flops,
+        "seconds_per_change": d["seconds_per_change"] * flops,
+        "seconds_per_step": d["seconds_per_step"] * entries,
+        "peak_rss_gib": d["peak_rss_gib"] * entries,
+        "load_average_mean": run.get("load_average_mean"),
+    }
+
+
+def markdown(data: dict) -> str:
+    """The summary as a markdown table (for the README and the demo pages)."""
+    head = (
+        "| model, scale | algorithm | dofs | steps | changes | set-up [s] | per step [s] "
+        "| per change [s] | peak RSS [GiB] | load avg | % of FULL, paper's study | paper |"
+    )
+    rows = [head, "|" + "---|" * 12]
+    for key, d in data.get("summary", {}).items():
+        model, scale, algorithm = key.split("|")
+        run = data["runs"].get(key + "|run", {})
+        dofs = run.get(
+            "dofs",
+            data["runs"].get(f"{model}|{scale.removesuffix('+ooc')}|w-v-u|run", {}).get("dofs"),
+        )
+        percent = d.get("percent_of_full_paper_study")
+        paper = d.get("paper_percent_flops")
+        change = d["seconds_per_change"]
+        load = d.get("load_average_mean", run.get("load_average_mean"))
+        rows.append(
+            f"| {model}, {scale} | {algorithm} | {dofs or '-'} | {d.get('steps', '-')} "
+            f"| {d.get('changes', '-')} | {d['setup_seconds']:.0f} | {d['seconds_per_step']:.2f} "
+            f"| {'-' if change is None else f'{change:.3g}'} | {d['peak_rss_gib']:.1f} "
+            f"| {'-' if load is None else f'{load:.1f}'} "
+            f"| {'-' if percent is None else f'{percent:.3f} %'} "
+            f"| {'-' if paper is None else f'{paper:.3f} %'} |"
+        )
+    return "\n".join(rows)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--model", choices=sorted(DEMO), default="parallelepiped")
+    parser.add_argument("--scale", default="paper", help="paper, a fraction '1/4', or counts")
+    parser.add_argument("--algorithms", nargs="+")
+    parser.add_argument("--steps", type=int, default=20)
+    parser.add_argument("--full-changes", type=int, default=2)
+    parser.add_argument("--memory-limit", type=float, default=16.0, help="GiB, whole tree")
+    parser.add_argument("--petsc-options", help="JSON, e.g. '{\"mat_mumps_icntl_35\": 2}'")
+    parser.add_argument("--tag", default="", help="suffix of the scale in the run key, e.g. '+ooc'")
+    parser.add_argument("--analyse", action="store_true", help="MUMPS analysis only")
+    parser.add_argument("--table", action="store_true", help="print the file as markdown")
+    parser.add_argument("--merge", nargs="+", help="add the runs of these JSON files (resumed)")
+    parser.add_argument("--out", default=str(HERE / "paper_scale.json"))
+    parser.add_argument("--worker", help=argparse.SUPPRESS)
+    parser.add_argument("--dt", type=float, help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker:
+        record = worker(args)
+        from mpi4py import MPI
+
+        if MPI.COMM_WORLD.rank == 0:
+            print(json.dumps(record), flush=True)
+        return
+    out = Path(args.out)
+    data = json.loads(out.read_text()) if out.exists() else {}
+    if args.table:
+        print(markdown(data))
+        return
+    runs = data.setdefault("runs", {})
+    if args.merge:
+        for other in args.merge:
+            runs.update(json.loads(Path(other).read_text())["runs"])
+        data["summary"] = summary(data)
+        out.write_text(json.dumps(data, indent=1))
+        return
+    env = {**os.environ, **PINNED}
+    for algorithm in args.algorithms or DEMO[args.model]["algorithms"]:
+        kind = "analysis" if args.analyse else "run"
+        key = "|".join([args.model, args.scale + args.tag, algorithm, kind])
+        if key in runs and "failed" not in runs[key]:
+            print(f"{key}: in the file, skipped", flush=True)
+            continue
+        command = [sys.executable, __file__, "--worker", algorithm, "--model", args.model]
+        command += ["--scale", args.scale, "--steps", str(args.steps)]
+        command += ["--full-changes", str(args.full_changes)]
+        command += ["--dt", str(DEMO[args.model]["dt"])]
+        command += ["--analyse"] * args.analyse
+        if args.petsc_options:
+            command += ["--petsc-options", args.petsc_options]
+        print(f"{key}: running", flush=True)
+        started = time.perf_counter()
+        log = out.with_name(f"paper_scale_{key.replace('|', '_').replace('/', 'over')}.log")
+        record, samples = watched(command, env, args.memory_limit, log)
+        record.update(samples, wall_seconds=time.perf_counter() - started)
+        runs[key] = record
+        data["summary"] = summary(data)
+        data["note"] = (
+            "each run its own process, BLAS pinned to one thread; a shared 2-core machine "
+            "(load average recorded per run); FULL runs the orders' split scene"
+        )
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(data, indent=1))
+        brief = {k: v for k, v in record.items() if k not in ("steps", "work", "blocks")}
+        print(json.dumps(brief), flush=True)
+
+
+if __name__ == "__main__":
+    main()
