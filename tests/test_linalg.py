@@ -14,6 +14,7 @@ import scipy.sparse as sp
 
 import dd_contact as dd
 from dd_contact import analysis, verify
+from dd_contact.blocks import Block, ContactRegion
 from dd_contact.errors import InputError
 from dd_contact.solvers import linalg
 from dd_contact.solvers.linalg import (
@@ -256,3 +257,45 @@ def test_release_freed_memory_returns_a_freed_heap_to_the_os():
     before = resident_mb()
     linalg.release_freed_memory()
     assert before - resident_mb() > 400  # of the ~800 MB freed
+
+
+def _dense(A: PETSc.Mat) -> np.ndarray:
+    """A dense copy of a sequential PETSc matrix (A itself is left sparse)."""
+    out = A.convert(PETSc.Mat.Type.DENSE, PETSc.Mat())
+    values = out.getDenseArray().copy()
+    out.destroy()
+    return values
+
+
+def test_patterned_matrix_holds_base_plus_contact_exactly():
+    """The PETSc matrix is the base's sum plus the contact's values, bit for bit, after
+    each change; the contact pattern is reserved (zero) before any contact, and the matrix
+    keeps no copy of its values besides PETSc's."""
+    n = 6
+    rng = np.random.default_rng(4)
+    base = sp.random_array((n, n), density=0.2, rng=rng) + sp.eye_array(n)
+    base = sp.coo_array(base + base.T)
+    # a duplicate entry in the base, summed as the COO assembly did
+    rows = np.concatenate([base.row, [0]]).astype(np.int64)
+    cols = np.concatenate([base.col, [0]]).astype(np.int64)
+    vals = np.concatenate([base.data, [0.1]])
+    pattern = sp.csr_array(np.ones((2, 2)))
+    region = ContactRegion("pad", Block("w", "pad"), np.array([1, 4]), pattern)
+    matrix = linalg.PatternedMatrix(MPI.COMM_SELF, n, n, (rows, cols, vals), [region])
+    assert not hasattr(matrix, "values")
+    expected = sp.csr_array((vals, (rows, cols)), shape=(n, n)).toarray()
+    matrix.push()
+    assert np.array_equal(_dense(matrix.A), expected)
+    reserved = set(zip(rows.tolist(), cols.tolist(), strict=True))
+    reserved |= {(i, j) for i in (1, 4) for j in (1, 4)}
+    assert matrix.A.getInfo()["nz_used"] == len(reserved)
+    for contact in (np.array([[2.0, -1.0], [-1.0, 2.0]]), np.array([[0.5, 0.0], [0.0, 0.25]])):
+        matrix.set_contact("pad", sp.csr_array(contact))
+        assert matrix.dirty
+        matrix.push()
+        want = expected.copy()
+        want[np.ix_([1, 4], [1, 4])] += contact
+        assert np.array_equal(_dense(matrix.A), want)
+    matrix.set_contact("pad", sp.csr_array(contact))  # the same values: nothing to push
+    assert not matrix.dirty
+    matrix.destroy()

@@ -30,7 +30,7 @@ __all__ = ["MonolithicSolver", "monolithic_statistics"]
 
 
 def _cat(arrays: list[np.ndarray], dtype) -> np.ndarray:
-    return np.concatenate(arrays).astype(dtype) if arrays else np.zeros(0, dtype)
+    return np.concatenate(arrays, dtype=dtype) if arrays else np.zeros(0, dtype)
 
 
 class MonolithicSolver:
@@ -71,6 +71,7 @@ class MonolithicSolver:
             if rb != cb:  # the transpose is implied
                 rows.append(c), cols.append(r), vals.append(v)
         base = (_cat(rows, np.int64), _cat(cols, np.int64), _cat(vals, np.float64))
+        del rows, cols, vals  # the per-block pieces, before the matrix's own copies
         self.matrix = PatternedMatrix(
             comm,
             self.local_size,

@@ -466,12 +466,17 @@ class PatternedMatrix:
     entries of its pattern at given rows/columns, zero until :meth:`set_contact`. A change
     of values marks the matrix dirty; :meth:`push` sends the values to PETSc.
 
+    The PETSc matrix is built from its rows in CSR and keeps no COO map; :meth:`push`
+    rewrites the contact entries alone (base value plus contact value, the sum the COO
+    assembly made), so no copy of the base values is kept either.
+
     Args:
         comm: Communicator.
         local_rows: Rows owned by this rank.
         size: Global size.
         base: Base (rows, cols, values), both triangles, duplicates summed.
-        contacts: The contact regions, their ``dofs`` in this matrix's numbering.
+        contacts: The contact regions, their ``dofs`` in this matrix's numbering (rows
+            owned by this rank).
         upper_coo: For a factorisation outside PETSc: keep the upper triangle only, in
             COO (:attr:`values`, with :meth:`take_indices`), and build no PETSc matrix
             (:attr:`A` is ``None``): half the values, none of PETSc's copies.
@@ -500,13 +505,24 @@ class PatternedMatrix:
             rows.append(region.dofs[r]), cols.append(region.dofs[c]), vals.append(np.zeros(len(r)))
             self._slices[region.name] = (slice(position, position + len(r)), r, c)
             position += len(r)
-        self.values = np.concatenate(vals).astype(np.float64)
-        rows, cols = np.concatenate(rows), np.concatenate(cols)
         self.A = None
-        if not upper_coo:
-            self.A = petsc_matrix(comm, local_rows, size, rows, cols, self.values)
-        self._indices = (rows, cols) if upper_coo else None
+        self._indices = None
         self.dirty = True
+        if upper_coo:
+            self.values = np.concatenate(vals).astype(np.float64)
+            self._indices = (np.concatenate(rows), np.concatenate(cols))
+            return
+        entries = [np.concatenate(rows), np.concatenate(cols), np.concatenate(vals)]
+        del rows, cols, vals, keep, base  # held by the caller at most: fewer copies at once
+        self.A, local = _aij_from_coo(comm, local_rows, size, entries)
+        # Each region's entries: global rows and columns, the base value there, the contact's.
+        start = self.A.getOwnershipRange()[0]
+        self._contacts: dict[str, list[np.ndarray]] = {}
+        for region in contacts:
+            _, r, c = self._slices[region.name]
+            at_rows, at_cols = region.dofs[r], region.dofs[c]
+            base_there = np.asarray(local[at_rows - start, at_cols], dtype=np.float64).ravel()
+            self._contacts[region.name] = [at_rows, at_cols, base_there, np.zeros(len(r))]
 
     def take_indices(self) -> tuple[np.ndarray, np.ndarray]:
         """Rows and columns of :attr:`values` (COO), handed over once and then forgotten."""
@@ -519,16 +535,23 @@ class PatternedMatrix:
         """Replace the contact matrix of region ``key`` (surface dof numbering)."""
         where, r, c = self._slices[key]
         values = np.asarray(matrix[r, c]).ravel()
-        if not np.array_equal(values, self.values[where]):
-            self.values[where] = values
+        current = self.values[where] if self.A is None else self._contacts[key][3]
+        if not np.array_equal(values, current):
+            current[:] = values
             self.dirty = True
 
     def push(self) -> None:
-        """Send the current values to PETSc (if it holds the matrix); the matrix is clean."""
+        """Collective: send the contact values to PETSc (if it holds the matrix); clean."""
         if self.A is not None:
-            self.A.setValuesCOO(
-                self.values.astype(PETSc.ScalarType), PETSc.InsertMode.INSERT_VALUES
-            )
+            insert = PETSc.InsertMode.INSERT_VALUES
+            for rows, cols, base_there, contact in self._contacts.values():
+                column = (-1, 1)
+                self.A.setValuesRCV(
+                    rows.astype(PETSc.IntType).reshape(column),
+                    cols.astype(PETSc.IntType).reshape(column),
+                    (base_there + contact).astype(PETSc.ScalarType).reshape(column),
+                    insert,
+                )
             self.A.assemble()
         self.dirty = False
 
@@ -536,6 +559,39 @@ class PatternedMatrix:
         """Free the PETSc matrix, if any."""
         if self.A is not None:
             self.A.destroy()
+
+
+def _aij_from_coo(
+    comm, local_rows: int, size: int, entries: list[np.ndarray]
+) -> tuple[PETSc.Mat, sp.csr_array]:
+    """Collective: an AIJ matrix from COO ``[rows, cols, values]`` (any rank, any row).
+
+    ``entries`` is emptied: the triplets are freed as soon as they are in CSR.
+
+    Entries of rows another rank owns are sent to it; each rank sums its rows' entries into
+    CSR (explicit zeros kept: they reserve the contact pattern) and PETSc copies that CSR.
+    Returns the matrix and this rank's rows as scipy CSR (local row numbering).
+    """
+    rows, cols, values = entries
+    entries.clear()
+    starts = np.concatenate([[0], np.cumsum(comm.allgather(local_rows))])
+    if comm.size > 1:
+        owner = np.searchsorted(starts, rows, side="right") - 1
+        sent = [tuple(a[owner == rank] for a in (rows, cols, values)) for rank in range(comm.size)]
+        received = comm.alltoall(sent)
+        rows, cols, values = (np.concatenate([part[i] for part in received]) for i in range(3))
+    start = starts[comm.rank]
+    local = sp.csr_array((values, (rows - start, cols)), shape=(local_rows, size))
+    del rows, cols, values
+    local.sum_duplicates()
+    csr = (
+        local.indptr.astype(PETSc.IntType, copy=False),
+        local.indices.astype(PETSc.IntType, copy=False),
+        local.data.astype(PETSc.ScalarType, copy=False),
+    )
+    A = PETSc.Mat().createAIJ(((local_rows, size), (local_rows, size)), csr=csr, comm=comm)
+    A.assemble()
+    return A, local
 
 
 def coo_of(matrix: sp.sparray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
