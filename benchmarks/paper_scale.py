@@ -229,6 +229,14 @@ def tree_rss_gib(pid: int) -> float:
     return total / 1024.0**2
 
 
+def timed_run(command: list[str], env: dict, limit_gib: float, log: Path) -> dict:
+    """:func:`watched`'s record with its samples' summary and the run's wall time."""
+    started = time.perf_counter()
+    record, samples = watched(command, env, limit_gib, log)
+    record.update(samples, wall_seconds=time.perf_counter() - started)
+    return record
+
+
 def watched(command: list[str], env: dict, limit_gib: float, log: Path) -> tuple[dict, dict]:
     """Run a worker, sampling its tree's memory and the load average; kill it above the limit.
 
@@ -465,11 +473,8 @@ def main() -> None:
         if args.petsc_options:
             command += ["--petsc-options", args.petsc_options]
         print(f"{key}: running", flush=True)
-        started = time.perf_counter()
         log = out.with_name(f"paper_scale_{key.replace('|', '_').replace('/', 'over')}.log")
-        record, samples = watched(command, env, args.memory_limit, log)
-        record.update(samples, wall_seconds=time.perf_counter() - started)
-        runs[key] = record
+        runs[key] = timed_run(command, env, args.memory_limit, log)
         data["summary"] = summary(data)
         data["note"] = (
             "each run its own process, BLAS pinned to one thread; a shared 2-core machine "
@@ -477,7 +482,7 @@ def main() -> None:
         )
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(json.dumps(data, indent=1))
-        brief = {k: v for k, v in record.items() if k not in ("steps", "work", "blocks")}
+        brief = {k: v for k, v in runs[key].items() if k not in ("steps", "work", "blocks")}
         print(json.dumps(brief), flush=True)
 
 

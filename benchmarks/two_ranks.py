@@ -28,10 +28,9 @@ import argparse
 import json
 import os
 import sys
-import time
 from pathlib import Path
 
-from paper_scale import PINNED, derived, watched
+from paper_scale import PINNED, derived, timed_run
 
 HERE = Path(__file__).parent / "results"
 MPIEXEC = Path(sys.executable).with_name("mpiexec")
@@ -61,11 +60,8 @@ def main() -> None:
             command += ["--worker", "w-v-u", "--model", "bar", "--scale", args.elements]
             command += ["--steps", str(args.steps), "--dt", "1e-6"]
             print(f"{ranks} rank(s), run {repeat + 1}: running", flush=True)
-            started = time.perf_counter()
             log = out.with_name(f"two_ranks_{ranks}.log")
-            record, samples = watched(command, env, args.memory_limit, log)
-            record.update(samples, wall_seconds=time.perf_counter() - started)
-            runs[key] = record
+            runs[key] = timed_run(command, env, args.memory_limit, log)
             data["summary"] = summary(runs)
             data["weak_scaling"] = weak_scaling(data["summary"], runs)
             out.write_text(json.dumps(data, indent=1))
