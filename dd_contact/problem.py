@@ -551,6 +551,8 @@ class TransientProblem(Analysis):
             "t": np.array(self.t),
             "dt": np.array(self.dt),
             "gamma": np.array(self.iteration.gamma),
+            "integration": np.array(self._integration()),
+            "release_solves": np.array(self.iteration.release_solves),
         }
         for _, sub, _ in self._owned:
             state[f"u/{sub.name}"] = sub.u.x.array
@@ -559,7 +561,16 @@ class TransientProblem(Analysis):
         for z in self.zones:
             state[f"active/{z.contact.name}"] = self.iteration.active[z.contact.name]
             state[f"alpha/{z.contact.name}"] = np.array(self.iteration.alpha[z.contact.name])
+            state[f"releases/{z.contact.name}"] = np.array(self.iteration.releases[z.contact.name])
         return state
+
+    def _integration(self) -> str:
+        """The settings a resumed run must share with its checkpoint (besides dt)."""
+        rho = getattr(self.time_scheme, "rho_infinity", 1.0)
+        return (
+            f"inertia={self.inertia}, scheme={self.scheme!r}, rho_infinity={rho}, "
+            f"mass={self.mass_kind!r}, energy_safe_contact={self._energy_safe}"
+        )
 
     def _restore(self, state: dict[str, np.ndarray], history: list[dict]) -> None:
         """Collective: the state of a checkpoint, and the history up to its step."""
@@ -567,6 +578,12 @@ class TransientProblem(Analysis):
             raise InputError(
                 f"resume: the checkpoint was written with dt = {float(state['dt'])}, this run "
                 f"has dt = {self.dt}; use the same time step or start a new output directory"
+            )
+        written = str(state["integration"]) if "integration" in state else None
+        if written is not None and written != self._integration():
+            raise InputError(
+                f"resume: the checkpoint was written with {written}; this run has "
+                f"{self._integration()}; use the same settings or start a new output directory"
             )
         for _, sub, _ in self._owned:
             for name in ("u", "velocity", "acceleration"):
@@ -583,6 +600,9 @@ class TransientProblem(Analysis):
         for z in self.zones:
             self.iteration.active[z.contact.name] = state[f"active/{z.contact.name}"]
             self.iteration.alpha[z.contact.name] = int(state[f"alpha/{z.contact.name}"])
+            key = f"releases/{z.contact.name}"  # absent in checkpoints before the count
+            self.iteration.releases[z.contact.name] = int(state[key]) if key in state else 0
+        self.iteration.release_solves = int(state.get("release_solves", 0))
         # v and w need no restoring: they are massless and solved afresh in every step.
         self.history = [r for r in history if r["step"] <= self.step]
         self._results.latest = self.history[-1] if self.history else {}

@@ -60,7 +60,7 @@ def test_moving_wall_pushes_a_held_block():
     assert forces == pytest.approx(expected, rel=1e-5, abs=1e-12)
 
 
-def _falling_bar():
+def _falling_bar(**options):
     """A bar flying at a wall 0.002 away: contact from about step 2 to step 22."""
     bar = dd.Subdomain(
         meshes.box(MPI.COMM_SELF, [0.002, 0, 0], [1.002, 0.1, 0.1], [10, 1, 1]),
@@ -69,7 +69,8 @@ def _falling_bar():
     )
     bar.velocity.interpolate(lambda x: np.vstack([np.full(x.shape[1], -0.01), 0 * x[0], 0 * x[0]]))
     zone = dd.ContactBoundary(bar, _on(0, 0.002), dd.Plane([0, 0, 0], [1, 0, 0]), contact_kappa=1.0)
-    problem = dd.TransientProblem(dd.Scene(MPI.COMM_WORLD, [bar], contacts=[zone]), dt=0.1)
+    scene = dd.Scene(MPI.COMM_WORLD, [bar], contacts=[zone])
+    problem = dd.TransientProblem(scene, dt=0.1, **options)
     return bar, problem
 
 
@@ -79,6 +80,7 @@ def test_resume_reproduces_the_uninterrupted_run(tmp_path):
     out = comm.bcast(str(tmp_path) if comm.rank == 0 else None)
     bar, problem = _falling_bar()
     reference = problem.run(30, progress=False)
+    reference_problem_releases = dict(problem.iteration.releases)
     u_ref, v_ref = bar.u.x.array.copy(), bar.velocity.x.array.copy()
     assert problem.changes["gamma"] >= 2  # contact made and lost inside the run
 
@@ -99,10 +101,33 @@ def test_resume_reproduces_the_uninterrupted_run(tmp_path):
     assert np.array_equal(bar.velocity.x.array, v_ref)
     assert [r["force"] for r in resumed] == [r["force"] for r in reference]
     assert problem.changes["gamma"] == reference_changes(reference)
+    assert problem.iteration.releases == reference_problem_releases  # counted on, not reset
     if comm.rank == 0:
         names = sorted(p.name for p in tmp_path.iterdir())
         assert "u_bar.xdmf" in names and not any(".from" in n for n in names)  # one series
         assert "history.json" in names and "checkpoint.rank0.npz" in names
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"mass": "lumped"},
+        {"scheme": "generalized-alpha"},
+        {"energy_safe_contact": False},
+    ],
+)
+def test_resume_with_other_time_integration_settings_is_refused(tmp_path, options):
+    # The checkpoint records the scheme, mass and contact rule: continuing a consistent-mass
+    # trapezoidal run with other settings would join two different integrations silently.
+    out = MPI.COMM_WORLD.bcast(str(tmp_path) if MPI.COMM_WORLD.rank == 0 else None)
+    _, problem = _falling_bar()
+    problem.run(4, output=out, checkpoint_every=2, progress=False, summary=False)
+    _, other = _falling_bar(**options)
+    with pytest.raises(dd.InputError, match="resume: the checkpoint was written with inertia"):
+        other.run(8, output=out, checkpoint_every=2, resume=True, progress=False)
+    _, same = _falling_bar()
+    assert same.run(8, output=out, resume=True, progress=False, summary=False)[-1]["step"] == 8
 
 
 def reference_changes(history):
