@@ -269,8 +269,11 @@ class StartForces:
         """The massless w of ``z`` in equilibrium at ``t_n`` with ``active`` and ``forces``."""
         w = z.block
         matrix, vector = z.contribution(active[z.contact.name])
-        A = sp.csr_array(self.system.matrices[(w, w)]).tolil()
-        A[np.ix_(z.dofs, z.dofs)] = A[np.ix_(z.dofs, z.dofs)] + matrix
+        C = sp.coo_array(matrix)  # the contact block placed on the zone's dofs of w
+        placed = sp.csr_array(
+            (C.data, (z.dofs[C.row], z.dofs[C.col])), shape=self.system.matrices[(w, w)].shape
+        )
+        A = self.system.matrices[(w, w)] + placed
         b = -block_product(self.system, w, {k: v for k, v in self.x.items() if k != w})
         np.add.at(b, z.dofs, vector - forces)
         return spsolve(sp.csc_array(A), b)
