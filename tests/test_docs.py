@@ -61,17 +61,23 @@ def _build_script():
     return module
 
 
-def test_api_reference_builds_without_warnings(tmp_path):
-    pytest.importorskip("pdoc")
+def _python(*args, cwd=None) -> subprocess.CompletedProcess:
+    """Run this interpreter on ``args`` with this checkout first on the path (10 min at most)."""
     path = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
-    done = subprocess.run(
-        [sys.executable, ROOT / "docs" / "build_api.py", tmp_path / "api"],
+    return subprocess.run(
+        [sys.executable, *args],
+        cwd=cwd,
         env=dict(os.environ, PYTHONPATH=path),
         capture_output=True,
         text=True,
         timeout=600,
         check=False,
     )
+
+
+def test_api_reference_builds_without_warnings(tmp_path):
+    pytest.importorskip("pdoc")
+    done = _python(ROOT / "docs" / "build_api.py", tmp_path / "api")
     assert done.returncode == 0, done.stderr[-3000:]
     pages = {p.relative_to(tmp_path / "api").as_posix() for p in (tmp_path / "api").rglob("*.html")}
     # One page per module: the package, its subpackages and their modules.
@@ -110,16 +116,7 @@ def test_readme_python_blocks_run_as_written(tmp_path):
     assert len(blocks) == 4  # the tied bar, the pressed block, pictures, an algorithm
     script = tmp_path / "readme.py"
     script.write_text("\n".join(blocks))
-    path = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
-    done = subprocess.run(
-        [sys.executable, script],
-        cwd=tmp_path,
-        env=dict(os.environ, PYTHONPATH=path),
-        capture_output=True,
-        text=True,
-        timeout=600,
-        check=False,
-    )
+    done = _python(script, cwd=tmp_path)
     assert done.returncode == 0, done.stderr[-3000:]
     lines = done.stdout.splitlines()
     reaction = np.array(lines[0].strip("[]").split(), dtype=float)

@@ -41,18 +41,6 @@ def _pressed_block(points="nodes"):
     return block, zone, dd.Scene(MPI.COMM_WORLD, [block], contacts=[zone])
 
 
-def _falling_bar():
-    """A bar flying at a wall 0.002 away: contact from about step 2 to step 22."""
-    bar = dd.Subdomain(
-        meshes.box(MPI.COMM_SELF, [0.002, 0, 0], [1.002, 0.1, 0.1], [10, 1, 1]),
-        dd.Material(1.0, 0.0, 1.0),
-        "bar",
-    )
-    bar.velocity.interpolate(lambda x: np.vstack([np.full(x.shape[1], -0.01), 0 * x[0], 0 * x[0]]))
-    zone = dd.ContactBoundary(bar, _on(0, 0.002), dd.Plane([0, 0, 0], [1, 0, 0]), contact_kappa=1.0)
-    return dd.TransientProblem(dd.Scene(MPI.COMM_WORLD, [bar], contacts=[zone]), dt=0.1)
-
-
 def _series(path: Path) -> dict[str, list[float]]:
     """Times of every function in an XDMF file."""
     out = {}
@@ -129,8 +117,8 @@ def test_output_fields_of_the_pressed_block():
 
 
 # -- run(): arguments and semantics ---------------------------------------------------------
-def test_run_counts_steps_from_t0_and_refuses_nothing_to_do():
-    problem = _falling_bar()
+def test_run_counts_steps_from_t0_and_refuses_nothing_to_do(falling_bar):
+    problem = falling_bar()[1]
     assert len(problem.run(3, progress=False, summary=False)) == 3
     with pytest.raises(dd.InputError, match=r"already at step 3; .* call run\(6\) for 3 more"):
         problem.run(3, progress=False, summary=False)
@@ -146,8 +134,8 @@ def test_run_counts_steps_from_t0_and_refuses_nothing_to_do():
         ("checkpoint_every", {"n_steps": 2, "checkpoint_every": 0}),
     ],
 )
-def test_bad_run_arguments_are_refused(argument, kwargs):
-    problem = _falling_bar()
+def test_bad_run_arguments_are_refused(argument, kwargs, falling_bar):
+    problem = falling_bar()[1]
     with pytest.raises(dd.InputError, match=f"run: {argument} must be a whole number >= 1"):
         problem.run(progress=False, **kwargs)
     assert problem.step == 0
@@ -164,12 +152,12 @@ def test_unknown_algorithm_lists_auto():
 
 # -- bad output paths -----------------------------------------------------------------------
 @pytest.mark.mpi
-def test_output_path_that_is_a_file_is_refused_before_solving(tmp_path):
+def test_output_path_that_is_a_file_is_refused_before_solving(tmp_path, falling_bar):
     target = _shared_tmp(tmp_path) / "results"
     if MPI.COMM_WORLD.rank == 0:
         target.write_text("not a directory")
     MPI.COMM_WORLD.Barrier()
-    problem = _falling_bar()
+    problem = falling_bar()[1]
     message = rf"run\(output=...\): the directory '{target}' is an existing file, not a directory"
     with pytest.raises(dd.InputError, match=message):
         problem.run(5, output=target, progress=False)
@@ -235,9 +223,9 @@ def test_write_vtx_lists_the_files_of_every_rank(tmp_path):
 
 
 @pytest.mark.mpi
-def test_history_files_are_written_without_checkpoints(tmp_path):
+def test_history_files_are_written_without_checkpoints(tmp_path, falling_bar):
     out = _shared_tmp(tmp_path)
-    problem = _falling_bar()
+    problem = falling_bar()[1]
     history = problem.run(5, output=out, progress=False, summary=False)
     if MPI.COMM_WORLD.rank != 0:
         return
@@ -255,9 +243,9 @@ def test_history_files_are_written_without_checkpoints(tmp_path):
 
 
 @pytest.mark.mpi
-def test_resume_continues_the_same_files(tmp_path):
+def test_resume_continues_the_same_files(tmp_path, falling_bar):
     base = _shared_tmp(tmp_path)
-    reference = _falling_bar().run(30, output=base / "whole", progress=False, summary=False)
+    reference = falling_bar()[1].run(30, output=base / "whole", progress=False, summary=False)
 
     class Interrupt(Exception):
         pass
@@ -268,10 +256,11 @@ def test_resume_continues_the_same_files(tmp_path):
 
     out = base / "resumed"
     with pytest.raises(Interrupt):
-        _falling_bar().run(30, output=out, checkpoint_every=5, callback=stop_at_12, progress=False)
+        _, problem = falling_bar()
+        problem.run(30, output=out, checkpoint_every=5, callback=stop_at_12, progress=False)
     if MPI.COMM_WORLD.rank == 0:
         assert len(_series(out / "u_bar.xdmf")["u_bar"]) == 13  # steps 0 ... 12
-    resumed = _falling_bar().run(30, output=out, resume=True, checkpoint_every=5, progress=False)
+    resumed = falling_bar()[1].run(30, output=out, resume=True, checkpoint_every=5, progress=False)
     assert resumed == reference
     if MPI.COMM_WORLD.rank != 0:
         return

@@ -60,25 +60,11 @@ def test_moving_wall_pushes_a_held_block():
     assert forces == pytest.approx(expected, rel=1e-5, abs=1e-12)
 
 
-def _falling_bar(**options):
-    """A bar flying at a wall 0.002 away: contact from about step 2 to step 22."""
-    bar = dd.Subdomain(
-        meshes.box(MPI.COMM_SELF, [0.002, 0, 0], [1.002, 0.1, 0.1], [10, 1, 1]),
-        dd.Material(1.0, 0.0, 1.0),
-        "bar",
-    )
-    bar.velocity.interpolate(lambda x: np.vstack([np.full(x.shape[1], -0.01), 0 * x[0], 0 * x[0]]))
-    zone = dd.ContactBoundary(bar, _on(0, 0.002), dd.Plane([0, 0, 0], [1, 0, 0]), contact_kappa=1.0)
-    scene = dd.Scene(MPI.COMM_WORLD, [bar], contacts=[zone])
-    problem = dd.TransientProblem(scene, dt=0.1, **options)
-    return bar, problem
-
-
 @pytest.mark.mpi
-def test_resume_reproduces_the_uninterrupted_run(tmp_path):
+def test_resume_reproduces_the_uninterrupted_run(tmp_path, falling_bar):
     comm = MPI.COMM_WORLD
     out = comm.bcast(str(tmp_path) if comm.rank == 0 else None)
-    bar, problem = _falling_bar()
+    bar, problem = falling_bar()
     reference = problem.run(30, progress=False)
     reference_problem_releases = dict(problem.iteration.releases)
     u_ref, v_ref = bar.u.x.array.copy(), bar.velocity.x.array.copy()
@@ -91,10 +77,10 @@ def test_resume_reproduces_the_uninterrupted_run(tmp_path):
         if record["step"] == 12:
             raise Interrupt
 
-    bar, problem = _falling_bar()
+    bar, problem = falling_bar()
     with pytest.raises(Interrupt):
         problem.run(30, output=out, checkpoint_every=5, callback=stop_at_12, progress=False)
-    bar, problem = _falling_bar()
+    bar, problem = falling_bar()
     resumed = problem.run(30, output=out, checkpoint_every=5, resume=True, progress=False)
     assert resumed[10]["step"] == 11  # it went on from the checkpoint of step 10
     assert np.array_equal(bar.u.x.array, u_ref)
@@ -117,16 +103,16 @@ def test_resume_reproduces_the_uninterrupted_run(tmp_path):
         {"energy_safe_contact": False},
     ],
 )
-def test_resume_with_other_time_integration_settings_is_refused(tmp_path, options):
+def test_resume_with_other_time_integration_settings_is_refused(tmp_path, options, falling_bar):
     # The checkpoint records the scheme, mass and contact rule: continuing a consistent-mass
     # trapezoidal run with other settings would join two different integrations silently.
     out = MPI.COMM_WORLD.bcast(str(tmp_path) if MPI.COMM_WORLD.rank == 0 else None)
-    _, problem = _falling_bar()
+    _, problem = falling_bar()
     problem.run(4, output=out, checkpoint_every=2, progress=False, summary=False)
-    _, other = _falling_bar(**options)
+    _, other = falling_bar(**options)
     with pytest.raises(dd.InputError, match="resume: the checkpoint was written with inertia"):
         other.run(8, output=out, checkpoint_every=2, resume=True, progress=False)
-    _, same = _falling_bar()
+    _, same = falling_bar()
     assert same.run(8, output=out, resume=True, progress=False, summary=False)[-1]["step"] == 8
 
 
@@ -134,8 +120,8 @@ def reference_changes(history):
     return sum(r["changes"] for r in history)
 
 
-def test_progress_bar_is_shown_when_asked(capsys):
-    _, problem = _falling_bar()
+def test_progress_bar_is_shown_when_asked(capsys, falling_bar):
+    _, problem = falling_bar()
     problem.run(3, progress=True)
     if MPI.COMM_WORLD.rank == 0:
         assert "3/3" in capsys.readouterr().err
@@ -182,14 +168,14 @@ def test_contact_interface_off_the_boundary_is_refused():
         dd.StaticProblem(_scene(block, zone))
 
 
-def test_non_positive_time_step_is_refused():
-    _, problem = _falling_bar()
+def test_non_positive_time_step_is_refused(falling_bar):
+    _, problem = falling_bar()
     with pytest.raises(dd.InputError, match="dt must be a positive"):
         dd.TransientProblem(problem.scene, dt=0.0)
 
 
-def test_nan_in_initial_velocity_is_refused():
-    bar, problem = _falling_bar()
+def test_nan_in_initial_velocity_is_refused(falling_bar):
+    bar, problem = falling_bar()
     bar.velocity.x.array[4] = np.nan
     with pytest.raises(dd.InputError, match="initial velocity_bar contains NaN"):
         problem.run(1, progress=False)
