@@ -194,7 +194,6 @@ class TransientProblem(Analysis):
         self._energy_warned = False
         self._contact_steps: dict[str, int] = {}  # steps of each region's open episode
         self._impact: dict[str, bool] = {}  # whether motion, not load, opened that episode
-        self._last_energy: dict | None = None  # the last step's energy record
         self._coarse_warned = False
         self.inertia = inertia
         if inertia:
@@ -332,7 +331,7 @@ class TransientProblem(Analysis):
         every episode counts); a load that presses and lets go slowly is followed by any dt.
         ``record["active"]`` and the energy are agreed on every rank: every rank warns alike.
         """
-        before, self._last_energy = self._last_energy, record.get("energy")
+        before = self.history[-1].get("energy") if self.history else None
         for name, points in record["active"].items():
             steps = self._contact_steps.get(name, 0)
             if points:
