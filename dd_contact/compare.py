@@ -32,6 +32,7 @@ import numpy as np
 from dd_contact import flops
 from dd_contact.problem import TransientProblem
 from dd_contact.scene import Scene
+from dd_contact.viz import pyplot
 
 __all__ = [
     "EARLY_STEPS",
@@ -336,16 +337,6 @@ def summary(
 
 
 # ----------------------------------------------------------------------------- charts
-
-
-def pyplot():
-    """Pyplot of matplotlib without a display (extra ``viz``)."""
-    import matplotlib  # optional dependency: imported when a chart is drawn
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def strip_chart(

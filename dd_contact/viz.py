@@ -17,11 +17,13 @@ from __future__ import annotations
 import ctypes.util
 import os
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 
 import dolfinx.plot
 import numpy as np
 
+from dd_contact.errors import InputError
 from dd_contact.obstacles import Cylinder, Obstacle, Plane, Sphere
 from dd_contact.post import von_mises
 from dd_contact.scene import ContactBoundary, ContactInterface, Scene
@@ -35,7 +37,11 @@ __all__ = [
     "plot_contact_pressure",
     "plot_contact_pressures",
     "plot_deformed",
+    "plot_wall_pressures",
+    "pyplot",
+    "unrolled_wall",
     "use_headless_rendering",
+    "wall_pressures_figure",
 ]
 
 # A field whose spread is below this fraction of its magnitude is drawn as one colour: a
@@ -384,3 +390,139 @@ def _add_active_points(plotter, surface, active: np.ndarray, name: str, color: s
             render_points_as_spheres=True,
             name=f"active {name}",
         )
+
+
+# -- matplotlib charts ---------------------------------------------------------------------
+def pyplot():
+    """Pyplot of matplotlib without a display (extra ``viz``)."""
+    import matplotlib  # optional dependency: imported when a chart is drawn
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def unrolled_wall(contact, reference=(1.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A contact surface on a cylinder, unrolled: triangles in (angle [deg], axial position).
+
+    The angle is measured around the cylinder's axis from ``reference`` (projected onto the
+    plane normal to the axis), in [-180, 180); the axial position from the obstacle's point.
+    Triangles across the seam at +-180 degrees are drawn on both sides.
+
+    Returns:
+        ``(angle, axial, pressure)``, each of shape (triangles, 3): the triangles' corners.
+    """
+    obstacle = contact.obstacle
+    if not isinstance(obstacle, Cylinder):
+        raise InputError(
+            f"contact {contact.name!r} presses on a {type(obstacle).__name__}, not a Cylinder: "
+            "only a wall around a cylinder can be unrolled; draw it with plot_contact_pressures"
+        )
+    topology, cell_types, x = dolfinx.plot.vtk_mesh(contact.pressure.function_space)
+    corners = {5: 3, 9: 4}  # VTK triangle, quadrilateral
+    if len(np.unique(cell_types)) != 1 or int(cell_types[0]) not in corners:
+        raise InputError(f"contact {contact.name!r}: its mesh must be all triangles or all quads")
+    n = corners[int(cell_types[0])]
+    cells = topology.reshape(-1, n + 1)[:, 1:]
+    triangles = cells if n == 3 else np.vstack([cells[:, [0, 1, 2]], cells[:, [0, 2, 3]]])
+    axis = obstacle.axis
+    e1 = np.asarray(reference, float) - (np.asarray(reference, float) @ axis) * axis
+    if np.linalg.norm(e1) < 1e-12:
+        raise InputError(f"reference {tuple(reference)} is parallel to the cylinder's axis")
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    r = x - obstacle.point
+    angle = np.degrees(np.arctan2(r @ e2, r @ e1))[triangles]
+    axial = (r @ axis)[triangles]
+    pressure = contact.pressure.x.array[triangles]
+    seam = np.ptp(angle, axis=1) > 180.0  # corners on both sides of +-180 degrees
+    wrapped = np.where(angle[seam] < 0.0, angle[seam] + 360.0, angle[seam])
+    angle = np.vstack([angle[~seam], wrapped, wrapped - 360.0])
+    axial = np.vstack([axial[~seam], axial[seam], axial[seam]])
+    pressure = np.vstack([pressure[~seam], pressure[seam], pressure[seam]])
+    return angle, axial, pressure
+
+
+def _direction_name(direction) -> str:
+    """``+x`` for (1, 0, 0) and the like, else the vector."""
+    d = np.asarray(direction, float)
+    axis = int(np.argmax(np.abs(d)))
+    if np.count_nonzero(d) == 1:
+        return f"{'+' if d[axis] > 0 else '-'}{'xyz'[axis]}"
+    return str(tuple(float(c) for c in d))
+
+
+def wall_pressures_figure(
+    scene: Scene,
+    rows: Sequence[Sequence[str]],
+    unit: str = "Pa",
+    title: str = "",
+    reference=(1.0, 0.0, 0.0),
+    length_unit: tuple[float, str] = (1e-3, "mm"),
+):
+    """Contact pressure on walls around cylinders (pins in holes), unrolled, one panel each.
+
+    ``rows`` names the contact surfaces panel by panel; all share one colour scale. Every
+    panel shows angle around its cylinder (0 along ``reference``) against the position
+    along its axis, so no wall hides another. Rank-local, as the pyvista pictures.
+
+    Returns:
+        The matplotlib figure; save and close it (:func:`plot_wall_pressures` does).
+    """
+    from matplotlib.tri import Triangulation  # optional dependency, as pyplot
+
+    plt = pyplot()
+    contacts = {c.name: c for c in scene.contacts}
+    unknown = [name for row in rows for name in row if name not in contacts]
+    if unknown:
+        raise InputError(f"no contact surface named {unknown}; the scene has {sorted(contacts)}")
+    walls = {name: unrolled_wall(contacts[name], reference) for row in rows for name in row}
+    every = np.concatenate([p.ravel() for _, _, p in walls.values()])
+    divisor, shown = _scaled_unit(float(np.abs(every).max(initial=0.0)), unit)
+    top = float(every.max(initial=0.0)) / divisor
+    length, length_name = length_unit
+    ncols = max(len(row) for row in rows)
+    fig, axes = plt.subplots(
+        len(rows), ncols, figsize=(2.6 * ncols + 1.5, 2.4 * len(rows) + 0.8),
+        sharex=True, squeeze=False, layout="constrained",
+    )  # fmt: skip
+    image = None
+    for i, row in enumerate(rows):
+        for j in range(ncols):
+            ax = axes[i, j]
+            if j >= len(row):
+                ax.set_visible(False)
+                continue
+            angle, axial, pressure = walls[row[j]]
+            mesh = Triangulation(
+                angle.ravel(), axial.ravel() / length, np.arange(angle.size).reshape(-1, 3)
+            )
+            image = ax.tripcolor(
+                mesh, pressure.ravel() / divisor, shading="gouraud", cmap="viridis",
+                vmin=0.0, vmax=top if top > 0 else 1.0,
+            )  # fmt: skip
+            ax.set_xlim(-180.0, 180.0)
+            ax.set_xticks([-180, -90, 0, 90, 180])
+            ax.set_title(row[j], fontsize=9)
+            if i == len(rows) - 1:
+                ax.set_xlabel(f"angle from {_direction_name(reference)} [deg]")
+            if j == 0:
+                ax.set_ylabel(f"along the axis [{length_name}]")
+    label = f"contact pressure [{shown}]" + ("" if top > 0 else " (no contact)")
+    fig.colorbar(image, ax=axes, label=label, shrink=0.9)
+    if title:
+        fig.suptitle(title)
+    return fig
+
+
+def plot_wall_pressures(scene: Scene, filename: str | Path, rows, **kwargs) -> Path:
+    """Save :func:`wall_pressures_figure` as a PNG; returns its path."""
+    fig = wall_pressures_figure(scene, rows, **kwargs)
+    path = Path(filename)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        fig.savefig(path, dpi=110)
+    finally:
+        pyplot().close(fig)
+    return path

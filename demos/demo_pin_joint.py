@@ -86,12 +86,15 @@ def draw_peak_pull(scene, problem):
         viz.plot_deformed(
             scene, out / "joint_deformed.png", title=f"Pin joint pulled ({when}), von Mises stress"
         )
+        rows = [[f"hole_{plate}{k}" for k in range(PINS)] for plate in ("upper", "lower")]
+        viz.plot_wall_pressures(
+            scene, out / "joint_pressure.png", rows,
+            title=f"Contact pressure on the hole walls, unrolled around each pin ({when})",
+        )  # fmt: skip
         viz.plot_contact_pressures(
-            scene,
-            out / "joint_pressure.png",
-            scale=50.0,
-            title=f"Contact pressure on the 10 hole walls, upper plate on top ({when})",
-        )
+            scene, out / "joint_pressure_3d.png", view=(0.0, -1.0, 0.25),
+            title=f"Contact pressure on the hole walls from -y, upper plate on top ({when})",
+        )  # fmt: skip
 
 
 MODEL = "12 subd., 10 contact i."
@@ -184,7 +187,8 @@ if comm.rank == 0:
     print(f"pin joint, scale {args.scale} ({dofs} dofs): {args.steps} steps of {DT * 1e6:g} us")
     print(f"quasi-static balance, each plate: |sum of pin forces - load| / load = {balance:.1e}")
     print(
-        f"pictures in {out}/: joint_deformed.png, joint_pressure.png, joint_contact_strip.png, "
+        f"pictures in {out}/: joint_deformed.png, joint_pressure.png, joint_pressure_3d.png, "
+        "joint_contact_strip.png, "
         "joint_pin_forces.png, joint_step_times.png"
     )
     print(f"wall time {time.perf_counter() - start:.1f} s")

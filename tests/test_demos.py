@@ -96,7 +96,13 @@ PAPER_DEMOS = {
         # 3 cells per quarter hole (the model's "tiny" has 2, refused by the contact
         # geometry check); 30 steps reach the pins and leave them again.
         ["--scale", "3,2,1,4", "--steps", "30", "--algorithm", "w-v-u"],
-        ["joint_deformed", "joint_pressure", "joint_contact_strip", "joint_pin_forces"],
+        [
+            "joint_deformed",
+            "joint_pressure",
+            "joint_pressure_3d",
+            "joint_contact_strip",
+            "joint_pin_forces",
+        ],
     ),
 }
 

@@ -238,3 +238,58 @@ def test_headless_without_environment(tmp_path):
     png = tmp_path / "out" / "b.png"
     assert png.stat().st_size > 10_000
     assert _main_hue_share(png) < 0.9  # coloured by a varying stress
+
+
+@pytest.fixture(scope="module")
+def joint_walls():
+    """The tiny pin joint's hole walls with a pressure set as a known function of angle."""
+    from dd_contact import models
+
+    scene = models.pin_joint("tiny", comm=MPI.COMM_SELF)
+    walls = [c for c in scene.contacts if c.name.startswith("hole_")]
+    for c in walls:
+        x = c.pressure.function_space.tabulate_dof_coordinates()
+        r = x - c.obstacle.point
+        angle = np.arctan2(r @ np.array([0.0, 1.0, 0.0]), r @ np.array([1.0, 0.0, 0.0]))
+        c.pressure.x.array[:] = 2e6 * (1.0 + np.cos(angle - 0.5))  # 0 to 4 MPa
+    return scene, walls
+
+
+def test_unrolled_wall_angles_and_values(joint_walls):
+    _, walls = joint_walls
+    for c in walls:
+        angle, axial, pressure = viz.unrolled_wall(c)
+        cells = c.pressure.function_space.mesh.topology.index_map(2).size_local
+        seam = len(angle) - 2 * cells  # triangles across +-180 degrees are drawn twice
+        assert seam > 0 and len(angle) == 2 * cells + seam
+        assert np.ptp(angle, axis=1).max() < 180.0  # no triangle spans the seam
+        assert angle.min() > -360.0 and angle.max() < 360.0
+        # Each corner's value is the field at its own angle (also on the duplicated side).
+        expected = 2e6 * (1.0 + np.cos(np.radians(angle) - 0.5))
+        np.testing.assert_allclose(pressure, expected, rtol=1e-12, atol=1e-6)
+        z = c.pressure.function_space.tabulate_dof_coordinates()[:, 2] - c.obstacle.point[2]
+        assert np.isclose(axial.min(), z.min()) and np.isclose(axial.max(), z.max())
+
+
+def test_wall_pressures_figure(joint_walls, tmp_path):
+    scene, walls = joint_walls
+    rows = [[c.name for c in walls if plate in c.name] for plate in ("upper", "lower")]
+    fig = viz.wall_pressures_figure(scene, rows, title="walls")
+    panels = [ax for ax in fig.axes if ax.get_visible() and ax.get_title()]
+    assert sorted(ax.get_title() for ax in panels) == sorted(c.name for c in walls)
+    bar = fig.axes[-1]
+    assert bar.get_ylabel() == "contact pressure [MPa]"
+    top = max(c.pressure.x.array.max() for c in walls) / 1e6  # the largest value, in MPa
+    assert 3.9 < top <= 4.0 and np.isclose(bar.get_ylim()[1], top, rtol=1e-12)
+    assert panels[-1].get_xlabel() == "angle from +x [deg]"
+    viz.pyplot().close(fig)
+    path = viz.plot_wall_pressures(scene, tmp_path / "walls.png", rows)
+    assert matplotlib_image.imread(path).shape[1] > 1000
+
+
+def test_unrolled_wall_needs_a_cylinder():
+    scene, contact = _pressed()
+    with pytest.raises(dd.InputError, match="Plane, not a Cylinder"):
+        viz.unrolled_wall(contact)
+    with pytest.raises(dd.InputError, match="no contact surface named"):
+        viz.wall_pressures_figure(scene, [["nowhere"]])
