@@ -15,8 +15,10 @@ the repeats, beside the operation-count model's GFLOPs per step and per change
 
     python benchmarks/pin_joint_ordering.py                       # 6,4,2,12: 5-13 min here
     python benchmarks/pin_joint_ordering.py --scale small --repeats 1  # ~1 min
+    python benchmarks/pin_joint_ordering.py --scale 8,8,4,36 --repeats 2  # 88,710 dofs: 13 min
 
-Writes benchmarks/results/pin_joint_ordering.json and prints a table.
+Writes benchmarks/results/pin_joint_ordering.json (the default scale; another scale's file
+is named after it, e.g. pin_joint_ordering_8,8,4,36.json) and prints a table.
 """
 
 import argparse
@@ -36,7 +38,14 @@ from dd_contact.errors import ContactCycleWarning
 
 ALGORITHMS = ("FULL", "v-w-u", "w-v-u")
 DT, PERIOD, LOAD, CLEARANCE = 4e-5, 2e-3, 20e3, 0.05e-3  # as demos/demo_pin_joint.py
+DEFAULT_SCALE = "6,4,2,12"
 VARIANTS = {"2 holes": [2], "all 10": [0, 1, 2, 3, 4]}  # pins with contact interfaces
+
+
+def result_name(scale: str) -> str:
+    """The JSON file of a run at ``scale``."""
+    suffix = "" if scale == DEFAULT_SCALE else f"_{scale}"
+    return f"pin_joint_ordering{suffix}.json"
 
 
 def layout_of(scale: str):
@@ -80,7 +89,7 @@ def model_costs(scene, steps: int, changes: dict) -> dict:
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--scale", default="6,4,2,12", help="small, paper or c,r,t,grip rows")
+    parser.add_argument("--scale", default=DEFAULT_SCALE, help="small, paper or c,r,t,grip rows")
     parser.add_argument("--steps", type=int, default=24, help="7 quiet steps, then impacts")
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
@@ -145,7 +154,7 @@ def main():
         }
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        (out / "pin_joint_ordering.json").write_text(json.dumps(report, indent=1))
+        (out / result_name(args.scale)).write_text(json.dumps(report, indent=1))
         print(f"pin joint {args.scale}, {args.steps} steps, medians of {args.repeats}")
         print(
             f"{'variant':<9}{'algorithm':<10}{'changes':>8}{'per change [ms]':>17}"
