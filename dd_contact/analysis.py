@@ -149,8 +149,7 @@ class Analysis:
             for k, s in enumerate(scene.subdomains)
             if scene.owner(k) == self.comm.rank
         ]
-        self._load_forms = {block: forms.load_forms(sub) for _, sub, block in self._owned}
-        self._constant_loads: dict[str, np.ndarray] = {}
+        self._load = {block: forms.SubdomainLoad(sub) for _, sub, block in self._owned}
         self._results = Results(self.comm, scene, self.model, self.iteration.alpha)
 
     def _use(self, algorithm: str, reused=None) -> None:
@@ -217,22 +216,19 @@ class Analysis:
             )
 
     def _loads(self, t: float) -> dict[str, np.ndarray]:
-        """Owned load vectors r_D(t) (cached when they do not depend on time)."""
+        """Owned load vectors r_D(t), shared arrays not to be written.
+
+        :class:`forms.SubdomainLoad` assembles them as seldom as their time dependence allows.
+        """
         loads = {}
         for _, sub, block in self._owned:
-            if block in self._constant_loads:
-                loads[block] = self._constant_loads[block]
-                continue
             sub.set_time(t)
-            vector = forms.assemble_load(sub, self._load_forms[block])
+            vector = loads[block] = self._load[block]()
             if not np.all(np.isfinite(vector)):
                 raise InputError(
                     f"subdomain {sub.name!r}: the load at t = {t} contains NaN or inf; check "
                     "the traction and body-force data"
                 )
-            if not sub.time_dependent_loads:
-                self._constant_loads[block] = vector
-            loads[block] = vector
         return loads
 
     def _prescribed(self, t: float) -> dict[str, np.ndarray]:
