@@ -63,6 +63,7 @@ class Analysis:
         self._options = dict(options or {})
         with petsc_options(self._options):  # checked, and read by the factorisations built
             self._build(scene, algorithm, mass_coefficient, contact, condensation, expected, rates)
+        self._free: dict[str, np.ndarray] = {}  # model.free(block), kept
 
     def _build(self, scene, algorithm, mass_coefficient, contact, condensation, expected, rates):
         if condensation == "schur" and not layout_known():
@@ -252,10 +253,14 @@ class Analysis:
     def _rhs(self, t: float, extra: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Collective: the prescribed values' right-hand side at ``t`` plus free-dof loads."""
         lifted = collective(self.comm, lambda: self._prescribed(t))
-        rhs = {name: vector.copy() for name, vector in lifted.items()}
+        rhs = dict(lifted)  # shared arrays: replaced below, never written
         for block, vector in extra.items():
-            free = self.model.free(block) * vector
-            rhs[block] = rhs[block] + free if block in rhs else free
+            if block not in self._free:
+                self._free[block] = self.model.free(block)
+            free = self._free[block] * vector
+            if block in rhs:
+                free += rhs[block]
+            rhs[block] = free
         return rhs
 
     def _solve(self, t: float, rhs: dict[str, np.ndarray], where: str, correction=None):
