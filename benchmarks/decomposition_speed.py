@@ -288,7 +288,10 @@ def compared(path: Path, elements: list[int], summary: dict) -> dict:
         ratios[algorithm] = {
             key: new[key] / value
             for key, value in old.items()
-            if key.startswith(("seconds_", "peak_memory")) and value and new.get(key)
+            if key.startswith(("seconds_", "peak_memory"))
+            and isinstance(value, int | float)  # not the lists of each run's values
+            and value
+            and isinstance(new.get(key), int | float)
         }
     return {"file": path.name, "summary": before["summary"], "after_over_before": ratios}
 

@@ -63,6 +63,7 @@ class Analysis:
         self._options = dict(options or {})
         with petsc_options(self._options):  # checked, and read by the factorisations built
             self._build(scene, algorithm, mass_coefficient, contact, condensation, expected, rates)
+        self._free: dict[str, np.ndarray] = {}  # model.free(block), kept
 
     def _build(self, scene, algorithm, mass_coefficient, contact, condensation, expected, rates):
         if condensation == "schur" and not layout_known():
@@ -149,8 +150,7 @@ class Analysis:
             for k, s in enumerate(scene.subdomains)
             if scene.owner(k) == self.comm.rank
         ]
-        self._load_forms = {block: forms.load_forms(sub) for _, sub, block in self._owned}
-        self._constant_loads: dict[str, np.ndarray] = {}
+        self._load = {block: forms.SubdomainLoad(sub) for _, sub, block in self._owned}
         self._results = Results(self.comm, scene, self.model, self.iteration.alpha)
 
     def _use(self, algorithm: str, reused=None) -> None:
@@ -217,22 +217,19 @@ class Analysis:
             )
 
     def _loads(self, t: float) -> dict[str, np.ndarray]:
-        """Owned load vectors r_D(t) (cached when they do not depend on time)."""
+        """Owned load vectors r_D(t), shared arrays not to be written.
+
+        :class:`forms.SubdomainLoad` assembles them as seldom as their time dependence allows.
+        """
         loads = {}
         for _, sub, block in self._owned:
-            if block in self._constant_loads:
-                loads[block] = self._constant_loads[block]
-                continue
             sub.set_time(t)
-            vector = forms.assemble_load(sub, self._load_forms[block])
+            vector = loads[block] = self._load[block]()
             if not np.all(np.isfinite(vector)):
                 raise InputError(
                     f"subdomain {sub.name!r}: the load at t = {t} contains NaN or inf; check "
                     "the traction and body-force data"
                 )
-            if not sub.time_dependent_loads:
-                self._constant_loads[block] = vector
-            loads[block] = vector
         return loads
 
     def _prescribed(self, t: float) -> dict[str, np.ndarray]:
@@ -256,10 +253,14 @@ class Analysis:
     def _rhs(self, t: float, extra: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Collective: the prescribed values' right-hand side at ``t`` plus free-dof loads."""
         lifted = collective(self.comm, lambda: self._prescribed(t))
-        rhs = {name: vector.copy() for name, vector in lifted.items()}
+        rhs = dict(lifted)  # shared arrays: replaced below, never written
         for block, vector in extra.items():
-            free = self.model.free(block) * vector
-            rhs[block] = rhs[block] + free if block in rhs else free
+            if block not in self._free:
+                self._free[block] = self.model.free(block)
+            free = self._free[block] * vector
+            if block in rhs:
+                free += rhs[block]
+            rhs[block] = free
         return rhs
 
     def _solve(self, t: float, rhs: dict[str, np.ndarray], where: str, correction=None):

@@ -18,10 +18,10 @@ if TYPE_CHECKING:
 
 __all__ = [
     "MASS_KINDS",
+    "SubdomainLoad",
     "assemble_load",
     "assemble_mass",
     "assemble_stiffness",
-    "load_forms",
     "lump_mass",
     "strain",
     "stress",
@@ -89,22 +89,128 @@ def lump_mass(mass: sp.sparray, degree: int) -> sp.csr_array:
     return sp.csr_array(sp.diags_array(diagonal))
 
 
-def load_forms(sub: Subdomain) -> list[fem.Form]:
-    """Compiled load forms: int f . du dx and int t . du ds for each traction region."""
-    du = ufl.TestFunction(sub.V)
-    forms = []
+def _load_terms(sub: Subdomain) -> list[tuple[ufl.core.expr.Expr, ufl.Measure]]:
+    """(expression, measure) of each load: the body force over dx, each traction over ds."""
+    terms = []
     if sub.body_force is not None:
-        forms.append(ufl.inner(sub.body_force, du) * ufl.dx)
+        terms.append((sub.body_force, ufl.dx(domain=sub.mesh)))
     for tags, traction in sub.tractions:
         # One measure per traction: traction regions may overlap, meshtags may not.
-        ds = ufl.Measure("ds", domain=sub.mesh, subdomain_data=tags)
-        forms.append(ufl.inner(traction, du) * ds(1))
-    return [fem.form(f) for f in forms]
+        terms.append((traction, ufl.Measure("ds", domain=sub.mesh, subdomain_data=tags)(1)))
+    return terms
 
 
-def assemble_load(sub: Subdomain, forms: list[fem.Form] | None = None) -> np.ndarray:
-    """r_D on the owned dofs, from :func:`load_forms` (compiled now if not given)."""
+def _scaled_field(expr: ufl.core.expr.Expr) -> tuple[fem.Constant, ufl.core.expr.Expr] | None:
+    """``(a, field)`` if ``expr`` is a scalar Constant times a vector field, else None.
+
+    UFL writes ``a * field`` as ``ComponentTensor(Product(a, field[i]), i)``.
+    """
+    if not isinstance(expr, ufl.classes.ComponentTensor):
+        return None
+    product, index = expr.ufl_operands
+    if not isinstance(product, ufl.classes.Product):
+        return None
+    for scale, other in (product.ufl_operands, product.ufl_operands[::-1]):
+        if (
+            isinstance(scale, fem.Constant)
+            and scale.ufl_shape == ()
+            and isinstance(other, ufl.classes.Indexed)
+            and other.ufl_operands[1] == index
+        ):
+            return scale, other.ufl_operands[0]
+    return None
+
+
+def _packed(vector: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
+    """``(indices, values)`` of a vector's nonzeros, or ``(None, vector)`` if mostly nonzero.
+
+    A traction's load is nonzero on its surface only.
+    """
+    nonzero = np.flatnonzero(vector)
+    if 2 * len(nonzero) > len(vector):
+        return None, vector
+    return nonzero, vector[nonzero]
+
+
+class SubdomainLoad:
+    """The load vector r_D(t) of one subdomain, each term assembled as seldom as it allows.
+
+    A term (the body force, each traction) is linear in the load data, so:
+
+    * a vector ``fem.Constant`` c (a 3-vector, or a callable ``t -> 3-vector`` that
+      ``Subdomain.set_time`` evaluates into one): the load of each unit vector is assembled
+      once, ``r = sum_i c_i r_i`` with c's value at the call;
+    * a scalar ``fem.Constant`` a times a field that uses none of
+      ``Subdomain.time_constants`` (``amplitude=``, or ``Subdomain.time * field``): the
+      field's load is assembled once and scaled by a's value;
+    * a term that uses none of ``time_constants``: assembled once;
+    * any other (a general UFL load of :attr:`Subdomain.time`): assembled at every call.
+
+    :attr:`assemblies` counts dolfinx's vector assemblies.
+
+    Args:
+        sub: The subdomain; set its time (``Subdomain.set_time``) before each call.
+    """
+
+    def __init__(self, sub: Subdomain):
+        self.num_dofs = sub.num_dofs
+        self.assemblies = 0
+        du = ufl.TestFunction(sub.V)
+        changing = {id(c) for c in sub.time_constants}
+
+        def uses_time(expr) -> bool:
+            constants = ufl.algorithms.analysis.extract_constants(expr)
+            return any(id(c) in changing for c in constants)
+
+        fixed = []  # forms of the terms that never change
+        #: (Constant, packed load of each of its components): r += value[k] * load[k]
+        self._scaled: list[tuple[fem.Constant, list]] = []
+        self._general: list[fem.Form] = []  # assembled at every call
+        for expr, measure in _load_terms(sub):
+            scaled = _scaled_field(expr)
+            if isinstance(expr, fem.Constant):
+                parts = [fem.form(du[i] * measure) for i in range(3)]
+                self._scaled.append((expr, [_packed(self._assemble(f)) for f in parts]))
+            elif scaled is not None and not uses_time(scaled[1]):
+                part = fem.form(ufl.inner(scaled[1], du) * measure)
+                self._scaled.append((scaled[0], [_packed(self._assemble(part))]))
+            elif uses_time(expr):
+                self._general.append(fem.form(ufl.inner(expr, du) * measure))
+            else:
+                fixed.append(fem.form(ufl.inner(expr, du) * measure))
+        self._fixed = sum((self._assemble(f) for f in fixed), np.zeros(self.num_dofs))
+
+    def _assemble(self, form: fem.Form) -> np.ndarray:
+        self.assemblies += 1
+        return fem.assemble_vector(form).array[: self.num_dofs].copy()
+
+    @property
+    def constant(self) -> bool:
+        """Whether the load is the same at every time."""
+        return not self._scaled and not self._general
+
+    def __call__(self) -> np.ndarray:
+        """r_D at the subdomain's current time: a new array (the fixed part itself if constant)."""
+        if self.constant:
+            return self._fixed
+        load = self._fixed.copy()
+        for constant, parts in self._scaled:
+            for value, (index, values) in zip(np.ravel(constant.value), parts, strict=True):
+                if value == 0.0:
+                    continue
+                if index is None:
+                    load += value * values
+                else:
+                    load[index] += value * values
+        for form in self._general:
+            load += self._assemble(form)
+        return load
+
+
+def assemble_load(sub: Subdomain) -> np.ndarray:
+    """r_D on the owned dofs at the subdomain's current time, every term assembled now."""
+    du = ufl.TestFunction(sub.V)
     load = np.zeros(sub.num_dofs)
-    for form in load_forms(sub) if forms is None else forms:
-        load += fem.assemble_vector(form).array[: sub.num_dofs]
+    for expr, measure in _load_terms(sub):
+        load += fem.assemble_vector(fem.form(ufl.inner(expr, du) * measure)).array[: sub.num_dofs]
     return load

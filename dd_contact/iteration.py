@@ -343,7 +343,9 @@ class ContactIteration:
 
     def _solve_once(self, solver: ContactSolver, rhs: dict[str, np.ndarray], where: str):
         self._check_held(where)
-        rhs = {name: vector.copy() for name, vector in rhs.items()}
+        # the contact terms are added in place: only their blocks are copied
+        zoned = {z.block for z in self.zones}
+        rhs = {name: v.copy() if name in zoned else v for name, v in rhs.items()}
         contact = []
         for z in self.zones:
             matrix, vector = z.contribution(self.active[z.contact.name])

@@ -422,12 +422,12 @@ class TransientProblem(Analysis):
                 scheme.start_weight,
             )
             for _, sub, block in self._owned:
-                history = scheme.history(*self._kinematics(sub))
-                loads[block] = (
-                    loads[block]
-                    + scheme.start_weight * (previous[block] - start.internal[block])
-                    + self.model.mass[block] @ history
-                )
+                # r_n+1 + w (r_n - K x_n) + M h, summed in this order, in one new array
+                rhs = np.subtract(previous[block], start.internal[block])
+                rhs *= scheme.start_weight
+                rhs += loads[block]
+                rhs += self.model.mass[block] @ scheme.history(*self._kinematics(sub))
+                loads[block] = rhs
 
             release = start if self._energy_safe else None
             x, iterations, changes = self._solve(t_new, self._rhs(t_new, loads), where, release)

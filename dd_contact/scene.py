@@ -168,6 +168,7 @@ class Subdomain:
         self.body_force: ufl.core.expr.Expr | None = None
         self.tractions: list[tuple[dolfinx.mesh.MeshTags, ufl.core.expr.Expr]] = []
         self._timed: list[tuple[fem.Constant, Callable[[float], Sequence[float]], str]] = []
+        self._amplitudes: list[tuple[fem.Constant, Callable[[float], float], str]] = []
         #: The Dirichlet conditions (:meth:`fix`): dofs, and values at any time.
         self.prescribed = Prescribed(self.V, f"subdomain {name!r}")
 
@@ -216,6 +217,7 @@ class Subdomain:
         self,
         where: Region,
         traction: ufl.core.expr.Expr | Sequence[float] | Callable[[float], Sequence[float]],
+        amplitude: Callable[[float], float] | None = None,
     ):
         """Apply a surface traction (force per area) on a boundary region.
 
@@ -225,6 +227,9 @@ class Subdomain:
             traction: A UFL vector expression on this mesh (it may use :attr:`time` or any
                 ``fem.Constant``), a 3-vector, or a callable ``t -> 3-vector`` evaluated by
                 the solver at every time.
+            amplitude: A callable ``t -> number``: the traction is ``amplitude(t) *
+                traction``. A traction field that does not change with time is then
+                assembled once and scaled at every time (``docs/solvers.md``, "Loads").
 
         Returns:
             The subdomain, so calls can be chained.
@@ -233,46 +238,64 @@ class Subdomain:
         tags = dolfinx.mesh.meshtags(
             self.mesh, self.mesh.topology.dim - 1, facets, np.ones_like(facets)
         )
-        self.tractions.append((tags, self._load_expression(traction, "traction")))
+        self.tractions.append((tags, self._load_expression(traction, "traction", amplitude)))
         return self
 
     def set_body_force(
-        self, force: ufl.core.expr.Expr | Sequence[float] | Callable[[float], Sequence[float]]
+        self,
+        force: ufl.core.expr.Expr | Sequence[float] | Callable[[float], Sequence[float]],
+        amplitude: Callable[[float], float] | None = None,
     ) -> Subdomain:
-        """Body force per volume: a UFL expression, a 3-vector or a callable ``t -> 3-vector``."""
-        self.body_force = self._load_expression(force, "body force")
+        """Body force per volume: a UFL expression, a 3-vector or a callable ``t -> 3-vector``.
+
+        ``amplitude`` (a callable ``t -> number``) makes it ``amplitude(t) * force``, as in
+        :meth:`add_traction`.
+        """
+        self.body_force = self._load_expression(force, "body force", amplitude)
         return self
 
-    def _load_expression(self, value, what: str) -> ufl.core.expr.Expr:
+    def _load_expression(self, value, what: str, amplitude=None) -> ufl.core.expr.Expr:
         argument = f"subdomain {self.name!r} {what}"
         if isinstance(value, ufl.core.expr.Expr):
-            return arguments.ufl_vector(value, argument)
-        if callable(value):
-            constant = fem.Constant(self.mesh, np.zeros(3))
-            self._timed.append((constant, value, argument))
+            expr = arguments.ufl_vector(value, argument)
+        elif callable(value):
+            expr = fem.Constant(self.mesh, np.zeros(3))
+            self._timed.append((expr, value, argument))
+        else:
+            expr = fem.Constant(self.mesh, arguments.vector(value, argument))
+        if amplitude is None:
             self.set_time(float(self.time.value))
-            return constant
-        return fem.Constant(self.mesh, arguments.vector(value, argument))
+            return expr
+        if not callable(amplitude):
+            raise InputError(
+                f"{argument}: amplitude must be a callable t -> number (the load is then "
+                f"amplitude(t) * {what}), got {amplitude!r}; e.g. amplitude=lambda t: min(t, 1)"
+            )
+        scale = fem.Constant(self.mesh, 0.0)
+        self._amplitudes.append((scale, amplitude, f"{argument} amplitude"))
+        self.set_time(float(self.time.value))
+        return scale * expr
 
     def set_time(self, t: float) -> None:
-        """Set :attr:`time` and evaluate the callable loads at ``t``."""
+        """Set :attr:`time` and evaluate the callable loads and amplitudes at ``t``."""
         self.time.value = t
         for constant, load, argument in self._timed:
             values = load(t)
             what = f"{argument} (its load callable returned {values!r} at t = {t})"
             constant.value[:] = arguments.vector(values, what)
+        for scale, amplitude, argument in self._amplitudes:
+            value = amplitude(t)
+            what = f"{argument} (its callable returned {value!r} at t = {t})"
+            scale.value = arguments.real(value, what)
 
     @property
-    def time_dependent_loads(self) -> bool:
-        """Whether loads can change with time (callables, or UFL loads that use :attr:`time`)."""
-        if self._timed:
-            return True
-        exprs = [t for _, t in self.tractions]
-        if self.body_force is not None:
-            exprs.append(self.body_force)
-        return any(
-            c is self.time for e in exprs for c in ufl.algorithms.analysis.extract_constants(e)
-        )
+    def time_constants(self) -> tuple[fem.Constant, ...]:
+        """The Constants :meth:`set_time` sets.
+
+        :attr:`time`, the load callables' values and the amplitudes: a load that uses none
+        of them does not change with time.
+        """
+        return (self.time, *(c for c, _, _ in self._timed), *(c for c, _, _ in self._amplitudes))
 
     @property
     def dirichlet(self) -> tuple[np.ndarray, np.ndarray]:

@@ -70,14 +70,20 @@ class Newmark:
 
     def history(self, u: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         """The vector that multiplies M on the right-hand side: a0 u + a1 u'."""
-        return self.mass_coefficient * u + (4.0 / self.dt) * velocity
+        history = np.multiply(u, self.mass_coefficient)  # in place from here: no temporaries
+        history += (4.0 / self.dt) * velocity
+        return history
 
     def update(
         self, u_new: np.ndarray, u: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """Velocity at t + dt, and the step's mean acceleration (reported, not reused)."""
-        velocity_new = (2.0 / self.dt) * (u_new - u) - velocity
-        return velocity_new, (velocity_new - velocity) / self.dt
+        velocity_new = np.subtract(u_new, u)  # in place from here: no temporaries
+        velocity_new *= 2.0 / self.dt
+        velocity_new -= velocity
+        acceleration = np.subtract(velocity_new, velocity)
+        acceleration /= self.dt
+        return velocity_new, acceleration
 
 
 @dataclass(frozen=True)
@@ -136,7 +142,10 @@ class GeneralizedAlpha:
         am, af, beta = self.alpha_m, self.alpha_f, self.beta
         c = self.mass_coefficient
         inertia = ((1.0 - am) * (0.5 - beta) / beta - am) / (1.0 - af)
-        return c * u + (c * self.dt) * velocity + inertia * acceleration
+        history = np.multiply(u, c)  # the sum in place, left to right
+        history += (c * self.dt) * velocity
+        history += inertia * acceleration
+        return history
 
     def update(
         self, u_new: np.ndarray, u: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray
@@ -144,14 +153,13 @@ class GeneralizedAlpha:
         """Velocity and acceleration at t + dt (Newmark's updates, solved for them)."""
         dt, beta, gamma = self.dt, self.beta, self.gamma
         du = u_new - u
-        velocity_new = (
-            (gamma / (beta * dt)) * du
-            + (1.0 - gamma / beta) * velocity
-            + (dt * (1.0 - gamma / (2.0 * beta))) * acceleration
-        )
-        acceleration_new = (
-            du / (beta * dt * dt) - velocity / (beta * dt) - (0.5 / beta - 1.0) * acceleration
-        )
+        # the sums in place, left to right
+        velocity_new = np.multiply(du, gamma / (beta * dt))
+        velocity_new += (1.0 - gamma / beta) * velocity
+        velocity_new += (dt * (1.0 - gamma / (2.0 * beta))) * acceleration
+        acceleration_new = np.divide(du, beta * dt * dt)
+        acceleration_new -= velocity / (beta * dt)
+        acceleration_new -= (0.5 / beta - 1.0) * acceleration
         return velocity_new, acceleration_new
 
 

@@ -105,11 +105,14 @@ class MonolithicSolver:
             b.setValues(idx, vector, addv=PETSc.InsertMode.ADD_VALUES)
         b.assemble()
         x = self._factor.solve(b)
-        scatter, x_all = PETSc.Scatter.toAll(x)
-        scatter.scatter(x, x_all, addv=PETSc.InsertMode.INSERT_VALUES)
-        values = x_all.getArray().copy()
-        for obj in (scatter, x_all, x, b):
-            obj.destroy()
+        if self.comm.size == 1:  # x holds every row already
+            values = x.getArray(readonly=True).copy()
+        else:
+            scatter, x_all = PETSc.Scatter.toAll(x)
+            scatter.scatter(x, x_all, addv=PETSc.InsertMode.INSERT_VALUES)
+            values = x_all.getArray().copy()
+            scatter.destroy(), x_all.destroy()
+        x.destroy(), b.destroy()
         self._last = {
             name: values[off : off + self.system.sizes[name]] for name, off in self.offsets.items()
         }
