@@ -132,6 +132,36 @@ def _packed(vector: np.ndarray) -> tuple[np.ndarray | None, np.ndarray]:
     return nonzero, vector[nonzero]
 
 
+class _UserData:
+    """The user's Functions and Constants a cached load was assembled with, as they were.
+
+    A cached load is stale once the user changes one of them between solves; :meth:`changed`
+    says so (a comparison of values, far cheaper than the assembly it saves).
+    """
+
+    def __init__(self, expr, skip: set[int]):
+        self._objects = [
+            obj
+            for obj in (
+                *ufl.algorithms.analysis.extract_coefficients(expr),
+                *ufl.algorithms.analysis.extract_constants(expr),
+            )
+            if id(obj) not in skip
+        ]
+        self._values = self._now()
+
+    def _now(self) -> list[np.ndarray]:
+        return [np.array(o.x.array if hasattr(o, "x") else o.value) for o in self._objects]
+
+    def changed(self) -> bool:
+        """Whether any value differs from the last :meth:`changed` or construction."""
+        now = self._now()
+        if all(np.array_equal(a, b) for a, b in zip(now, self._values, strict=True)):
+            return False
+        self._values = now
+        return True
+
+
 class SubdomainLoad:
     """The load vector r_D(t) of one subdomain, each term assembled as seldom as it allows.
 
@@ -146,7 +176,9 @@ class SubdomainLoad:
     * a term that uses none of ``time_constants``: assembled once;
     * any other (a general UFL load of :attr:`Subdomain.time`): assembled at every call.
 
-    :attr:`assemblies` counts dolfinx's vector assemblies.
+    A cached term is assembled again when a Function or Constant of the user's in it has
+    changed since (its values are compared at every call). :attr:`assemblies` counts
+    dolfinx's vector assemblies.
 
     Args:
         sub: The subdomain; set its time (``Subdomain.set_time``) before each call.
@@ -162,40 +194,53 @@ class SubdomainLoad:
             constants = ufl.algorithms.analysis.extract_constants(expr)
             return any(id(c) in changing for c in constants)
 
-        fixed = []  # forms of the terms that never change
-        #: (Constant, packed load of each of its components): r += value[k] * load[k]
-        self._scaled: list[tuple[fem.Constant, list]] = []
+        #: (form, the user's data in it) of the terms that do not change with time
+        self._fixed_terms: list[tuple[fem.Form, _UserData]] = []
+        #: [Constant, forms, packed load of each, the user's data]: r += value[k] * load[k]
+        self._scaled: list[list] = []
         self._general: list[fem.Form] = []  # assembled at every call
         for expr, measure in _load_terms(sub):
             scaled = _scaled_field(expr)
             if isinstance(expr, fem.Constant):
                 parts = [fem.form(du[i] * measure) for i in range(3)]
-                self._scaled.append((expr, [_packed(self._assemble(f)) for f in parts]))
+                self._scaled.append([expr, parts, None, _UserData(expr, {id(expr)})])
             elif scaled is not None and not uses_time(scaled[1]):
                 part = fem.form(ufl.inner(scaled[1], du) * measure)
-                self._scaled.append((scaled[0], [_packed(self._assemble(part))]))
+                self._scaled.append([scaled[0], [part], None, _UserData(scaled[1], set())])
             elif uses_time(expr):
                 self._general.append(fem.form(ufl.inner(expr, du) * measure))
             else:
-                fixed.append(fem.form(ufl.inner(expr, du) * measure))
-        self._fixed = sum((self._assemble(f) for f in fixed), np.zeros(self.num_dofs))
+                form = fem.form(ufl.inner(expr, du) * measure)
+                self._fixed_terms.append((form, _UserData(expr, set())))
+        for term in self._scaled:
+            term[2] = [_packed(self._assemble(f)) for f in term[1]]
+        self._fixed = self._sum_fixed()
 
     def _assemble(self, form: fem.Form) -> np.ndarray:
         self.assemblies += 1
         return fem.assemble_vector(form).array[: self.num_dofs].copy()
 
+    def _sum_fixed(self) -> np.ndarray:
+        return sum((self._assemble(f) for f, _ in self._fixed_terms), np.zeros(self.num_dofs))
+
     @property
     def constant(self) -> bool:
-        """Whether the load is the same at every time."""
-        return not self._scaled and not self._general
+        """Whether the load is the same at every time (and no user data can change it)."""
+        watched = any(data._objects for _, data in self._fixed_terms)
+        return not self._scaled and not self._general and not watched
 
     def __call__(self) -> np.ndarray:
         """r_D at the subdomain's current time: a new array (the fixed part itself if constant)."""
+        if any([data.changed() for _, data in self._fixed_terms]):  # every snapshot renewed
+            self._fixed = self._sum_fixed()
         if self.constant:
             return self._fixed
         load = self._fixed.copy()
-        for constant, parts in self._scaled:
-            for value, (index, values) in zip(np.ravel(constant.value), parts, strict=True):
+        for term in self._scaled:
+            constant, parts, packed, data = term
+            if data.changed():
+                packed = term[2] = [_packed(self._assemble(f)) for f in parts]
+            for value, (index, values) in zip(np.ravel(constant.value), packed, strict=True):
                 if value == 0.0:
                     continue
                 if index is None:

@@ -123,3 +123,23 @@ def test_amplitude_must_be_a_callable_of_a_number():
         sub.add_traction(_top, (0.0, 0.0, 1.0), amplitude=2.0)
     with pytest.raises(InputError, match=r"'block' body force amplitude .* returned nan at t = 0"):
         sub.set_body_force((0.0, 0.0, 1.0), amplitude=lambda t: float("nan"))
+
+
+def test_a_cached_load_follows_the_users_function_and_constant():
+    """A load cached as time-free is assembled again when the user's data in it changes."""
+    sub = _block()
+    pressure = fem.Function(fem.functionspace(sub.mesh, ("Lagrange", 1)))
+    pressure.x.array[:] = 1e5
+    factor = fem.Constant(sub.mesh, 2.0)
+    n = ufl.FacetNormal(sub.mesh)
+    sub.add_traction(_top, -pressure * n)  # a time-free field: cached
+    x = ufl.SpatialCoordinate(sub.mesh)
+    sub.set_body_force(ufl.as_vector((0.0, factor * x[0], 0.0)), amplitude=lambda t: 1.0 + t)
+    load = forms.SubdomainLoad(sub)
+    assert load.assemblies == 2
+    _check_equal(sub, load, [0.0, 0.5])
+    assert load.assemblies == 2  # nothing changed: nothing assembled
+    pressure.x.array[:] = np.linspace(0.0, 3e5, len(pressure.x.array))
+    factor.value = -7.0
+    _check_equal(sub, load, [0.5, 1.0])
+    assert load.assemblies == 4  # each cached term once more, then cached again
