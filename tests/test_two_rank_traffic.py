@@ -1,0 +1,73 @@
+"""What the ranks exchange in a time step of w-v-u, counted (dd_contact.parallel.traffic)."""
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+import dd_contact as dd
+from dd_contact import examples
+from dd_contact.parallel import ROOT, traffic
+
+STEPS = 8
+
+
+def _run(comm):
+    """The small bar pressed on the wall: each step's record and this rank's traffic."""
+    scene = examples.parallelepiped("w-v-u", (12, 4, 2), comm=comm)
+    problem = dd.TransientProblem(scene, 1e-6, algorithm="w-v-u", track_energy=False)
+    steps = []
+    for _ in range(STEPS):
+        traffic.reset()
+        record = problem.advance()
+        steps.append((record, traffic.snapshot()))
+    u = {s.name: s.u.x.array.copy() for s in scene.subdomains}
+    return problem, steps, u
+
+
+@pytest.mark.mpi
+def test_a_step_sends_surface_vectors_and_each_subdomain_once():
+    comm = MPI.COMM_WORLD
+    if comm.size != 2:
+        pytest.skip("counts for two ranks")
+    problem, steps, _ = _run(comm)
+    m = sum(problem.solver.schedule.surface.values())  # surface dofs
+    own_u = sum(problem.solver.system.sizes[b] for b in problem.solver.subdomains)
+    quiet = [(r, t) for r, t in steps[1:] if r["iterations"] == 1 and r["changes"] == 0]
+    assert len(quiet) >= 3
+    for _, counts in quiet:
+        # One solve: the surface right-hand side summed (its m entries and a change count),
+        # the surface solution broadcast after the solve and after v's back-substitution
+        # (w-v-u solves w last); each subdomain's u sent once, by its owner, to publish it;
+        # the results agreed (gathered) and the loads' and prescribed values' checks.
+        root = comm.rank == ROOT
+        assert counts == {
+            "allreduce_sum": 1,
+            "bcast_array": 2,
+            "allgather_blocks": 1,
+            "gathered": 1,
+            "collective": 2,
+            "bytes": 8 * ((m + 1) + 2 * m * root + own_u),
+        }
+    for record, counts in steps[1:]:
+        # a contact iteration sends the surface vectors again, and a contact matrix to rank 0
+        # only in the solves after a change
+        assert counts["allreduce_sum"] == record["iterations"]
+        assert counts.get("gather_to_root", 0) == record["changes"]
+
+
+@pytest.mark.mpi
+def test_two_ranks_give_the_serial_results():
+    _, parallel, u_parallel = _run(MPI.COMM_WORLD)
+    _, serial, u_serial = _run(MPI.COMM_SELF)
+    for (p, _), (s, _) in zip(parallel, serial, strict=True):
+        assert (p["iterations"], p["changes"], p["active"]) == (
+            s["iterations"],
+            s["changes"],
+            s["active"],
+        )
+        for name, force in s["force"].items():
+            scale = np.linalg.norm(force) or 1.0
+            assert np.linalg.norm(np.subtract(p["force"][name], force)) <= 1e-9 * scale
+    for name, u in u_serial.items():
+        assert np.linalg.norm(u_parallel[name] - u) <= 1e-9 * np.linalg.norm(u)
