@@ -59,6 +59,7 @@ def main() -> None:
     parser.add_argument("--elements", default="120,30,10", help="nx,ny,nz")
     parser.add_argument("--steps", type=int, default=6)
     parser.add_argument("--out", default=str(HERE / "step_profile.json"))
+    parser.add_argument("--tag", default="", help="suffix of the result's key, e.g. ' before'")
     parser.add_argument(
         "--cpu",
         action="store_true",
@@ -74,7 +75,9 @@ def main() -> None:
     problem.advance()  # set-up: the factorisations
     clock = time.process_time if args.cpu else time.perf_counter
     profile, walls, iterations = cProfile.Profile(clock), [], []
-    parallel.traffic.reset()
+    counter = getattr(parallel, "traffic", None)  # absent before the counter existed
+    if counter is not None:
+        counter.reset()
     for _ in range(args.steps):
         comm.Barrier()
         t0 = clock()
@@ -83,8 +86,8 @@ def main() -> None:
         profile.disable()
         walls.append(clock() - t0)
         iterations.append(record["iterations"])
-    traffic = parallel.traffic.snapshot()
-    inside_mpi = dict(parallel.traffic.seconds)  # wall clock, whatever --cpu says
+    traffic = counter.snapshot() if counter is not None else {}
+    inside_mpi = dict(counter.seconds) if counter is not None else {}  # wall clock always
     stats = pstats.Stats(profile).stats
     parts = {}
     for label, function in PARTS.items():
@@ -105,7 +108,7 @@ def main() -> None:
         out = Path(args.out)
         data = json.loads(out.read_text()) if out.exists() else {}
         data["elements"] = args.elements
-        data[f"{comm.size} ranks{' cpu' if args.cpu else ''}"] = {
+        data[f"{comm.size} ranks{' cpu' if args.cpu else ''}{args.tag}"] = {
             "load_average": os.getloadavg(),
             "dofs": int(sum(problem.solver.system.sizes.values())),
             "steps_profiled": args.steps,
