@@ -3,9 +3,9 @@
 Ranks own whole subdomains (subdomain k on rank ``k % size``); a contact region lives with
 its subdomain; small dense work (the condensed surface system) runs on :data:`ROOT`.
 
-Arrays that cross ranks every step go through the buffer-based helpers (``allreduce_sum``,
-``bcast_array``, ``allgather_blocks``: no pickling); the lowercase (pickling) ones carry
-small or rare objects. Every helper counts what it sends in :data:`traffic`.
+Large arrays that cross ranks go through the buffer-based helpers (``bcast_array``,
+``allgather_blocks``: no pickling); the pickling ones carry small or rare objects. Every
+helper counts what it sends in :data:`traffic`.
 """
 
 from __future__ import annotations
@@ -26,7 +26,6 @@ __all__ = [
     "ROOT",
     "Traffic",
     "allgather_blocks",
-    "allreduce_sum",
     "bcast_array",
     "bcast_from_root",
     "collective",
@@ -92,11 +91,14 @@ def gathered(comm: MPI.Comm, local: dict) -> dict:
     return {k: v for part in parts for k, v in part.items()}
 
 
-def gather_to_root[T](comm: MPI.Comm, obj: T) -> list[T] | None:
-    """Collective: every rank's ``obj`` in rank order on :data:`ROOT`, ``None`` elsewhere."""
+def gather_to_root[T](comm: MPI.Comm, obj: T, nbytes: int = 0) -> list[T] | None:
+    """Collective: every rank's ``obj`` in rank order on :data:`ROOT`, ``None`` elsewhere.
+
+    ``nbytes``: the bytes of the arrays in ``obj``, for :data:`traffic` (it is pickled).
+    """
     if comm.size == 1:
         return [obj]
-    with traffic.call("gather_to_root"):
+    with traffic.call("gather_to_root", nbytes):
         return comm.gather(obj, root=ROOT)
 
 
@@ -106,16 +108,6 @@ def bcast_from_root[T](comm: MPI.Comm, obj: T) -> T:
         return obj
     with traffic.call("bcast_from_root"):
         return comm.bcast(obj, root=ROOT)
-
-
-def allreduce_sum(comm: MPI.Comm, vector: np.ndarray) -> np.ndarray:
-    """Collective: the sum over the ranks of a float64 vector (same length on every rank)."""
-    if comm.size == 1:
-        return vector
-    total = np.empty_like(vector)
-    with traffic.call("allreduce_sum", vector.nbytes):
-        comm.Allreduce(vector, total, op=MPI.SUM)
-    return total
 
 
 def bcast_array(comm: MPI.Comm, array: np.ndarray) -> np.ndarray:

@@ -19,9 +19,10 @@ contact changes.
 
 Parallel: ranks own whole subdomains (the owner of ``u:<name>`` factorises, condenses and
 back-substitutes it, and its u never leaves that rank here); the dense surface system, small
-by construction, is solved on rank 0. Per solve the ranks exchange surface vectors only: the
-summed surface right-hand side (one buffer allreduce) and the surface solution (one buffer
-broadcast); condensations and contact matrices are sent to rank 0 only after they change.
+by construction, is solved on rank 0. Per solve the ranks exchange surface vectors only: each
+rank's part of the surface right-hand side goes to rank 0 (one gather, with a condensation or
+contact matrix only after it changed) and the surface solution comes back (one buffer
+broadcast).
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
 from dd_contact.blocks import Block, ContactRegion
-from dd_contact.parallel import ROOT, allreduce_sum, bcast_array, gather_to_root, gathered
+from dd_contact.parallel import ROOT, bcast_array, gather_to_root, gathered
 from dd_contact.solvers.linalg import (
     DenseCholesky,
     PatternedMatrix,
@@ -540,9 +541,7 @@ class BlockEliminationSolver:
         """
         changed = {"Z": {}, "contact": self._pending_contact}
         self._pending_contact = {}
-        # This rank's part of the surface right-hand side; the last entry counts the changed
-        # matrices, so that every rank learns from the same sum whether any changed.
-        g = np.zeros(self._surface_size + 1)
+        g = np.zeros(self._surface_size)  # this rank's part of the surface right-hand side
         for block, sub in self.subdomains.items():
             if sub.changing:
                 sub.factorise()
@@ -555,14 +554,15 @@ class BlockEliminationSolver:
         for block, vector in rhs.items():
             if Block.parse(block).kind != "u":
                 g[self._where[block]] += vector
-        g[-1] = len(changed["Z"]) + len(changed["contact"])
-        g = allreduce_sum(self.comm, g)
-        received = gather_to_root(self.comm, changed) if g[-1] else []
+        # One meeting of the ranks before the surface solve: a surface vector from each, and
+        # a matrix only where one changed (each meeting costs a rank's turn on a busy machine).
+        parts = gather_to_root(self.comm, (g, changed), g.nbytes)
         complete = self.schedule.needs_all_surface
         x = np.zeros(self._surface_size)
         if self.comm.rank == ROOT:
             surface = self.surface
-            for part in received:
+            g = np.sum([part for part, _ in parts], axis=0)
+            for _, part in parts:
                 for block, Z in part["Z"].items():
                     surface.set_condensed(block, Z)
                 for block, matrix in part["contact"].items():
