@@ -27,7 +27,7 @@ from dd_contact.contact import check_contact_geometry
 from dd_contact.errors import InputError, SingularMatrixError
 from dd_contact.impact import massless_walls
 from dd_contact.iteration import ContactIteration, ContactSettings
-from dd_contact.parallel import collective, gathered
+from dd_contact.parallel import allgather_blocks, collective, gathered
 from dd_contact.post import Results
 from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, WorkLog
@@ -317,7 +317,15 @@ class Analysis:
         )
 
     def _publish(self, x: dict[str, np.ndarray]) -> None:
-        """Copy the solution into the scene's Functions (contact results on their owners)."""
+        """Collective: copy the solution into the scene's Functions.
+
+        Contact results land on their owners; every rank gets every subdomain's u here (the
+        one gather of whole subdomains in a solve).
+        """
+        if isinstance(self.solver, BlockEliminationSolver):  # each rank holds its own u only
+            sizes = self.model.system.sizes
+            owners = {s.block: self.scene.owner(k) for k, s in enumerate(self.scene.subdomains)}
+            x = {**x, **allgather_blocks(self.comm, x, owners, sizes)}
         for sub in self.scene.subdomains:
             sub.u.x.array[:] = x[sub.block]
         if self.scene.interface is not None:

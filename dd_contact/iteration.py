@@ -50,7 +50,10 @@ class ContactSolver(Protocol):
         ...
 
     def finish(self) -> dict[str, np.ndarray]:
-        """Every block of the last solution (once the contact state has settled)."""
+        """The last solution, once the contact state has settled.
+
+        At least every surface block and this rank's subdomains.
+        """
         ...
 
     @property
@@ -140,8 +143,9 @@ class ContactIteration:
     """Active-set iteration: solve, update the active sets, repeat until none changes.
 
     Works with any :class:`ContactSolver` (``solve`` must return at least the blocks of this
-    rank's zones; ``finish`` every block of the last solution: a decomposition solver
-    back-substitutes the rest only once the contact state has settled), and with the zones of
+    rank's zones; ``finish`` every surface block and this rank's subdomains of the last
+    solution: a decomposition solver back-substitutes the rest only once the contact state has
+    settled), and with the zones of
     :class:`dd_contact.assembly.Model`. Every iteration in which some active set changed is
     one *contact state change* (gamma); a change on zone k also counts in alpha[k].
 

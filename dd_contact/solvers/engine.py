@@ -18,7 +18,11 @@ that subdomain's matrix change: it is then re-factorised and re-condensed on eac
 contact changes.
 
 Parallel: ranks own whole subdomains (the owner of ``u:<name>`` factorises, condenses and
-back-substitutes it); the dense surface system, small by construction, is solved on rank 0.
+back-substitutes it, and its u never leaves that rank here); the dense surface system, small
+by construction, is solved on rank 0. Per solve the ranks exchange surface vectors only: each
+rank's part of the surface right-hand side goes to rank 0 (one gather, with a condensation or
+contact matrix only after it changed) and the surface solution comes back (one buffer
+broadcast).
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
 from dd_contact.blocks import Block, ContactRegion
-from dd_contact.parallel import ROOT, bcast_from_root, gather_to_root, gathered
+from dd_contact.parallel import ROOT, bcast_array, gather_to_root, gathered
 from dd_contact.solvers.linalg import (
     DenseCholesky,
     PatternedMatrix,
@@ -505,6 +509,13 @@ class BlockEliminationSolver:
                     self.surface.add_base(r, c, A)
         self._contact: dict[str, sp.csr_array] = {}  # latest contact matrix of each w block
         self._pending_contact: dict[str, sp.csr_array] = {}  # changed since the last solve
+        # The surface blocks side by side in one vector, in the same order on every rank: what
+        # the ranks sum (right-hand side) and what rank 0 broadcasts (solution).
+        sizes = self.schedule.surface
+        blocks = sorted(sizes)
+        ends = np.cumsum([sizes[b] for b in blocks])
+        self._where = {b: slice(end - sizes[b], end) for b, end in zip(blocks, ends, strict=True)}
+        self._surface_size = int(ends[-1]) if blocks else 0
         self._x: dict[str, np.ndarray] = {}
         self._complete = False
 
@@ -528,54 +539,66 @@ class BlockEliminationSolver:
         Returns the surface blocks solved so far and the owned subdomains the contact check
         needs; the rest follows in :meth:`finish`.
         """
-        payload = {"Z": {}, "g": [], "contact": self._pending_contact}
+        changed = {"Z": {}, "contact": self._pending_contact}
         self._pending_contact = {}
+        g = np.zeros(self._surface_size)  # this rank's part of the surface right-hand side
         for block, sub in self.subdomains.items():
             if sub.changing:
                 sub.factorise()
-                payload["Z"][block] = sub.Z
-            b = rhs.get(block, np.zeros(self.system.sizes[block]))
-            g = sub.surface_rhs(b)
+                changed["Z"][block] = sub.Z
+            reduced = sub.surface_rhs(rhs.get(block, np.zeros(self.system.sizes[block])))
             start = 0
             for s, J in sub.layout:
-                payload["g"].append((s, J, g[start : start + len(J)]))
+                g[self._where[s]][J] += reduced[start : start + len(J)]
                 start += len(J)
         for block, vector in rhs.items():
             if Block.parse(block).kind != "u":
-                payload["g"].append((block, None, vector))
-        received = gather_to_root(self.comm, payload)
-        x = None
+                g[self._where[block]] += vector
+        # One meeting of the ranks before the surface solve: a surface vector from each, and
+        # a matrix only where one changed (each meeting costs a rank's turn on a busy machine).
+        parts = gather_to_root(self.comm, (g, changed), g.nbytes)
         complete = self.schedule.needs_all_surface
+        x = np.zeros(self._surface_size)
         if self.comm.rank == ROOT:
             surface = self.surface
-            g = {b: np.zeros(n) for b, n in surface.sizes.items()}
-            for part in received:
+            g = np.sum([part for part, _ in parts], axis=0)
+            for _, part in parts:
                 for block, Z in part["Z"].items():
                     surface.set_condensed(block, Z)
                 for block, matrix in part["contact"].items():
                     surface.set_contact(block, matrix)
-                for s, J, vector in part["g"]:
-                    if J is None:
-                        g[s] += vector
-                    else:
-                        g[s][J] += vector
             surface.factorise()
-            x = surface.solve(g, complete=complete)
-        self._x = bcast_from_root(self.comm, x)
+            solved = surface.solve({b: g[w].copy() for b, w in self._where.items()}, complete)
+            for block, vector in solved.items():
+                x[self._where[block]] = vector
+        self._x = self._unpacked(bcast_array(self.comm, x), complete)
         self._complete = complete
         out = dict(self._x)
         for block in self._needed_u:
             out[block] = self.subdomains[block].back_substitute(self._x)
         return out
 
+    def _unpacked(self, x: np.ndarray, complete: bool) -> dict[str, np.ndarray]:
+        """The surface blocks of a broadcast solution: all, or the last level's only."""
+        levels = self.schedule.groups if complete else self.schedule.groups[-1:]
+        known = [b for level in levels for grp in level for b in grp.blocks]
+        return {b: x[self._where[b]] for b in known}
+
     def finish(self) -> dict[str, np.ndarray]:
-        """Every block of the last solution, on every rank (collective)."""
+        """Every surface block and this rank's subdomains of the last solution (collective).
+
+        The other ranks' subdomains stay there: a caller that needs every block on every
+        rank gathers them (:func:`dd_contact.parallel.allgather_blocks`).
+        """
         if not self._complete:
-            x = self.surface.back_substitute(self._x) if self.comm.rank == ROOT else None
-            self._x = bcast_from_root(self.comm, x)
+            x = np.zeros(self._surface_size)
+            if self.comm.rank == ROOT:
+                for block, vector in self.surface.back_substitute(self._x).items():
+                    x[self._where[block]] = vector
+            self._x = self._unpacked(bcast_array(self.comm, x), True)
             self._complete = True
         u = {b: s.back_substitute(self._x) for b, s in self.subdomains.items()}
-        return {**self._x, **gathered(self.comm, u)}
+        return {**self._x, **u}
 
     @property
     def rhs_offset(self) -> dict[str, np.ndarray]:

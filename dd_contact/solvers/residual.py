@@ -121,7 +121,7 @@ class ResidualCheck:
 
     Args:
         comm: Communicator; each rank holds its pieces of the system and of the right-hand
-            side, and every rank holds the whole solution.
+            side, and of the solution (every surface block and its own subdomains).
         system: This rank's pieces of the constant (constrained) block system ``A``; the
             contact terms come with each solve.
         contact_dofs: Block -> dofs any contact term may act on (this rank's regions).
@@ -175,7 +175,7 @@ class ResidualCheck:
 
         Args:
             rhs: This rank's right-hand-side contributions, contact terms included.
-            x: The whole solution (every block, on every rank).
+            x: The solution: every surface block and this rank's subdomains (at least).
             contact: This rank's contact matrices ``(block, dofs, matrix)`` (surface dof
                 numbering) that were added to ``A`` for this solve.
         """
