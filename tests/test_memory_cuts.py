@@ -4,6 +4,8 @@ The multi-pin joint at its tiny scale, w-v-u: the interface is eliminated first,
 contact interface couples to every other through it and the last group is all ten walls.
 """
 
+import weakref
+
 from mpi4py import MPI
 
 import numpy as np
@@ -11,6 +13,8 @@ import pytest
 
 import dd_contact as dc
 from dd_contact import models
+from dd_contact.solvers import engine
+from dd_contact.solvers.linalg import DenseCholesky
 from dd_contact.solvers.mumps_schur import DEFAULT_ICNTL
 
 DT = 4e-5
@@ -84,3 +88,21 @@ def test_mumps_compacts_its_workspace_and_the_results_do_not_change(stepped):
         np.testing.assert_array_equal(_displacements(kept), compacted)
     finally:
         kept.close()
+
+
+def test_a_refactorised_group_frees_its_old_factor_before_assembling_the_new(stepped, monkeypatch):
+    surface = stepped[0].solver.surface
+    last = surface.schedule.groups[-1][0].name
+    old = weakref.ref(surface.state[last].factor)
+    alive = []
+
+    def spy(A, log, block):
+        alive.append(old() is not None)
+        return DenseCholesky(A, log, block)
+
+    monkeypatch.setattr(engine, "DenseCholesky", spy)
+    x = surface.state[last].factor.solve(np.ones(surface.state[last].factor.size))
+    surface.stale.add(last)
+    surface.factorise()
+    assert alive == [False]  # one dense copy of the group at a time
+    np.testing.assert_array_equal(surface.state[last].factor.solve(np.ones(len(x))), x)

@@ -361,6 +361,7 @@ class _Surface:
             for g in level:
                 st = self.state[g.name]
                 if g.name in self.stale:
+                    st.factor = None  # freed before its successor is assembled: not two at once
                     st.factor = DenseCholesky(self._assemble(g, E), self.log, g.name)
                     if not g.last and g.neighbours:
                         self._couple(g, st, E)
