@@ -32,7 +32,9 @@ The recorded results came from: ``--scale paper --algorithms w-v-u --petsc-optio
 '{"mat_mumps_icntl_22": 1}' --tag +ooc`` (out-of-core; in core it passed 16 GiB), ``--scale
 1/4`` (all four), ``--analyse --scale 1/8`` and ``1/4`` (FULL's extrapolation), merged into
 paper_scale.json with ``--merge``; the pin joint with ``--model pin_joint --out
-benchmarks/results/paper_scale_pin_joint.json``. ``--table`` prints the summary.
+benchmarks/results/paper_scale_pin_joint.json`` (w-v-u out-of-core: ``--petsc-options
+'{"mat_mumps_icntl_22": 1}' --tag +ooc``; its memory per phase: setup_memory.py). ``--table``
+prints the summary.
 """
 
 from __future__ import annotations

@@ -1,29 +1,37 @@
-"""Memory a transient problem holds before its first factorisation (issue 14 item 2).
+"""Memory a transient problem holds, phase by phase (issue 14 item 2).
 
 Builds ``models.parallelepiped`` at ``--elements`` (141 x 35 x 10 hexahedra: about 170k
-dofs, 1/8 of the paper's bar) for each algorithm in its own process, the
-``TransientProblem`` included, and stops before the first step (FULL's and the orders'
-factorisations happen there). Per phase it records the process's resident memory kept at
-the end of the phase (``VmRSS`` after ``gc.collect`` and glibc's ``malloc_trim``) and its
-peak within the phase (``VmHWM``, reset at each phase's start through
-``/proc/self/clear_refs``), in MB and per dof:
+dofs, 1/8 of the paper's bar) or, with ``--model pin_joint``, the multi-pin joint at
+``--scale`` (``paper`` or cell counts ``c,r,t,grip``: ``8,8,4,36`` is 1/8 of the paper's
+cells, ``10,10,5,45`` about 1/4) for each algorithm in its own process, the
+``TransientProblem`` included, and stops before the first step or, with ``--steps``, after
+that many steps. Per phase it records the process's resident memory kept at the end of
+the phase (``VmRSS`` after ``gc.collect`` and glibc's ``malloc_trim``) and its peak within
+the phase (``VmHWM``, reset at each phase's start through ``/proc/self/clear_refs``), in MB
+and per dof. The phases end where the package's calls return (wrapped here, unchanged):
 
-- ``scene``: the dolfinx meshes, function spaces and the scene's objects;
+- ``meshes``: gmsh and the dolfinx meshes (the pin joint only); ``scene``: the rest of it;
 - ``assembly``: ``dd_contact.assembly.assemble`` (stiffness, mass, tie operators, zones);
-- ``system``: the rest of the ``Analysis`` before the solver (effective matrix K + c M,
-  lifting, contact checks);
-- ``solver``: the solver's build (FULL's PETSc matrix; the orders' COO arrays, MUMPS
-  instances and the dense surface base);
-- ``problem``: the rest of the problem (residual check, results, load forms).
+- ``effective K + cM``: its copy of the system with the mass added; ``constraints``: the
+  Dirichlet elimination (``mask @ A @ mask``); ``system``: lifting and contact checks;
+- ``subdomain COO + MUMPS instances``: the orders' upper-triangle COO handed to MUMPS;
+  ``solver``: the rest of the solver (the dense surface base; FULL's PETSc matrix);
+- ``problem``: the residual check, results, load forms;
+- with ``--steps``: ``factorisations`` (every subdomain's Schur factorisation, up to the
+  first condensation reaching the surface), ``surface`` (the condensed surface pairs and
+  the dense groups' factorisations) and the rest of the steps.
 
 ``--tracemalloc`` also lists the source lines that hold the most Python-allocated memory
-(numpy arrays included; PETSc's and MUMPS's own memory is not traced) after the build.
+(numpy arrays included; PETSc's and MUMPS's own memory is not traced) at the end.
+``--petsc-options`` passes MUMPS controls (e.g. out-of-core), ``--tag`` marks the run's key.
 
-Writes ``benchmarks/results/setup_memory.json`` under ``--label`` (``before``/``after``),
-keeping the other labels in the file.
+Writes ``benchmarks/results/setup_memory.json`` under ``--label``, keeping the other labels
+in the file.
 
 Run: python benchmarks/setup_memory.py --label after [--elements 141,35,10]
      [--algorithms FULL w-v-u] [--tracemalloc]
+     python benchmarks/setup_memory.py --model pin_joint --scale 8,8,4,36 --steps 1
+     --algorithms w-v-u --label pin_joint_after [--petsc-options '{"mat_mumps_icntl_22": 1}']
 """
 
 from __future__ import annotations
@@ -81,7 +89,7 @@ class Phases:
 
 
 def worker(args) -> dict:
-    """One algorithm: scene, assembly, system, solver, problem; the memory of each."""
+    """One algorithm: scene, assembly, system, solver, problem (, first step); their memory."""
     import tracemalloc
 
     from mpi4py import MPI
@@ -90,48 +98,111 @@ def worker(args) -> dict:
         tracemalloc.start(40)
 
     import dd_contact as dc
-    from dd_contact import analysis, models
+    from dd_contact import analysis, assembly, models
+    from dd_contact.solvers import engine
     from dd_contact.solvers.linalg import release_freed_memory
 
+    pin_joint_module = sys.modules["dd_contact.models.pin_joint"]  # the name is a function
     phases = Phases(release_freed_memory)
-    elements = tuple(int(n) for n in args.elements.split(","))
-    layout = "w-u" if args.worker == "w-u" else None
-    scene = models.parallelepiped(elements, algorithm=layout, comm=MPI.COMM_WORLD)
+    # Phase boundaries (measurement only: each wrapped call is unchanged).
+    wrap_after(pin_joint_module, "pin_joint_meshes", phases, "meshes (gmsh, dolfinx)")
+    wrap_after(analysis, "assemble", phases, "assembly (K, M, ties)")
+    wrap_first(assembly.BlockSystem, "constrain", phases, "effective K + cM (copy)")
+    wrap_after(assembly.Model, "effective", phases, "constraints (mask A mask)")
+    wrap_before(analysis.Analysis, "_use", phases, "system (lifting, checks)")
+    wrap_after(engine, "owned_subdomains", phases, "subdomain COO + MUMPS instances")
+    wrap_after(analysis.Analysis, "_use", phases, "solver (surface base)")
+    wrap_first(engine._Surface, "set_condensed", phases, "factorisations (Schur)")
+    wrap_after(engine._Surface, "factorise", phases, "surface (R, dense groups)")
+    if args.model == "pin_joint":
+        scene = models.pin_joint(_joint_layout(args.scale), comm=MPI.COMM_WORLD)
+        dt = 4e-5
+    else:
+        elements = tuple(int(n) for n in args.elements.split(","))
+        layout = "w-u" if args.worker == "w-u" else None
+        scene = models.parallelepiped(elements, algorithm=layout, comm=MPI.COMM_WORLD)
+        dt = args.dt
     phases.close("scene")
-
-    # phase boundaries inside the Analysis (measurement only; the calls are unchanged)
-    assemble, use = analysis.assemble, analysis.Analysis._use
-
-    def assemble_and_close(*a, **k):
-        model = assemble(*a, **k)
-        phases.close("assembly")
-        return model
-
-    def use_and_close(self, *a, **k):
-        phases.close("system")
-        use(self, *a, **k)
-        phases.close("solver")
-
-    analysis.assemble, analysis.Analysis._use = assemble_and_close, use_and_close
-    problem = dc.TransientProblem(scene, args.dt, algorithm=args.worker, track_energy=False)
+    options = json.loads(args.petsc_options) if args.petsc_options else None
+    problem = dc.TransientProblem(
+        scene, dt, algorithm=args.worker, track_energy=False, petsc_options=options
+    )
     phases.close("problem")
     dofs = sum(problem.model.system.sizes.values())
+    if args.steps:
+        for _ in range(args.steps):
+            problem.advance()
+        phases.close(f"first {args.steps} step(s), rest")
     for record in phases.records:
         record["kept_bytes_per_dof"] = round(record["kept_mb"] * MB / dofs)
+        record["peak_bytes_per_dof"] = round(record["peak_mb"] * MB / dofs)
     base = phases.records[0]["kept_mb"]
     out = {
         "algorithm": args.worker,
-        "elements": list(elements),
+        "model": args.model,
         "dofs": dofs,
         "phases": phases.records,
         "kept_over_import_mb": round(phases.records[-1]["kept_mb"] - base, 1),
         "kept_over_import_bytes_per_dof": round((phases.records[-1]["kept_mb"] - base) * MB / dofs),
         "peak_mb": max(r["peak_mb"] for r in phases.records),
     }
+    if args.model == "pin_joint":
+        out["scale"] = args.scale
+    else:
+        out["elements"] = list(elements)
     if args.tracemalloc:
         out["python_held_mb"] = _held_by_our_lines(tracemalloc.take_snapshot(), args.top)
     problem.close()
     return out
+
+
+def _joint_layout(scale: str):
+    """The pin joint at ``paper`` or cell counts ``c,r,t,grip`` (``8,8,4,36`` is 1/8)."""
+    import dataclasses
+
+    from dd_contact import models
+
+    if scale in models.PIN_JOINT_SCALES:
+        return models.pin_joint_layout(scale)
+    names = ("n_circumferential", "n_radial", "n_layers", "n_length")
+    counts = dict(zip(names, map(int, scale.split(",")), strict=True))
+    return dataclasses.replace(models.pin_joint_layout("paper"), **counts)
+
+
+def wrap_after(owner, name: str, phases: Phases, phase: str) -> None:
+    """Close ``phase`` when ``owner.name`` returns."""
+    original = getattr(owner, name)
+
+    def wrapped(*a, **k):
+        out = original(*a, **k)
+        phases.close(phase)
+        return out
+
+    setattr(owner, name, wrapped)
+
+
+def wrap_before(owner, name: str, phases: Phases, phase: str) -> None:
+    """Close ``phase`` when ``owner.name`` is called."""
+    original = getattr(owner, name)
+
+    def wrapped(*a, **k):
+        phases.close(phase)
+        return original(*a, **k)
+
+    setattr(owner, name, wrapped)
+
+
+def wrap_first(owner, name: str, phases: Phases, phase: str) -> None:
+    """Close ``phase`` at the first call of ``owner.name`` only."""
+    original, calls = getattr(owner, name), []
+
+    def wrapped(*a, **k):
+        if not calls:
+            phases.close(phase)
+        calls.append(1)
+        return original(*a, **k)
+
+    setattr(owner, name, wrapped)
 
 
 def _held_by_our_lines(snapshot, top: int) -> dict[str, float]:
@@ -149,7 +220,9 @@ def _held_by_our_lines(snapshot, top: int) -> dict[str, float]:
 def run(args, algorithm: str) -> dict:
     """Run one algorithm in a fresh process and return its record."""
     command = [sys.executable, __file__, "--worker", algorithm, "--elements", args.elements]
-    command += ["--dt", str(args.dt), "--top", str(args.top)]
+    command += ["--dt", str(args.dt), "--top", str(args.top), "--model", args.model]
+    command += ["--scale", args.scale, "--steps", str(args.steps)]
+    command += ["--petsc-options", args.petsc_options] if args.petsc_options else []
     command += ["--tracemalloc"] if args.tracemalloc else []
     env = {**os.environ, **PINNED}
     done = subprocess.run(command, env=env, capture_output=True, text=True, check=False)
@@ -160,10 +233,16 @@ def run(args, algorithm: str) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    models = ["parallelepiped", "pin_joint"]
+    parser.add_argument("--model", default="parallelepiped", choices=models)
     parser.add_argument("--elements", default="141,35,10", help="hexahedra nx,ny,nz")
+    parser.add_argument("--scale", default="8,8,4,36", help="pin joint: paper or c,r,t,grip")
+    parser.add_argument("--steps", type=int, default=0, help="steps after the build (0: none)")
+    parser.add_argument("--petsc-options", help="JSON, e.g. '{\"mat_mumps_icntl_22\": 1}'")
     parser.add_argument("--algorithms", nargs="+", default=["FULL", "w-v-u"])
     parser.add_argument("--dt", type=float, default=1e-4)
     parser.add_argument("--label", default="after", help="key of this run in the JSON")
+    parser.add_argument("--tag", default="", help="suffix of the run's key, e.g. '+ooc'")
     parser.add_argument("--tracemalloc", action="store_true")
     parser.add_argument("--top", type=int, default=15, help="source lines listed")
     parser.add_argument("--out", type=Path, default=OUT)
@@ -176,7 +255,9 @@ def main() -> None:
     runs = results.setdefault(args.label, {})
     for algorithm in args.algorithms:
         record = run(args, algorithm)
-        runs[f"{algorithm}|{args.elements}"] = record
+        size = args.elements if args.model == "parallelepiped" else f"pin_joint:{args.scale}"
+        record["petsc_options"] = json.loads(args.petsc_options) if args.petsc_options else None
+        runs[f"{algorithm}|{size}{args.tag}"] = record
         print(json.dumps(record, indent=1))
         args.out.write_text(json.dumps(results, indent=1) + "\n")
 

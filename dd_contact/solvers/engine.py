@@ -332,7 +332,10 @@ class _Surface:
         self.condensed[block] = Z
         where = self.schedule.where
         touched = {(a, b) for a in where[block] for b in where[block]}
-        for pair in touched:
+        for pair in sorted(touched):
+            if pair[::-1] in touched and pair[::-1] < pair:  # R is symmetric: a view, no copy
+                self.R[pair] = self.R[pair[::-1]].T
+                continue
             R = np.array(self.base.get(pair, np.zeros((self.sizes[pair[0]], self.sizes[pair[1]]))))
             for k, Zk in self.condensed.items():
                 if pair[0] in where[k] and pair[1] in where[k]:
@@ -362,6 +365,7 @@ class _Surface:
             for g in level:
                 st = self.state[g.name]
                 if g.name in self.stale:
+                    st.factor = None  # freed before its successor is assembled: not two at once
                     st.factor = DenseCholesky(self._assemble(g, E), self.log, g.name)
                     if not g.last and g.neighbours:
                         self._couple(g, st, E)
@@ -372,6 +376,9 @@ class _Surface:
             for pair, parts in updates.items():
                 redo = pair in self.new_pairs or any(g.name in self.stale for g, *_ in parts)
                 if redo or pair not in self.eliminated:
+                    for g, st, *_ in parts:
+                        if st.BtX is None:  # freed after its last use below
+                            self._couple(g, st, E)
                     M = E.get(pair)
                     M = np.zeros((self.sizes[pair[0]], self.sizes[pair[1]])) if M is None else M
                     M = M.copy()
@@ -381,6 +388,8 @@ class _Surface:
                         M[np.ix_(J1, J2)] -= st.BtX[o1 : o1 + len(J1), o2 : o2 + len(J2)]
                     self.eliminated[pair] = M
                 E[pair] = self.eliminated[pair]
+            for g in level:  # B^T A_GG^-1 B is in the eliminated pairs now: as large as they
+                self.state[g.name].BtX = None
         self.changed, self.new_pairs = set(), set()
 
     def _assemble(self, g: Group, E) -> np.ndarray:

@@ -1,0 +1,108 @@
+"""What the solvers keep, and that the memory cuts keep the results (docs/solvers.md, memory).
+
+The multi-pin joint at its tiny scale, w-v-u: the interface is eliminated first, so every
+contact interface couples to every other through it and the last group is all ten walls.
+"""
+
+import weakref
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+import dd_contact as dc
+from dd_contact import models
+from dd_contact.solvers import engine
+from dd_contact.solvers.linalg import DenseCholesky
+from dd_contact.solvers.mumps_schur import DEFAULT_ICNTL
+
+DT = 4e-5
+
+
+def _joint_problem(algorithm: str, options: dict | None = None) -> dc.TransientProblem:
+    scene = models.pin_joint("tiny", clearance=0.0, comm=MPI.COMM_SELF)
+    return dc.TransientProblem(
+        scene, DT, algorithm=algorithm, track_energy=False, petsc_options=options
+    )
+
+
+def _displacements(problem: dc.TransientProblem) -> np.ndarray:
+    scene = problem.scene
+    parts = [s.u.x.array for s in scene.subdomains] + [c.w.x.array for c in scene.contacts]
+    return np.concatenate(parts)
+
+
+@pytest.fixture(scope="module")
+def stepped():
+    """w-v-u after three steps, and its displacements."""
+    problem = _joint_problem("w-v-u")
+    for _ in range(3):
+        problem.advance()
+    yield problem, _displacements(problem)
+    problem.close()
+
+
+def test_the_surface_keeps_one_copy_of_each_symmetric_pair(stepped):
+    surface = stepped[0].solver.surface
+    pairs = [p for p in surface.R if p[0] != p[1]]
+    assert len(pairs) == 20  # the interface with each of the ten walls, both ways
+    for a, b in pairs:
+        assert np.shares_memory(surface.R[(a, b)], surface.R[(b, a)])
+        np.testing.assert_array_equal(surface.R[(a, b)], surface.R[(b, a)].T)
+    owners = {id(v.base if v.base is not None else v) for v in surface.R.values()}
+    assert len(owners) == len(surface.R) - 10  # 1 (v, v) + 10 (w, w) + 10 off-diagonal
+
+
+def test_no_group_keeps_its_condensation_once_eliminated(stepped):
+    surface = stepped[0].solver.surface
+    first, last = surface.schedule.groups
+    assert [len(g.blocks) for g in first] == [1] and [len(g.blocks) for g in last] == [10]
+    groups = [g for level in surface.schedule.groups for g in level]
+    assert all(surface.state[g.name].BtX is None for g in groups)
+    assert surface.state[first[0].name].B is not None  # its solves still need B
+
+
+def test_re_eliminating_a_pair_recomputes_the_freed_condensation(stepped):
+    """A pair marked new while its group is not stale needs B^T A^-1 B again: same values."""
+    surface = stepped[0].solver.surface
+    pair = next(p for p in surface.eliminated if p[0] != p[1])
+    before = surface.eliminated[pair].copy()
+    surface.new_pairs.add(pair)
+    surface.stale.add(surface.schedule.groups[-1][0].name)  # re-factorise the last group only
+    surface.factorise()
+    np.testing.assert_array_equal(surface.eliminated[pair], before)
+    assert surface.state[surface.schedule.groups[0][0].name].BtX is None
+
+
+def test_mumps_compacts_its_workspace_and_the_results_do_not_change(stepped):
+    problem, compacted = stepped
+    assert DEFAULT_ICNTL == {49: 1}
+    for sub in problem.solver.subdomains.values():
+        assert sub.factor.icntl(49) == 1
+    kept = _joint_problem("w-v-u", {"mat_mumps_icntl_49": 0})
+    try:
+        assert all(s.factor.icntl(49) == 0 for s in kept.solver.subdomains.values())
+        for _ in range(3):
+            kept.advance()
+        np.testing.assert_array_equal(_displacements(kept), compacted)
+    finally:
+        kept.close()
+
+
+def test_a_refactorised_group_frees_its_old_factor_before_assembling_the_new(stepped, monkeypatch):
+    surface = stepped[0].solver.surface
+    last = surface.schedule.groups[-1][0].name
+    old = weakref.ref(surface.state[last].factor)
+    alive = []
+
+    def spy(A, log, block):
+        alive.append(old() is not None)
+        return DenseCholesky(A, log, block)
+
+    monkeypatch.setattr(engine, "DenseCholesky", spy)
+    x = surface.state[last].factor.solve(np.ones(surface.state[last].factor.size))
+    surface.stale.add(last)
+    surface.factorise()
+    assert alive == [False]  # one dense copy of the group at a time
+    np.testing.assert_array_equal(surface.state[last].factor.solve(np.ones(len(x))), x)
