@@ -313,7 +313,8 @@ def summary(data: dict) -> dict:
 
     runs = {k.removesuffix("|run"): r for k, r in data["runs"].items() if k.endswith("|run")}
     out = {key: derived(run) for key, run in runs.items() if "steps" in run}
-    full_paper = extrapolated_full(data)
+    models = {key.split("|")[0] for key in data["runs"]}
+    full_paper = {m: extrapolated_full(data, m) for m in models}
     n, changes = PAPER_BAR.steps, PAPER_BAR.changes  # N_TS and D of Table 3
 
     def whole(x):
@@ -322,25 +323,33 @@ def summary(data: dict) -> dict:
     for key, d in out.items():
         model, scale, algorithm = key.split("|")
         full = out.get(f"{model}|{scale}|FULL")
-        if full is None and scale.startswith("paper") and model == "parallelepiped":
-            full, d["full_extrapolated"] = full_paper, True
+        if full is None and scale.startswith("paper") and full_paper[model]:
+            full, d["full_extrapolated"] = full_paper[model], True
         if algorithm == "FULL" or not full or full["seconds_per_change"] is None:
             continue
         if d["seconds_per_change"] is None:
             continue
         d["full_over_this_per_change"] = full["seconds_per_change"] / d["seconds_per_change"]
         d["this_over_full_per_step"] = d["seconds_per_step"] / full["seconds_per_step"]
-        d["percent_of_full_paper_study"] = 100.0 * whole(d) / whole(full)
-        d["paper_percent_flops"] = PAPER_PERCENT.get(algorithm)
-    if full_paper:
-        out["parallelepiped|paper|FULL (extrapolated)"] = full_paper
+        if model == "parallelepiped":  # Table 3 is the bar's study
+            d["percent_of_full_paper_study"] = 100.0 * whole(d) / whole(full)
+            d["paper_percent_flops"] = PAPER_PERCENT.get(algorithm)
+    for model, extrapolated in full_paper.items():
+        if extrapolated:
+            out[f"{model}|paper|FULL (extrapolated)"] = extrapolated
     return out
 
 
 def cells(model: str, scale: str) -> int:
-    """Hexahedra of the bar at a scale of this script (``paper``, ``1/4``, ``nx,ny,nz``)."""
-    if model != "parallelepiped":
-        raise ValueError("cells: the bar only")
+    """Hexahedra of a model at a scale of this script (bar: ``paper``, ``1/4``, ``nx,ny,nz``;
+    joint: ``paper`` or ``c,r,t,grip``)."""
+    from dd_contact import models
+    from dd_contact.flops.paper import pin_joint_mesh_counts
+
+    scale = scale.removesuffix("+ooc")
+    if model == "pin_joint":
+        layout = models.pin_joint_layout("paper") if scale == "paper" else _joint_layout(scale)
+        return pin_joint_mesh_counts(layout)["hexahedra"]
     nx, ny, nz = (400, 100, 10) if scale == "paper" else _bar_scale(scale)
     return nx * ny * nz
 

@@ -12,10 +12,9 @@ import numpy as np
 import pytest
 
 import dd_contact as dc
-from dd_contact import models
+from dd_contact import examples, models
 from dd_contact.solvers import engine
 from dd_contact.solvers.linalg import DenseCholesky
-from dd_contact.solvers.mumps_schur import DEFAULT_ICNTL
 
 DT = 4e-5
 
@@ -77,9 +76,9 @@ def test_re_eliminating_a_pair_recomputes_the_freed_condensation(stepped):
 
 def test_mumps_compacts_its_workspace_and_the_results_do_not_change(stepped):
     problem, compacted = stepped
-    assert DEFAULT_ICNTL == {49: 1}
-    for sub in problem.solver.subdomains.values():
-        assert sub.factor.icntl(49) == 1
+    subs = problem.solver.subdomains
+    assert len(subs) == 12  # one rank owns them all: each compacts
+    assert [s.factor.icntl(49) for s in subs.values()] == [1] * 12
     kept = _joint_problem("w-v-u", {"mat_mumps_icntl_49": 0})
     try:
         assert all(s.factor.icntl(49) == 0 for s in kept.solver.subdomains.values())
@@ -106,3 +105,15 @@ def test_a_refactorised_group_frees_its_old_factor_before_assembling_the_new(ste
     surface.factorise()
     assert alive == [False]  # one dense copy of the group at a time
     np.testing.assert_array_equal(surface.state[last].factor.solve(np.ones(len(x))), x)
+
+
+def test_a_single_subdomain_is_not_compacted():
+    """Its compaction, a copy of its factors, would set the peak (docs/solvers.md)."""
+    scene = examples.parallelepiped("w-u", elements=(8, 4, 2), comm=MPI.COMM_SELF)
+    problem = dc.TransientProblem(scene, 1e-6, algorithm="w-u", track_energy=False)
+    try:
+        subs = problem.solver.subdomains
+        assert len(subs) == 1
+        assert next(iter(subs.values())).factor.icntl(49) == 0
+    finally:
+        problem.close()

@@ -44,7 +44,7 @@ from dd_contact.solvers.linalg import (
 )
 from dd_contact.solvers.worklog import WorkLog
 
-__all__ = ["DEFAULT_ICNTL", "MUMPS_LAYOUT_VERSION", "PACKAGE_ICNTL", "SchurFactorisation"]
+__all__ = ["ICNTL_COMPACT", "MUMPS_LAYOUT_VERSION", "PACKAGE_ICNTL", "SchurFactorisation"]
 
 #: MUMPS versions whose ``DMUMPS_STRUC_C`` has the layout below (5.8.x).
 MUMPS_LAYOUT_VERSION = "5.8."
@@ -124,11 +124,14 @@ PACKAGE_ICNTL = {
 }
 
 
-#: ICNTL the package sets unless an option gives another value: 49 = 1 compacts MUMPS's
-#: workspace to the factors at the end of each factorisation (MUMPS otherwise keeps its
-#: contribution-block stack too: the 12 subdomains of the pin joint at 1/8 of the paper's
-#: cells kept 0.72 GB for 0.40 GB of factors; compacted 0.21 GB less, the same factors).
-DEFAULT_ICNTL = {49: 1}
+#: ICNTL(49) = 1 compacts MUMPS's workspace to the factors at the end of a factorisation
+#: (MUMPS otherwise keeps its contribution-block stack too: the 12 subdomains of the pin
+#: joint at 1/8 of the paper's cells kept 0.72 GB for 0.40 GB of factors; compacted 0.21 GB
+#: less, the same factors). The compaction copies the factors, so it raises the peak while it
+#: runs: the bar's one 307k-dof subdomain (w-u) peaked at 5.2 GB compacted, 3.3 GB not. A
+#: factorisation is compacted only when asked (``compact=True``: the engine asks when a rank
+#: owns more than one subdomain); an option ``mat_mumps_icntl_49`` decides for all.
+ICNTL_COMPACT = 49
 
 
 @functools.cache
@@ -206,9 +209,13 @@ class SchurFactorisation:
         schur: Size m of the Schur block (> 0).
         log: Where to record the work.
         block: Name of the block, for the log.
+        compact: Compact MUMPS's workspace after each factorisation (ICNTL(49) = 1; see
+            :data:`ICNTL_COMPACT`).
     """
 
-    def __init__(self, rows, cols, size: int, schur: int, log: WorkLog, block: str):
+    def __init__(
+        self, rows, cols, size: int, schur: int, log: WorkLog, block: str, compact: bool = False
+    ):
         if schur <= 0:
             raise ValueError(f"schur must be positive, got {schur}")
         icntl, cntl = _user_controls()  # before MUMPS allocates anything
@@ -241,7 +248,7 @@ class SchurFactorisation:
                 f"PETSc links MUMPS {version}, the C layout here is MUMPS "
                 f"{MUMPS_LAYOUT_VERSION}x's: use condensation='multi-rhs'"
             )
-        for k, value in {**DEFAULT_ICNTL, **PACKAGE_ICNTL, **icntl}.items():
+        for k, value in {ICNTL_COMPACT: int(compact), **PACKAGE_ICNTL, **icntl}.items():
             self._id.icntl[k - 1] = value
         for k, value in cntl.items():
             self._id.cntl[k - 1] = value
