@@ -322,7 +322,9 @@ def summary(data: dict) -> dict:
 
     for key, d in out.items():
         model, scale, algorithm = key.split("|")
-        full = out.get(f"{model}|{scale}|FULL")
+        full = out.get(f"{model}|{scale}|FULL") or out.get(
+            f"{model}|{scale.removesuffix('+ooc')}|FULL"  # FULL in core, the order out-of-core
+        )
         if full is None and scale.startswith("paper") and full_paper[model]:
             full, d["full_extrapolated"] = full_paper[model], True
         if algorithm == "FULL" or not full or full["seconds_per_change"] is None:
@@ -373,7 +375,7 @@ def extrapolated_full(data: dict, model: str = "parallelepiped") -> dict | None:
         for key, run in data["runs"].items()
         if key.startswith(f"{model}|") and key.endswith("|FULL|run") and "steps" in run
     }
-    if len(analysed) < 2 or not measured:
+    if len(analysed) < 2 or not measured or "paper" in measured:  # measured: no need
         return None
     n = np.log([cells(model, s) for s in analysed])
     fits = {}
