@@ -150,6 +150,11 @@ class _UserData:
         ]
         self._values = self._now()
 
+    @property
+    def watches(self) -> bool:
+        """Whether there is any of the user's data to watch."""
+        return bool(self._objects)
+
     def _now(self) -> list[np.ndarray]:
         return [np.array(o.x.array if hasattr(o, "x") else o.value) for o in self._objects]
 
@@ -215,6 +220,9 @@ class SubdomainLoad:
         for term in self._scaled:
             term[2] = [_packed(self._assemble(f)) for f in term[1]]
         self._fixed = self._sum_fixed()
+        #: Whether the load is the same at every time (and no user data can change it).
+        watched = any(data.watches for _, data in self._fixed_terms)
+        self.constant = not (self._scaled or self._general or watched)
 
     def _assemble(self, form: fem.Form) -> np.ndarray:
         self.assemblies += 1
@@ -222,12 +230,6 @@ class SubdomainLoad:
 
     def _sum_fixed(self) -> np.ndarray:
         return sum((self._assemble(f) for f, _ in self._fixed_terms), np.zeros(self.num_dofs))
-
-    @property
-    def constant(self) -> bool:
-        """Whether the load is the same at every time (and no user data can change it)."""
-        watched = any(data._objects for _, data in self._fixed_terms)
-        return not self._scaled and not self._general and not watched
 
     def __call__(self) -> np.ndarray:
         """r_D at the subdomain's current time: a new array (the fixed part itself if constant)."""

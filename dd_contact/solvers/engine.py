@@ -592,14 +592,20 @@ class BlockEliminationSolver:
                     surface.set_contact(block, matrix)
             surface.factorise()
             solved = surface.solve({b: g[w].copy() for b, w in self._where.items()}, complete)
-            for block, vector in solved.items():
-                x[self._where[block]] = vector
+            x = self._packed(solved)
         self._x = self._unpacked(bcast_array(self.comm, x), complete)
         self._complete = complete
         out = dict(self._x)
         for block in self._needed_u:
             out[block] = self.subdomains[block].back_substitute(self._x)
         return out
+
+    def _packed(self, blocks: dict[str, np.ndarray]) -> np.ndarray:
+        """Surface blocks side by side in one vector (zero where a block is not given)."""
+        x = np.zeros(self._surface_size)
+        for block, vector in blocks.items():
+            x[self._where[block]] = vector
+        return x
 
     def _unpacked(self, x: np.ndarray, complete: bool) -> dict[str, np.ndarray]:
         """The surface blocks of a broadcast solution: all, or the last level's only."""
@@ -616,8 +622,7 @@ class BlockEliminationSolver:
         if not self._complete:
             x = np.zeros(self._surface_size)
             if self.comm.rank == ROOT:
-                for block, vector in self.surface.back_substitute(self._x).items():
-                    x[self._where[block]] = vector
+                x = self._packed(self.surface.back_substitute(self._x))
             self._x = self._unpacked(bcast_array(self.comm, x), True)
             self._complete = True
         u = {b: s.back_substitute(self._x) for b, s in self.subdomains.items()}

@@ -111,8 +111,10 @@ class MonolithicSolver:
             scatter, x_all = PETSc.Scatter.toAll(x)
             scatter.scatter(x, x_all, addv=PETSc.InsertMode.INSERT_VALUES)
             values = x_all.getArray().copy()
-            scatter.destroy(), x_all.destroy()
-        x.destroy(), b.destroy()
+            scatter.destroy()
+            x_all.destroy()
+        x.destroy()
+        b.destroy()
         self._last = {
             name: values[off : off + self.system.sizes[name]] for name, off in self.offsets.items()
         }
