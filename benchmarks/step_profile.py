@@ -15,13 +15,15 @@ the root and the solution back), ``surface`` (the dense surface solve), ``expans
 subdomains' backward sweeps), ``contact_check`` (the active set from the solution),
 ``contact_rhs`` (the contact terms and the step's correction added to the right-hand side),
 ``residual_check``, ``publish`` (solution into the dolfinx Functions), ``agree`` (forces,
-reactions, areas agreed over ranks), ``other`` (the rest of ``advance``: the Newmark history
-M h, the velocity update, copies).
+reactions, areas agreed over ranks), ``energy`` (with ``--track-energy``: the energy at the
+step's end, whose product K x the next step's start forces read), ``other`` (the rest of
+``advance``: the Newmark history M h, the velocity update, copies).
 
 Writes benchmarks/results/step_profile_<nx>x<ny>x<nz>[_<tag>].json.
 
 ``--body-force`` adds a body force ``t -> 3-vector`` to every subdomain (the paper's bar
-is shaken so), whose load is assembled over the whole volume.
+is shaken so), whose load is assembled over the whole volume. ``--track-energy`` runs with
+``track_energy=True`` (the package's default) instead of False.
 
 Run: python benchmarks/step_profile.py [--elements 120 30 10] [--steps 4] [--body-force]
      [--tag before]
@@ -73,6 +75,7 @@ def _parts():
         ("residual_check", iteration.ContactIteration, "_checked"),
         ("publish", analysis.Analysis, "_publish"),
         ("agree", analysis.Analysis, "_agree"),
+        ("energy", problem.TransientProblem, "energy"),
         ("other", problem.TransientProblem, "advance"),
     ]
 
@@ -90,7 +93,9 @@ def worker(args) -> dict:
     if args.body_force:  # a periodic body force, as the paper's bar (dd_contact.models)
         for sub in scene.subdomains:
             sub.set_body_force(lambda t: [-1e5 * np.sin(2e4 * np.pi * t), 0.0, 0.0])
-    problem = dd.TransientProblem(scene, args.dt, algorithm=args.worker, track_energy=False)
+    problem = dd.TransientProblem(
+        scene, args.dt, algorithm=args.worker, track_energy=args.track_energy
+    )
     problem.start()
     for _ in range(args.warm):
         problem.advance()
@@ -166,6 +171,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=4)
     parser.add_argument("--algorithms", nargs="+", default=ALGORITHMS)
     parser.add_argument("--body-force", action="store_true", help="a body force t -> 3-vector")
+    parser.add_argument("--track-energy", action="store_true", help="track_energy=True")
     parser.add_argument("--tag", default="")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -180,6 +186,7 @@ def main() -> None:
         command += [str(n) for n in args.elements]
         command += ["--steps", str(args.steps), "--warm", str(args.warm), "--dt", str(args.dt)]
         command += ["--speed", str(args.speed)] + (["--body-force"] if args.body_force else [])
+        command += ["--track-energy"] if args.track_energy else []
         done = subprocess.run(
             command, env={**os.environ, **PINNED}, capture_output=True, text=True, check=True
         )
@@ -187,7 +194,8 @@ def main() -> None:
         for kind in ("median_seconds", "median_cpu_seconds"):
             median = results[algorithm][kind]
             print(algorithm, kind, json.dumps({k: round(v, 4) for k, v in median.items()}))
-    out.write_text(json.dumps({"elements": args.elements, "results": results}, indent=1))
+    settings = {"elements": args.elements, "track_energy": args.track_energy}
+    out.write_text(json.dumps({**settings, "results": results}, indent=1))
     print(f"wrote {out}")
 
 

@@ -63,6 +63,7 @@ __all__ = [
     "GEOMETRIC_STEPS",
     "RELEASE_FLOOR",
     "RELEASE_TOLERANCE",
+    "BlockProducts",
     "StartForces",
     "block_product",
     "massless_walls",
@@ -94,6 +95,41 @@ def block_product(system: BlockSystem, row: Block, x: Mapping[Block, np.ndarray]
     return out
 
 
+class BlockProducts:
+    """Block rows of ``A x`` (:func:`block_product`), each remembered for the x it was taken at.
+
+    The energy at the end of a step and the start forces of the next one both read ``K x_n``
+    on every subdomain row, a sparse product of the subdomain's size: the second finds it
+    here. A row is recomputed when any block it reads differs from the remembered one (the
+    user may change a displacement between steps). The system's matrices must not change.
+    """
+
+    def __init__(self, system: BlockSystem):
+        self.system = system
+        self._read = {}  # row -> the blocks its product reads
+        for r, c in system.matrices:
+            self._read.setdefault(r, set()).add(c)
+            self._read.setdefault(c, set()).add(r)
+        self._last: dict[Block, tuple[dict[Block, np.ndarray], np.ndarray]] = {}
+        self.computed = 0  # products taken (not found): a count for tests
+
+    def row(self, row: Block, x: Mapping[Block, np.ndarray]) -> np.ndarray:
+        """``(A x)_row`` as a new array (the caller may change it)."""
+        read = {c: x[c] for c in self._read.get(row, ()) if c in x}
+        last = self._last.get(row)
+        if (
+            last is None
+            or last[0].keys() != read.keys()
+            or not all(np.array_equal(last[0][c], v) for c, v in read.items())
+        ):
+            last = self._last[row] = (
+                {c: v.copy() for c, v in read.items()},
+                block_product(self.system, row, x),
+            )
+            self.computed += 1
+        return last[1].copy()
+
+
 class StartForces:
     """The start-of-step forces of one step on the owned subdomain rows.
 
@@ -111,6 +147,8 @@ class StartForces:
         weight: Weight of the start forces against the end ones in the step (the scheme's
             ``start_weight``: 1 in the trapezoidal rule, ``alpha_f / (1 - alpha_f)`` in
             generalized-alpha); the corrections carry it too.
+        products: Where ``K x_n`` is taken (the energy of the last step's end may have taken
+            it already); by default computed here.
     """
 
     def __init__(
@@ -123,6 +161,7 @@ class StartForces:
         offset: Mapping[Block, np.ndarray],
         free: Callable[[Block], np.ndarray],
         weight: float = 1.0,
+        products: BlockProducts | None = None,
     ):
         self.system, self.zones, self.x, self.free = system, zones, x, free
         self.weight = weight
@@ -133,10 +172,11 @@ class StartForces:
         self._calls = 0  # corrections asked for in this step
         #: ``K x_n - f_C(x_n; A_n)`` on each owned subdomain block (ties and stiff-tie forces in).
         self.internal = {}
+        products = products or BlockProducts(system)
         for block in owned:
-            force = block_product(system, block, x)
+            force = products.row(block, x)
             if block in offset:
-                force = force + offset[block]
+                force += offset[block]
             self.internal[block] = force
         #: ``x_n K x_n / 2`` on this rank's subdomain rows: the scale of :data:`RELEASE_FLOOR`
         self.elastic_energy = abs(sum(float(x[b] @ f) for b, f in self.internal.items())) / 2

@@ -24,7 +24,7 @@ from dd_contact import timing
 from dd_contact.analysis import Analysis
 from dd_contact.errors import CoarseTimeStepWarning, EnergyGrowthWarning, InputError
 from dd_contact.forms import MASS_KINDS
-from dd_contact.impact import StartForces, block_product
+from dd_contact.impact import BlockProducts, StartForces, block_product
 from dd_contact.io import RunOutput
 from dd_contact.iteration import ContactSettings
 from dd_contact.parallel import collective, gathered
@@ -218,6 +218,8 @@ class TransientProblem(Analysis):
             petsc_options,
         )
         self.track_energy = track_energy
+        #: ``K x`` by block rows, shared by the energy and the next step's start forces
+        self._products = BlockProducts(self.model.system)
         self.dt, self.t0 = dt, t0
         self.t, self.step = t0, 0
         self.history: list[dict] = []
@@ -378,7 +380,7 @@ class TransientProblem(Analysis):
     def energy(self) -> dict[str, float]:
         """Collective: kinetic, elastic (with ties) and contact-penalty energy now [J]."""
         velocities = {block: sub.velocity.x.array for _, sub, block in self._owned}
-        local = energy(self.model, self._state_now(), velocities, self.zones)
+        local = energy(self.model, self._state_now(), velocities, self.zones, self._products)
         parts = np.array(
             self.comm.allreduce(np.array([local["kinetic"], local["elastic"], local["contact"]]))
         )
@@ -420,6 +422,7 @@ class TransientProblem(Analysis):
                 self.tie_solver.rhs_offset,
                 self.model.free,
                 scheme.start_weight,
+                self._products,
             )
             for _, sub, block in self._owned:
                 # r_n+1 + w (r_n - K x_n) + M h, summed in this order, in one new array

@@ -4,13 +4,17 @@ from __future__ import annotations
 
 import warnings
 
+from mpi4py import MPI
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
 
 import dd_contact as dd
-from dd_contact import verify
-from dd_contact.impact import massless_walls
+from dd_contact import examples, verify
+from dd_contact.assembly import BlockSystem
+from dd_contact.blocks import Block
+from dd_contact.impact import BlockProducts, block_product, massless_walls
 
 
 @pytest.mark.parametrize(
@@ -142,3 +146,49 @@ def test_a_contact_penalty_too_soft_is_reported():
         warnings.simplefilter("error", dd.PenaltyRangeWarning)
         firm = verify.bar_impact(n=40, cfl=0.58, contact_kappa=1.0)
     assert firm["rebound"] == pytest.approx(1.0, rel=0.02)
+
+
+def _two_block_system():
+    u, v = Block("u", "a"), Block("v", "i")
+    rng = np.random.default_rng(3)
+    K = sp.random_array((6, 6), density=0.5, rng=rng)
+    system = BlockSystem({u: 6, v: 3}, {u: 0, v: 0})
+    system.add(u, u, K + K.T + 6 * sp.eye_array(6))
+    system.add(u, v, sp.random_array((6, 3), density=0.5, rng=rng))
+    system.add(v, v, 2 * sp.eye_array(3))
+    x = {u: rng.standard_normal(6), v: rng.standard_normal(3)}
+    return system, u, v, x
+
+
+def test_a_block_row_product_is_taken_once_per_state_and_again_when_the_state_changes():
+    system, u, v, x = _two_block_system()
+    products = BlockProducts(system)
+    first = products.row(u, x)
+    np.testing.assert_array_equal(first, block_product(system, u, x))
+    first[:] = 0.0  # the caller's copy: what is remembered stays
+    np.testing.assert_array_equal(products.row(u, x), block_product(system, u, x))
+    assert products.computed == 1
+    x[v][0] += 1.0  # a block the row reads changed in place (a user's edit between steps)
+    np.testing.assert_array_equal(products.row(u, x), block_product(system, u, x))
+    assert products.computed == 2
+
+
+def test_the_energy_and_the_next_start_forces_share_one_product_per_subdomain_row():
+    scene = examples.parallelepiped("w-u", elements=(8, 4, 2), comm=MPI.COMM_SELF)
+    problem = dd.TransientProblem(scene, 1e-6, algorithm="w-u", track_energy=True)
+    try:
+        problem.start()
+        products = problem._products
+        rows = {b for pair in problem.model.system.matrices for b in pair}
+        assert products.computed == len(rows)  # the energy at t0
+        for step in range(1, 4):
+            problem.advance()  # start forces (found), then the energy at the step's end
+            assert products.computed == len(rows) * (step + 1)
+        x = problem._state_now()
+        direct = sum(
+            (0.5 if r == c else 1.0) * float(x[r] @ (A @ x[c]))
+            for (r, c), A in problem.model.system.matrices.items()
+        )
+        assert problem.energy()["elastic"] == pytest.approx(direct, rel=1e-12)
+    finally:
+        problem.close()

@@ -13,7 +13,7 @@ import pytest
 
 import dd_contact as dc
 from dd_contact import examples, models
-from dd_contact.solvers import engine
+from dd_contact.solvers import engine, mumps_schur
 from dd_contact.solvers.linalg import DenseCholesky
 
 DT = 4e-5
@@ -76,9 +76,7 @@ def test_re_eliminating_a_pair_recomputes_the_freed_condensation(stepped):
 
 def test_mumps_compacts_its_workspace_and_the_results_do_not_change(stepped):
     problem, compacted = stepped
-    subs = problem.solver.subdomains
-    assert len(subs) == 12  # one rank owns them all: each compacts
-    assert [s.factor.icntl(49) for s in subs.values()] == [1] * 12
+    assert len(problem.solver.subdomains) == 12  # one rank owns them all: 11 compact
     kept = _joint_problem("w-v-u", {"mat_mumps_icntl_49": 0})
     try:
         assert all(s.factor.icntl(49) == 0 for s in kept.solver.subdomains.values())
@@ -87,6 +85,55 @@ def test_mumps_compacts_its_workspace_and_the_results_do_not_change(stepped):
         np.testing.assert_array_equal(_displacements(kept), compacted)
     finally:
         kept.close()
+
+
+def _compaction_per_factorisation(monkeypatch, algorithm: str, steps: int) -> list:
+    """(subdomain, ICNTL(49)) of every subdomain factorisation over ``steps`` steps."""
+    calls = []
+    factorise = mumps_schur.SchurFactorisation.factorise
+
+    def spy(self, values):
+        calls.append((self.block.name, self.icntl(49)))
+        return factorise(self, values)
+
+    monkeypatch.setattr(mumps_schur.SchurFactorisation, "factorise", spy)
+    scene = examples.parallelepiped(algorithm, elements=(8, 4, 2), comm=MPI.COMM_SELF)
+    problem = dc.TransientProblem(scene, 1e-6, algorithm=algorithm, track_energy=False)
+    try:
+        for _ in range(steps):
+            problem.advance()
+    finally:
+        problem.close()
+    return calls
+
+
+@pytest.mark.parametrize(
+    ("algorithm", "first"),
+    [
+        ("w-v-u", [("Omega1", 1), ("Omega2", 0)]),
+        ("v-u", [("Omega2", 1), ("Omega1", 0)]),  # contact on Omega1: factorised last
+    ],
+)
+def test_only_the_first_factorisation_of_all_but_the_last_subdomain_is_compacted(
+    monkeypatch, algorithm, first
+):
+    """The compaction copies the factors on top of all a rank holds (docs/solvers.md): it
+    pays before another subdomain's factorisation, not after the last or on a contact change.
+    """
+    calls = _compaction_per_factorisation(monkeypatch, algorithm, 3)
+    assert calls[:2] == first
+    refactorised = calls[2:]  # v-u re-factorises the subdomain in contact on each change
+    assert all(compact == 0 for _, compact in refactorised)
+    if algorithm == "v-u":
+        assert len(refactorised) >= 1
+        assert {name for name, _ in refactorised} == {"Omega1"}
+    else:
+        assert refactorised == []  # w-v-u's contact is on w: no subdomain re-factorises
+
+
+def test_a_single_subdomain_is_not_compacted(monkeypatch):
+    """Its compaction, a copy of its factors, would set the peak (docs/solvers.md)."""
+    assert _compaction_per_factorisation(monkeypatch, "w-u", 1) == [("Omega1", 0)]
 
 
 def test_a_refactorised_group_frees_its_old_factor_before_assembling_the_new(stepped, monkeypatch):
@@ -105,15 +152,3 @@ def test_a_refactorised_group_frees_its_old_factor_before_assembling_the_new(ste
     surface.factorise()
     assert alive == [False]  # one dense copy of the group at a time
     np.testing.assert_array_equal(surface.state[last].factor.solve(np.ones(len(x))), x)
-
-
-def test_a_single_subdomain_is_not_compacted():
-    """Its compaction, a copy of its factors, would set the peak (docs/solvers.md)."""
-    scene = examples.parallelepiped("w-u", elements=(8, 4, 2), comm=MPI.COMM_SELF)
-    problem = dc.TransientProblem(scene, 1e-6, algorithm="w-u", track_energy=False)
-    try:
-        subs = problem.solver.subdomains
-        assert len(subs) == 1
-        assert next(iter(subs.values())).factor.icntl(49) == 0
-    finally:
-        problem.close()

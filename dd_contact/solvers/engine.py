@@ -130,7 +130,7 @@ class SubdomainCondensation:
         contacts: The contact regions on the subdomain's own boundary (no contact interface).
         log: Where the work is recorded.
         condensation: ``"schur"`` or ``"multi-rhs"``.
-        compact: Compact MUMPS's workspace after each factorisation (``"schur"`` only; it
+        compact: Compact MUMPS's workspace after the first factorisation (``"schur"`` only; it
             copies the factors: :data:`~dd_contact.solvers.mumps_schur.ICNTL_COMPACT`).
 
     Attributes:
@@ -262,20 +262,21 @@ def owned_subdomains(
 ) -> dict[Block, SubdomainCondensation]:
     """The subdomains this rank owns, each ready to factorise (nothing factorised yet).
 
-    With more than one, each compacts MUMPS's workspace after factorising: what they keep
-    adds up (w-v-u on the 306k bar peaked at 4.26 GB, 4.41 with one left alone). A rank
-    with one subdomain does not: the compaction copies its factors and would set the peak
-    (w-u on the same bar: 5.2 GB compacted, 3.3 GB not).
+    They are factorised in this order: first those without contact on their own boundary,
+    then those with (re-factorised on each contact change). Each but the last compacts
+    MUMPS's workspace after its first factorisation: what the earlier ones keep adds to
+    the later ones' peak. The compaction copies the factors, so the last one does not, nor
+    does a re-factorisation: their copy would set the peak. Peaks on the 306k-dof bar
+    (ru_maxrss, MiB; docs/solvers.md): w-v-u 4,257 with both subdomains compacted, 3,390
+    with the first only (FULL 3,434); w-u's one subdomain 5,192 compacted, 3,312 not; v-u
+    3,424 with its contact subdomain factorised first, RE_ORDERED with it last.
     """
     owned = [b for b, owner in system.owners.items() if b.kind == "u" and owner == comm.rank]
+    own_contacts = {b: [r for r in contacts if r.block == b] for b in owned}
+    owned.sort(key=lambda b: bool(own_contacts[b]))  # stable: the owners' order otherwise
     return {
         block: SubdomainCondensation(
-            block,
-            system,
-            [r for r in contacts if r.block == block],
-            log,
-            condensation,
-            compact=len(owned) > 1,
+            block, system, own_contacts[block], log, condensation, compact=block != owned[-1]
         )
         for block in owned
     }

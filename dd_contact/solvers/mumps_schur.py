@@ -127,10 +127,13 @@ PACKAGE_ICNTL = {
 #: ICNTL(49) = 1 compacts MUMPS's workspace to the factors at the end of a factorisation
 #: (MUMPS otherwise keeps its contribution-block stack too: the 12 subdomains of the pin
 #: joint at 1/8 of the paper's cells kept 0.72 GB for 0.40 GB of factors; compacted 0.21 GB
-#: less, the same factors). The compaction copies the factors, so it raises the peak while it
-#: runs: the bar's one 307k-dof subdomain (w-u) peaked at 5.2 GB compacted, 3.3 GB not. A
-#: factorisation is compacted only when asked (``compact=True``: the engine asks when a rank
-#: owns more than one subdomain); an option ``mat_mumps_icntl_49`` decides for all.
+#: less, the same factors). The compaction copies the factors, so while it runs it adds them
+#: to everything the process holds: it pays only when more factorisations follow that the
+#: smaller workspace leaves room for. A factorisation is compacted only when asked
+#: (``compact=True``; the engine asks for each of a rank's subdomains but the last it
+#: factorises) and only the first time: a re-factorisation (a contact change) would copy its
+#: factors on top of every other subdomain's. An option ``mat_mumps_icntl_49`` decides for
+#: every factorisation.
 ICNTL_COMPACT = 49
 
 
@@ -209,8 +212,8 @@ class SchurFactorisation:
         schur: Size m of the Schur block (> 0).
         log: Where to record the work.
         block: Name of the block, for the log.
-        compact: Compact MUMPS's workspace after each factorisation (ICNTL(49) = 1; see
-            :data:`ICNTL_COMPACT`).
+        compact: Compact MUMPS's workspace after the first factorisation (ICNTL(49) = 1;
+            see :data:`ICNTL_COMPACT`).
     """
 
     def __init__(
@@ -248,6 +251,7 @@ class SchurFactorisation:
                 f"PETSc links MUMPS {version}, the C layout here is MUMPS "
                 f"{MUMPS_LAYOUT_VERSION}x's: use condensation='multi-rhs'"
             )
+        self._compact_once = ICNTL_COMPACT not in icntl  # the user's option holds throughout
         for k, value in {ICNTL_COMPACT: int(compact), **PACKAGE_ICNTL, **icntl}.items():
             self._id.icntl[k - 1] = value
         for k, value in cntl.items():
@@ -323,6 +327,8 @@ class SchurFactorisation:
                 "part of the model can move freely; check its supports, ties and contacts"
             )
         self.entries = float(_mumps_count(self._id.infog[INFOG_FACTOR_ENTRIES - 1]))
+        if self._compact_once:  # a re-factorisation is not compacted (ICNTL_COMPACT)
+            self._id.icntl[ICNTL_COMPACT - 1] = 0
         analysis, self._analysis_seconds = self._analysis_seconds, None
         self.log.add(
             self.block,
