@@ -27,7 +27,9 @@ log per block, and the peak memory. Derived, per algorithm (medians over runs):
 * ``whole_run_seconds``: scene, set-up and every step of one run; ``auto`` (on the w-v-u
   scene, told the run's length and 1.25 changes a step) gets ``auto_over_best_named``: its
   whole run over the best named algorithm's of the same number of steps (target <= 1.15);
-* ``peak_memory_mb``: the largest peak resident memory of the runs (``_runs``: each).
+* ``peak_memory_mb``: the largest peak resident memory of the runs (``_runs``: each), the
+  worker's ``ru_maxrss`` / 1024: MiB (2^20 bytes; the key's name is kept for the earlier
+  files).
 
 ``--algorithms "w-u classic" ...`` runs an algorithm with the paper's contact
 (``energy_safe_contact=False``); beside its energy-safe run it gives

@@ -50,7 +50,7 @@ acceleration reported is the step's mean ``(u'_{n+1} - u'_n) / dt`` (nothing reu
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -96,26 +96,30 @@ def block_product(system: BlockSystem, row: Block, x: Mapping[Block, np.ndarray]
 
 
 class BlockProducts:
-    """Block rows of ``A x`` (:func:`block_product`), each remembered for the x it was taken at.
+    """Block rows of ``A x`` (:func:`block_product`), the ``kept`` ones remembered per x.
 
     The energy at the end of a step and the start forces of the next one both read ``K x_n``
-    on every subdomain row, a sparse product of the subdomain's size: the second finds it
-    here. A row is recomputed when any block it reads differs from the remembered one (the
-    user may change a displacement between steps). The system's matrices must not change.
+    on every owned subdomain row, a sparse product of the subdomain's size: the second finds
+    it here. A kept row is taken again when any block it reads differs from the remembered
+    one (the user may change a displacement between steps). The system's matrices must not
+    change.
     """
 
-    def __init__(self, system: BlockSystem):
+    def __init__(self, system: BlockSystem, kept: Iterable[Block]):
         self.system = system
-        self._read = {}  # row -> the blocks its product reads
+        self._read = {row: set() for row in kept}  # a kept row -> the blocks it reads
         for r, c in system.matrices:
-            self._read.setdefault(r, set()).add(c)
-            self._read.setdefault(c, set()).add(r)
+            for row, col in ((r, c), (c, r)):
+                if row in self._read:
+                    self._read[row].add(col)
         self._last: dict[Block, tuple[dict[Block, np.ndarray], np.ndarray]] = {}
-        self.computed = 0  # products taken (not found): a count for tests
+        self.computed = 0  # products of kept rows taken (not found): a count for tests
 
     def row(self, row: Block, x: Mapping[Block, np.ndarray]) -> np.ndarray:
         """``(A x)_row`` as a new array (the caller may change it)."""
-        read = {c: x[c] for c in self._read.get(row, ()) if c in x}
+        if row not in self._read:
+            return block_product(self.system, row, x)
+        read = {c: x[c] for c in self._read[row] if c in x}
         last = self._last.get(row)
         if (
             last is None
@@ -148,7 +152,7 @@ class StartForces:
             ``start_weight``: 1 in the trapezoidal rule, ``alpha_f / (1 - alpha_f)`` in
             generalized-alpha); the corrections carry it too.
         products: Where ``K x_n`` is taken (the energy of the last step's end may have taken
-            it already); by default computed here.
+            it already); by default computed here, not kept.
     """
 
     def __init__(
@@ -172,9 +176,8 @@ class StartForces:
         self._calls = 0  # corrections asked for in this step
         #: ``K x_n - f_C(x_n; A_n)`` on each owned subdomain block (ties and stiff-tie forces in).
         self.internal = {}
-        products = products or BlockProducts(system)
         for block in owned:
-            force = products.row(block, x)
+            force = products.row(block, x) if products else block_product(system, block, x)
             if block in offset:
                 force += offset[block]
             self.internal[block] = force

@@ -218,8 +218,10 @@ class TransientProblem(Analysis):
             petsc_options,
         )
         self.track_energy = track_energy
-        #: ``K x`` by block rows, shared by the energy and the next step's start forces
-        self._products = BlockProducts(self.model.system)
+        #: ``K x`` by block rows, shared by the energy and the next step's start forces (it
+        #: keeps a copy of x: without the energy there is nothing to share)
+        owned = [block for _, _, block in self._owned]
+        self._products = BlockProducts(self.model.system, owned) if track_energy else None
         self.dt, self.t0 = dt, t0
         self.t, self.step = t0, 0
         self.history: list[dict] = []
