@@ -152,3 +152,44 @@ def test_a_refactorised_group_frees_its_old_factor_before_assembling_the_new(ste
     surface.factorise()
     assert alive == [False]  # one dense copy of the group at a time
     np.testing.assert_array_equal(surface.state[last].factor.solve(np.ones(len(x))), x)
+
+
+def test_the_surface_frees_each_condensation_once_its_pairs_hold_it(monkeypatch):
+    """Unless a subdomain can be re-factorised (contact on its own boundary), bit for bit."""
+    scene = examples.parallelepiped("w-v-u", elements=(8, 4, 2), comm=MPI.COMM_SELF)
+    freed = dc.TransientProblem(scene, 1e-6, algorithm="w-v-u", track_energy=False)
+    monkeypatch.setattr(engine._Surface, "__init__", _keeping(engine._Surface.__init__))
+    scene = examples.parallelepiped("w-v-u", elements=(8, 4, 2), comm=MPI.COMM_SELF)
+    kept = dc.TransientProblem(scene, 1e-6, algorithm="w-v-u", track_energy=False)
+    try:
+        for _ in range(3):
+            freed.advance()
+            kept.advance()
+        assert freed.solver.surface.condensed == {}
+        assert len(kept.solver.surface.condensed) == 2
+        np.testing.assert_array_equal(_displacements(freed), _displacements(kept))
+        with pytest.raises(RuntimeError, match="second condensation"):
+            freed.solver.surface.set_condensed("u:Omega1", np.zeros((1, 1)))
+    finally:
+        freed.close()
+        kept.close()
+
+
+def _keeping(init):
+    def keep(self, schedule, log, recondensed=True):
+        init(self, schedule, log, True)
+
+    return keep
+
+
+def test_a_surface_whose_subdomains_are_re_factorised_keeps_their_condensations():
+    scene = examples.parallelepiped("v-u", elements=(8, 4, 2), comm=MPI.COMM_SELF)
+    problem = dc.TransientProblem(scene, 1e-6, algorithm="v-u", track_energy=False)
+    try:
+        for _ in range(3):
+            problem.advance()
+        surface = problem.solver.surface
+        assert surface.recondensed
+        assert set(surface.condensed) == {"u:Omega1", "u:Omega2"}
+    finally:
+        problem.close()

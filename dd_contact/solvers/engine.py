@@ -321,12 +321,23 @@ class _GroupState:
 
 
 class _Surface:
-    """The condensed surface system on rank 0, eliminated group by group as scheduled."""
+    """The condensed surface system on rank 0, eliminated group by group as scheduled.
 
-    def __init__(self, schedule: Schedule, log: WorkLog):
+    Args:
+        schedule: The elimination schedule.
+        log: Where the dense work is recorded.
+        recondensed: Whether a subdomain can send a new Z (it has contact on its own boundary
+            and is re-factorised on a change). The surface pairs R are then rebuilt from the
+            base and every subdomain's Z, which are kept. Otherwise both are freed once every
+            subdomain's Z is in R (at 306k dofs 84 MB of dense copies; a new Z then raises).
+    """
+
+    def __init__(self, schedule: Schedule, log: WorkLog, recondensed: bool = True):
         self.schedule, self.sizes, self.log = schedule, schedule.surface, log
+        self.recondensed = recondensed
         self.base: dict[tuple[str, str], np.ndarray] = {}
-        self.condensed: dict[str, np.ndarray] = {}  # latest Z of each subdomain
+        self.condensed: dict[str, np.ndarray] = {}  # latest Z of each subdomain (if kept)
+        self._sources_freed = False  # base pairs in R and every Z freed (not recondensed)
         self.contact: dict[str, sp.csr_array] = {}
         self.R: dict[tuple[str, str], np.ndarray] = {}  # base minus the condensations
         self.eliminated: dict[tuple[str, str], np.ndarray] = {}  # after an earlier level
@@ -344,6 +355,11 @@ class _Surface:
 
     def set_condensed(self, block: str, Z: np.ndarray) -> None:
         """A subdomain's new condensation: rebuild the surface pairs it touches."""
+        if self._sources_freed:
+            raise RuntimeError(
+                f"subdomain {block!r} sent a second condensation, but no subdomain has contact "
+                "on its own boundary, so the surface freed what its pairs were built from"
+            )
         self.condensed[block] = Z
         where = self.schedule.where
         touched = {(a, b) for a in where[block] for b in where[block]}
@@ -359,6 +375,11 @@ class _Surface:
             self.R[pair] = R
         self.new_pairs |= touched
         self.changed |= self.schedule.touched(block)
+        if not self.recondensed and self.condensed.keys() == where.keys():
+            self.condensed.clear()  # every Z is in R now, and none will change
+            for pair in self.R:
+                self.base.pop(pair, None)
+            self._sources_freed = True
 
     def set_contact(self, block: str, matrix: sp.csr_array) -> None:
         """A surface block's new contact matrix."""
@@ -526,8 +547,10 @@ class BlockEliminationSolver:
         pieces = [(r, c, A) for (r, c), A in system.matrices.items() if r.kind != "u" != c.kind]
         pieces = gather_to_root(comm, pieces)
         self.surface: _Surface | None = None
+        # a subdomain with contact on its own boundary is re-factorised: it sends a new Z
+        recondensed = comm.allreduce(any(r.block.kind == "u" for r in contacts), op=MPI.LOR)
         if comm.rank == ROOT:
-            self.surface = _Surface(self.schedule, log)
+            self.surface = _Surface(self.schedule, log, recondensed)
             for part in pieces:
                 for r, c, A in part:
                     self.surface.add_base(r, c, A)
@@ -569,7 +592,7 @@ class BlockEliminationSolver:
         for block, sub in self.subdomains.items():
             if sub.changing:
                 sub.factorise()
-                changed["Z"][block] = sub.Z
+                changed["Z"][block], sub.Z = sub.Z, None  # the surface's from now on
             reduced = sub.surface_rhs(rhs.get(block, np.zeros(self.system.sizes[block])))
             start = 0
             for s, J in sub.layout:
