@@ -66,7 +66,7 @@ def _parts():
         ("reduction", engine.SubdomainCondensation, "surface_rhs"),
         ("reduction", full.MonolithicSolver, "solve"),
         ("gather_bcast", engine, "gather_to_root"),
-        ("gather_bcast", engine, "bcast_from_root"),
+        ("gather_bcast", engine, "bcast_array"),
         ("surface", engine._Surface, "solve"),
         ("surface", engine._Surface, "back_substitute"),
         ("expansion", engine.SubdomainCondensation, "back_substitute"),
