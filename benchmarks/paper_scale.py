@@ -33,7 +33,8 @@ The recorded results came from: ``--scale paper --algorithms w-v-u --petsc-optio
 1/4`` (all four), ``--analyse --scale 1/8`` and ``1/4`` (FULL's extrapolation), merged into
 paper_scale.json with ``--merge``; the pin joint with ``--model pin_joint --out
 benchmarks/results/paper_scale_pin_joint.json`` (w-v-u out-of-core: ``--petsc-options
-'{"mat_mumps_icntl_22": 1}' --tag +ooc``; its memory per phase: setup_memory.py). ``--table``
+'{"mat_mumps_icntl_22": 1}' --tag +ooc``; its memory per phase: setup_memory.py; v-w-u in
+core with ``--memory-limit 20``). ``--table``
 prints the summary.
 """
 
