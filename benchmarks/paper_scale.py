@@ -110,10 +110,9 @@ def _joint_layout(scale: str):
 def _analysis(problem) -> dict:
     """MUMPS's analysis of what the run factorises, and the timing model's prediction."""
     from dd_contact import timing
-    from dd_contact.solvers.linalg import petsc_options
 
     full = problem.algorithm == "FULL"
-    with petsc_options(problem._options):  # the analysis reads the factorisations' options
+    with problem.analysis.petsc_options():  # the analysis reads the factorisations' options
         structure = timing.scene_structure(
             problem.comm,
             problem.solver.system,

@@ -38,7 +38,7 @@ PARTS = {
     "step (advance)": problem_module.TransientProblem.advance,
     "loads": analysis.Analysis._loads,
     "start forces": impact.StartForces.__init__,
-    "right-hand side": analysis.Analysis._rhs,
+    "right-hand side": analysis.Analysis.rhs,
     "contact iteration": iteration.ContactIteration.solve,
     "  one solve": iteration.ContactIteration._solve_once,
     "    engine solve": engine.BlockEliminationSolver.solve,
@@ -49,8 +49,8 @@ PARTS = {
     "  finish": engine.BlockEliminationSolver.finish,
     "    subdomain expansion": engine.SubdomainCondensation.back_substitute,
     "  residual check": iteration.ContactIteration._checked,
-    "publish": analysis.Analysis._publish,
-    "agree results": analysis.Analysis._agree,
+    "publish": analysis.Analysis.publish,
+    "agree results": analysis.Analysis.agree,
 }
 
 

@@ -61,7 +61,7 @@ def _parts():
 
     return [
         ("loads", analysis.Analysis, "_loads"),
-        ("rhs", analysis.Analysis, "_rhs"),
+        ("rhs", analysis.Analysis, "rhs"),
         ("start_forces", impact.StartForces, "__init__"),
         ("reduction", engine.SubdomainCondensation, "surface_rhs"),
         ("reduction", full.MonolithicSolver, "solve"),
@@ -73,8 +73,8 @@ def _parts():
         ("contact_check", ContactOperator, "active_set"),
         ("contact_rhs", iteration.ContactIteration, "_solve_once"),
         ("residual_check", iteration.ContactIteration, "_checked"),
-        ("publish", analysis.Analysis, "_publish"),
-        ("agree", analysis.Analysis, "_agree"),
+        ("publish", analysis.Analysis, "publish"),
+        ("agree", analysis.Analysis, "agree"),
         ("energy", problem.TransientProblem, "energy"),
         ("other", problem.TransientProblem, "advance"),
     ]

@@ -1,11 +1,12 @@
-"""What the static and transient problems share: the scene assembled, the solver, the iteration.
+"""What a problem solves with: the scene assembled, its solver and its contact iteration.
 
 :class:`Analysis` assembles the scene once, eliminates the Dirichlet conditions, hands the
 block system to a solver (the elimination order) and solves with the contact iteration;
 results land in the scene's dolfinx Functions (``Subdomain.u``, ``Interface.v``,
 ``ContactInterface.w`` and ``.pressure``). It owns the solver's PETSc objects and frees
-them in ``close()`` (or on leaving a ``with`` block). The user-facing problems built on it,
-and time stepping, are in :mod:`dd_contact.problem`.
+them in ``close()``. The user-facing problems (:mod:`dd_contact.problem`) each hold one,
+built from explicit arguments: the mass term and its kind, and whether contact walls are
+massless (energy-safe contact).
 
 This module only orchestrates: the contact term and the geometric checks are in
 :mod:`dd_contact.contact`, the contact iteration in :mod:`dd_contact.iteration` and the
@@ -16,7 +17,6 @@ from __future__ import annotations
 
 import logging
 import warnings
-from typing import Self
 
 import dolfinx.fem as fem
 import numpy as np
@@ -29,10 +29,15 @@ from dd_contact.impact import massless_walls
 from dd_contact.iteration import ContactIteration, ContactSettings
 from dd_contact.parallel import allgather_blocks, collective, gathered
 from dd_contact.post import Results
-from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
+from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene, Subdomain
 from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.engine import BlockEliminationSolver
-from dd_contact.solvers.linalg import petsc_options, release_freed_memory
+from dd_contact.solvers.linalg import (
+    OPTIONS_PREFIX,
+    check_options_prefix,
+    petsc_options,
+    release_freed_memory,
+)
 from dd_contact.solvers.mumps_schur import layout_known, mumps_version
 from dd_contact.solvers.residual import ResidualCheck
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
@@ -46,112 +51,172 @@ logger = logging.getLogger(__name__)
 CHECK_SOLVES = 3
 
 
+def available_condensation(condensation: str) -> str:
+    """``condensation``, or ``"multi-rhs"`` (with a warning) where MUMPS's Schur route is not."""
+    if condensation != "schur" or layout_known():
+        return condensation
+    warnings.warn(
+        f"the MUMPS inside PETSc is {mumps_version() or 'unknown'}, not the 5.8.x "
+        "whose reduction and expansion phases dd_contact drives: condensation "
+        "'multi-rhs' is used instead (two substitutions a step, not one)",
+        RuntimeWarning,
+        stacklevel=4,
+    )
+    return "multi-rhs"
+
+
+def check_algorithm(scene: Scene, algorithm: str, expected: tuple[float, float]) -> tuple:
+    """The algorithms that fit ``scene``; refuse ``algorithm`` if it is not one of them.
+
+    ``expected`` (steps, contact state changes) must be usable by ``"auto"``'s prediction.
+    """
+    has_interface = scene.interface is not None
+    has_w = any(not isinstance(c, ContactBoundary) for c in scene.contacts)
+    valid = fitting_algorithms(has_interface, has_w)
+    if algorithm != "auto" and algorithm not in valid:
+        parts = ["an interface" if has_interface else "no interface"]
+        parts.append("contact interfaces" if has_w else "no contact interfaces")
+        what = (
+            f"unknown algorithm {algorithm!r} (the algorithms: auto, {', '.join(ALGORITHMS)})"
+            if algorithm not in ALGORITHMS
+            else f"algorithm {algorithm!r} does not fit this scene"
+        )
+        raise InputError(
+            f"{what}; this scene has {' and '.join(parts)}; valid for it: "
+            f"{', '.join(valid)} or auto (v needs an interface, w contact interfaces)"
+        )
+    steps, changes = expected
+    if algorithm == "auto" and not (steps >= 1 and 0 <= changes < np.inf):
+        raise InputError(
+            f"algorithm='auto': expected steps must be >= 1 and expected changes >= 0 and "
+            f"finite; got {steps} steps and {changes} changes"
+        )
+    return valid
+
+
+def _with_mass(model: Model, scene: Scene, mass_kind: str, massless: bool) -> None:
+    """Make the assembled mass matrices of ``model`` the ones the time scheme uses.
+
+    Massless contact walls first (:func:`dd_contact.impact.massless_walls`), then the
+    lumped or averaged kind, so that the walls' mass is spread like the rest.
+    """
+    if massless:
+        for z in model.zones:
+            block = z.contact.subdomain.block
+            model.mass[block] = massless_walls(model.mass[block], z.wall)
+    if mass_kind == "consistent":
+        return
+    for sub in scene.subdomains:
+        if sub.block in model.mass:  # owned here
+            degree = sub.V.element.basix_element.degree
+            model.mass[sub.block] = forms.mass_of_kind(model.mass[sub.block], degree, mass_kind)
+
+
 class Analysis:
-    """Assembly, solver and contact iteration shared by the static and transient problems."""
+    """The scene assembled, with its solver and contact iteration; what a problem solves with.
+
+    Args:
+        scene: What is modelled.
+        algorithm: Elimination order, ``"FULL"`` or ``"auto"``.
+        mass_coefficient: The mass term's factor in the effective matrix ``K + c M``
+            (0: a static or quasi-static problem).
+        mass_kind: ``"consistent"``, ``"lumped"`` or ``"averaged"`` (with a mass term).
+        massless_walls: Move the contact walls' mass inside the body (energy-safe contact).
+        contact: Contact iteration settings.
+        condensation: How the decomposition orders condense a subdomain.
+        expected: For ``"auto"``: (solves, contact state changes) expected.
+        rates: For ``"auto"``: machine rates (default: this machine's).
+        options: PETSc options for the factorisations (read while they are built).
+        options_prefix: The prefix they are read under (one per problem, to tune two
+            problems of one script apart).
+    """
 
     def __init__(
         self,
         scene: Scene,
         algorithm: str,
-        mass_coefficient: float,
-        contact: ContactSettings | None,
-        condensation: str,
-        expected: tuple[float, float],
-        rates: timing.MachineRates | None,
-        options: dict | None,
+        *,
+        mass_coefficient: float = 0.0,
+        mass_kind: str = "consistent",
+        massless_walls: bool = False,
+        contact: ContactSettings | None = None,
+        condensation: str = "schur",
+        expected: tuple[float, float] = (1.0, 3.0),
+        rates: timing.MachineRates | None = None,
+        options: dict | None = None,
+        options_prefix: str = OPTIONS_PREFIX,
     ):
-        self._options = dict(options or {})
-        with petsc_options(self._options):  # checked, and read by the factorisations built
-            self._build(scene, algorithm, mass_coefficient, contact, condensation, expected, rates)
-        self._free: dict[str, np.ndarray] = {}  # model.free(block), kept
-
-    def _build(self, scene, algorithm, mass_coefficient, contact, condensation, expected, rates):
-        if condensation == "schur" and not layout_known():
-            warnings.warn(
-                f"the MUMPS inside PETSc is {mumps_version() or 'unknown'}, not the 5.8.x "
-                "whose reduction and expansion phases dd_contact drives: condensation "
-                "'multi-rhs' is used instead (two substitutions a step, not one)",
-                RuntimeWarning,
-                stacklevel=4,
-            )
-            condensation = "multi-rhs"
-        has_interface = scene.interface is not None
-        has_w = any(not isinstance(c, ContactBoundary) for c in scene.contacts)
-        valid = fitting_algorithms(has_interface, has_w)
-        if algorithm != "auto" and algorithm not in valid:
-            parts = ["an interface" if has_interface else "no interface"]
-            parts.append("contact interfaces" if has_w else "no contact interfaces")
-            what = (
-                f"unknown algorithm {algorithm!r} (the algorithms: auto, {', '.join(ALGORITHMS)})"
-                if algorithm not in ALGORITHMS
-                else f"algorithm {algorithm!r} does not fit this scene"
-            )
-            raise InputError(
-                f"{what}; this scene has {' and '.join(parts)}; valid for it: "
-                f"{', '.join(valid)} or auto (v needs an interface, w contact interfaces)"
-            )
-        steps, changes = expected
-        if algorithm == "auto" and not (steps >= 1 and 0 <= changes < np.inf):
-            raise InputError(
-                f"algorithm='auto': expected steps must be >= 1 and expected changes >= 0 and "
-                f"finite; got {steps} steps and {changes} changes"
-            )
+        #: PETSc options of the factorisations, and the prefix they are read under.
+        self.options = dict(options or {})
+        self.options_prefix = check_options_prefix(options_prefix)
+        condensation = available_condensation(condensation)
+        valid = check_algorithm(scene, algorithm, expected)
         self.scene, self.comm = scene, scene.comm
+        #: Every factorisation and solve of this analysis.
         self.work = WorkLog()
-        self.model: Model = collective(self.comm, lambda: assemble(scene))
-        for z in self.model.zones:  # the pressure-swing check reads static pressure only
-            z.check_resolution = not mass_coefficient
-        if mass_coefficient and self._energy_safe:  # massless contact walls (dd_contact.impact)
-            for z in self.model.zones:
-                block = z.contact.subdomain.block
-                self.model.mass[block] = massless_walls(self.model.mass[block], z.wall)
-        if mass_coefficient and self.mass_kind != "consistent":  # after the walls: theirs spread
-            for sub in scene.subdomains:
-                if sub.block in self.model.mass:  # owned here
-                    degree = sub.V.element.basix_element.degree
-                    M = self.model.mass[sub.block]
-                    self.model.mass[sub.block] = forms.mass_of_kind(M, degree, self.mass_kind)
-        system = self.model.effective(mass_coefficient)
-        system.rhs = {}  # built at every solve: loads and prescribed values at its time
-        self._lifting = self.model.lifting(mass_coefficient)
-        self._lifted: tuple[dict, dict] | None = None  # the last prescribed values, their rhs
-        self.zones = self.model.zones
-        self.settings = contact or ContactSettings()
-        collective(self.comm, self._check_contact_geometry)
-        contacts = [z.region for z in self.zones]
-        #: The prediction behind ``algorithm="auto"`` (``None`` for a named algorithm).
-        self.choice: timing.Choice | None = None
-        reused = None  # the chosen solver's parts that auto built and analysed already
-        self._system, self._solves = system, 0
-        if algorithm == "auto":
-            rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
-            self.choice, structure = timing.auto_choice(
-                self.comm, system, contacts, condensation, valid, rates, steps, changes, self.work
-            )
-            algorithm = self.choice.algorithm
-            reused = structure.parts.take(algorithm)
-            structure.parts = None
-            self._auto = (structure, rates, steps, changes)  # for the check after CHECK_SOLVES
-        self.condensation = condensation
-        self._use(algorithm, reused)
-        self.iteration = ContactIteration(
-            self.comm,
-            self.zones,
-            self.settings,
-            system.sizes,
-            None
-            if self.settings.residual_tolerance is None
-            else ResidualCheck(self.comm, system, {z.block: z.dofs for z in self.zones}),
-            held=[] if mass_coefficient else scene.bodies(),
-        )
-        self._closed = False
-        self._owned = [
-            (k, s, s.block)
-            for k, s in enumerate(scene.subdomains)
-            if scene.owner(k) == self.comm.rank
+        #: This rank's subdomains, in scene order.
+        self.owned: list[Subdomain] = [
+            s for k, s in enumerate(scene.subdomains) if scene.owner(k) == self.comm.rank
         ]
-        self._load = {block: forms.SubdomainLoad(sub) for _, sub, block in self._owned}
-        self._results = Results(self.comm, scene, self.model, self.iteration.alpha)
+        with self.petsc_options():  # checked, and read by the factorisations built
+            self.model: Model = collective(self.comm, lambda: assemble(scene))
+            for z in self.model.zones:  # the pressure-swing check reads static pressure only
+                z.check_resolution = not mass_coefficient
+            if mass_coefficient:
+                _with_mass(self.model, scene, mass_kind, massless_walls)
+            system = self.model.effective(mass_coefficient)
+            system.rhs = {}  # built at every solve: loads and prescribed values at its time
+            self._lifting = self.model.lifting(mass_coefficient)
+            self._lifted: tuple[dict, dict] | None = None  # the last prescribed values, rhs
+            self.zones = self.model.zones
+            self.settings = contact or ContactSettings()
+            collective(self.comm, self._check_contact_geometry)
+            self._system, self._solves = system, 0
+            self.condensation = condensation
+            #: The prediction behind ``algorithm="auto"`` (``None`` for a named algorithm).
+            self.choice: timing.Choice | None = None
+            if algorithm == "auto":
+                algorithm, reused = self._choose(valid, expected, rates)
+                self._use(algorithm, reused)
+            else:
+                self._use(algorithm)
+            self.iteration = ContactIteration(
+                self.comm,
+                self.zones,
+                self.settings,
+                system.sizes,
+                None
+                if self.settings.residual_tolerance is None
+                else ResidualCheck(self.comm, system, {z.block: z.dofs for z in self.zones}),
+                held=[] if mass_coefficient else scene.bodies(),
+            )
+        self._closed = False
+        self._load = {sub.block: forms.SubdomainLoad(sub) for sub in self.owned}
+        self._free: dict[str, np.ndarray] = {}  # model.free(block), kept
+        #: The results of each solve, agreed on every rank (``agreed.latest``: the last).
+        self.agreed = Results(self.comm, scene, self.model, self.iteration.alpha)
+
+    # -- the solver -----------------------------------------------------------------------
+    def _choose(self, valid, expected, rates):
+        """Collective: ``algorithm="auto"``'s choice, and the parts it built for it."""
+        steps, changes = expected
+        rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
+        contacts = [z.region for z in self.zones]
+        self.choice, structure = timing.auto_choice(
+            self.comm,
+            self._system,
+            contacts,
+            self.condensation,
+            valid,
+            rates,
+            steps,
+            changes,
+            self.work,
+        )
+        reused = structure.parts.take(self.choice.algorithm)
+        structure.parts = None
+        self._auto = (structure, rates, steps, changes)  # for the check after CHECK_SOLVES
+        return self.choice.algorithm, reused
 
     def _use(self, algorithm: str, reused=None) -> None:
         """Build ``algorithm``'s solver (from the parts auto analysed, if given)."""
@@ -203,7 +268,7 @@ class Analysis:
             self.solver.destroy()
             self._use(choice.algorithm)
 
-    # -- pieces ----------------------------------------------------------------------------
+    # -- a solve --------------------------------------------------------------------------
     def _check_contact_geometry(self, t: float = 0.0) -> None:
         """Refuse an obstacle that overlaps the body or whose normal points into it."""
         for z in self.zones:
@@ -216,15 +281,24 @@ class Analysis:
                 t,
             )
 
-    def _loads(self, t: float) -> dict[str, np.ndarray]:
-        """Owned load vectors r_D(t), shared arrays not to be written.
+    def free(self, block: str) -> np.ndarray:
+        """1 on the free dofs of an owned subdomain block, 0 on its prescribed ones (kept)."""
+        if block not in self._free:
+            self._free[block] = self.model.free(block)
+        return self._free[block]
+
+    def loads(self, t: float) -> dict[str, np.ndarray]:
+        """Collective: owned load vectors r_D(t), shared arrays not to be written.
 
         :class:`forms.SubdomainLoad` assembles them as seldom as their time dependence allows.
         """
+        return collective(self.comm, lambda: self._loads(t))
+
+    def _loads(self, t: float) -> dict[str, np.ndarray]:
         loads = {}
-        for _, sub, block in self._owned:
+        for sub in self.owned:
             sub.set_time(t)
-            vector = loads[block] = self._load[block]()
+            vector = loads[sub.block] = self._load[sub.block]()
             if not np.all(np.isfinite(vector)):
                 raise InputError(
                     f"subdomain {sub.name!r}: the load at t = {t} contains NaN or inf; check "
@@ -237,7 +311,7 @@ class Analysis:
 
         A contact boundary on prescribed dofs gets their new values too.
         """
-        values = {block: sub.prescribed.values(t) for _, sub, block in self._owned}
+        values = {sub.block: sub.prescribed.values(t) for sub in self.owned}
         if self._lifted is not None and all(
             np.array_equal(v, values[block]) for block, v in self._lifted[0].items()
         ):
@@ -250,27 +324,26 @@ class Analysis:
         self._lifted = (values, self._lifting(values))
         return self._lifted[1]
 
-    def _rhs(self, t: float, extra: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    def rhs(self, t: float, extra: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Collective: the prescribed values' right-hand side at ``t`` plus free-dof loads."""
         lifted = collective(self.comm, lambda: self._prescribed(t))
         rhs = dict(lifted)  # shared arrays: replaced below, never written
         for block, vector in extra.items():
-            if block not in self._free:
-                self._free[block] = self.model.free(block)
-            free = self._free[block] * vector
+            free = self.free(block) * vector
             if block in rhs:
                 free += rhs[block]
             rhs[block] = free
         return rhs
 
-    def _solve(self, t: float, rhs: dict[str, np.ndarray], where: str, correction=None):
+    def solve(self, t: float, rhs: dict[str, np.ndarray], where: str, correction=None):
+        """Collective: the contact iteration at ``t``; ``(x, iterations, changes)``."""
         if self._closed:
             raise RuntimeError(
-                f"this {type(self).__name__} was closed (its factorisations are freed); "
-                "create a new problem to solve again"
+                "this problem was closed (its factorisations are freed); create a new "
+                "problem to solve again"
             )
         try:
-            with petsc_options(self._options):
+            with self.petsc_options():
                 out = self.iteration.solve(self.tie_solver, rhs, t, where, correction)
                 self._solves += 1
                 if self.choice is not None and self._solves == CHECK_SOLVES:
@@ -295,20 +368,6 @@ class Analysis:
         ]
         return f" ({'; '.join(outside)})" if outside else ""
 
-    def _agree(self, x, loads, accelerations) -> dict:
-        """Collective: this solve's results on every rank (:meth:`Results.agree`)."""
-        it = self.iteration
-        return self._results.agree(x, loads, accelerations, it.active, it.alpha)
-
-    @property
-    def results(self) -> dict:
-        """The last solve's results, the same on every rank (rank-local; empty before).
-
-        ``force`` (contact force per region), ``active`` (active points), ``contact_area``
-        and ``reaction`` (support reaction per subdomain); see ``docs/output.md``.
-        """
-        return self._results.latest
-
     def _active_summary(self) -> str:
         local = {n: int(a.sum()) for n, a in self.iteration.active.items()}
         counts = gathered(self.comm, local)
@@ -316,7 +375,12 @@ class Analysis:
             ", ".join(f"{k}: {v}" for k, v in counts.items()) if counts else "none"
         )
 
-    def _publish(self, x: dict[str, np.ndarray]) -> None:
+    def agree(self, x, loads, accelerations) -> dict:
+        """Collective: this solve's results on every rank (:meth:`Results.agree`)."""
+        it = self.iteration
+        return self.agreed.agree(x, loads, accelerations, it.active, it.alpha)
+
+    def publish(self, x: dict[str, np.ndarray]) -> None:
         """Collective: copy the solution into the scene's Functions.
 
         Contact results land on their owners; every rank gets every subdomain's u here (the
@@ -328,53 +392,45 @@ class Analysis:
             x = {**x, **allgather_blocks(self.comm, x, owners, sizes)}
         for sub in self.scene.subdomains:
             sub.u.x.array[:] = x[sub.block]
-        if self.scene.interface is not None:
-            self.scene.interface.v.x.array[:] = x[self.scene.interface.block]
+        self.publish_surfaces(x)
         for z in self.zones:
-            w = x[z.block][z.dofs]
-            z.contact.w.x.array[:] = w
-            z.contact.pressure.x.array[:] = z.pressure(w)
+            z.contact.pressure.x.array[:] = z.pressure(x[z.block][z.dofs])
         if any(not np.all(np.isfinite(v)) for v in x.values()):
             raise FloatingPointError(
                 "the solution contains NaN or inf: the system is too ill-conditioned (extreme "
                 "penalties?) or the data are not finite"
             )
 
-    def contact_forces(self) -> dict[str, np.ndarray]:
-        """Total force of each obstacle on the body at the last solve [N], per region.
+    def publish_surfaces(self, x: dict[str, np.ndarray]) -> None:
+        """Copy the interface's and the owned contact surfaces' displacement into Functions."""
+        if self.scene.interface is not None:
+            self.scene.interface.v.x.array[:] = x[self.scene.interface.block]
+        for z in self.zones:
+            if z.block in x:
+                z.contact.w.x.array[:] = x[z.block][z.dofs]
 
-        Rank-local: every rank holds every region's force (agreed at the end of each
-        solve); zero before the first solve.
-        """
-        return self._results.vectors("force", [c.name for c in self.scene.contacts])
+    def state_now(self) -> dict[str, np.ndarray]:
+        """This rank's view of every block at the current time (subdomains, surfaces)."""
+        sizes = self.model.system.sizes
+        x = {s.block: s.u.x.array[: sizes[s.block]] for s in self.scene.subdomains}
+        if self.scene.interface is not None:
+            x[self.scene.interface.block] = self.scene.interface.v.x.array
+        for c in self.scene.contacts:
+            x.setdefault(c.block, c.w.x.array)
+        return x
 
-    @property
-    def reactions(self) -> dict[str, np.ndarray]:
-        """Support reaction of each subdomain at the last solve [N] (rank-local).
+    def functions(self) -> list[fem.Function]:
+        """The scene's displacement Functions: subdomains, interface, contact surfaces."""
+        out = [s.u for s in self.scene.subdomains]
+        if self.scene.interface is not None:
+            out.append(self.scene.interface.v)
+        return out + [c.w for c in self.scene.contacts]
 
-        The total force its Dirichlet conditions exert on it; zero without supports or
-        before the first solve.
-        """
-        return self._results.vectors("reaction", [s.name for s in self.scene.subdomains])
-
-    @property
-    def active_sets(self) -> dict[str, np.ndarray]:
-        """Active contact points of the contact regions this rank owns (rank-local).
-
-        One boolean per contact point (the surface nodes by default); the counts of every
-        region are in :attr:`results`.
-        """
-        return {name: active.copy() for name, active in self.iteration.active.items()}
-
-    @property
-    def penalties(self) -> dict[tuple[str, str], float]:
-        """Absolute penalty eps of every tie and contact, from all ranks (rank-local)."""
-        return dict(self._results.penalties)
-
+    # -- what it found ----------------------------------------------------------------------
     def predict(
         self, steps: float, changes: float, rates: timing.MachineRates | None = None
     ) -> timing.Prediction:
-        """Predicted linear-algebra time of this problem's algorithm (collective).
+        """Predicted linear-algebra time of this analysis's algorithm (collective).
 
         From MUMPS's analysis of the matrices it factorises and this machine's rates
         (:mod:`dd_contact.timing`): set-up, one step, one contact change, and the total for
@@ -383,7 +439,7 @@ class Analysis:
         contacts = [z.region for z in self.zones]
         full = self.algorithm == "FULL"
         rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
-        with petsc_options(self._options):  # the analysis reads the factorisations' options
+        with self.petsc_options():  # the analysis reads the factorisations' options
             structure = timing.scene_structure(
                 self.comm,
                 self.solver.system,
@@ -394,47 +450,20 @@ class Analysis:
             )
         return timing.predict(timing.plan(structure, self.algorithm), rates, steps, changes)
 
-    def work_summary(self) -> dict[str, dict]:
-        """Work per block so far, from all ranks (collective).
-
-        Matrix kind and size, decompositions, substitutions (right-hand sides, as the paper
-        counts them), seconds and GFLOPs; see :meth:`dd_contact.solvers.WorkLog.per_block`.
-        """
-        return self.work.merged(self.comm).per_block()
-
-    def work_table(self) -> str:
-        """:meth:`work_summary` as a text table (collective)."""
-        return self.work.merged(self.comm).table()
+    # -- resources ------------------------------------------------------------------------
+    def petsc_options(self):
+        """The context in which this analysis's factorisations read their PETSc options."""
+        return petsc_options(self.options, self.options_prefix)
 
     @property
-    def changes(self) -> dict[str, int]:
-        """Contact state changes so far: ``"gamma"`` (whole model) and one count per contact.
+    def closed(self) -> bool:
+        """Whether :meth:`close` freed the factorisations."""
+        return self._closed
 
-        Rank-local: the counts are agreed at the end of each solve.
-        """
-        return {"gamma": self.iteration.gamma, **self._results.alpha}
-
-    def _functions(self) -> list[fem.Function]:
-        out = [s.u for s in self.scene.subdomains]
-        if self.scene.interface is not None:
-            out.append(self.scene.interface.v)
-        return out + [c.w for c in self.scene.contacts]
-
-    # -- resources -------------------------------------------------------------------------
     def close(self) -> None:
-        """Free the solver's PETSc factorisations and matrices (collective; idempotent).
-
-        The results stay in the scene's Functions, the history and the work log; the problem
-        cannot solve any more. ``with StaticProblem(scene) as problem:`` closes on leaving.
-        """
+        """Collective, idempotent: free the solver's PETSc factorisations and matrices."""
         if self._closed:
             return
         self._closed = True
         self.solver.destroy()
-        logger.debug("%s (%s): freed the solver", type(self).__name__, self.algorithm)
-
-    def __enter__(self) -> Self:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.close()
+        logger.debug("analysis (%s): freed the solver", self.algorithm)

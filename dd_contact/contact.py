@@ -47,9 +47,9 @@ from dd_contact.coupling import newell_normal
 from dd_contact.errors import InputError
 from dd_contact.meshes import cyclic_vertices
 from dd_contact.obstacles import Obstacle
+from dd_contact.scene import CONTACT_POINTS
 
 __all__ = [
-    "SCHEMES",
     "ContactOperator",
     "ContactPoints",
     "check_contact_geometry",
@@ -58,9 +58,6 @@ __all__ = [
     "mean_cell_size",
     "outward_normals",
 ]
-
-#: Where the contact condition is checked.
-SCHEMES = ("nodes", "quadrature")
 
 # Gauss rules: 2x2 on quadrilaterals, 3 points on triangles (exact for the P1 mass).
 _QUADRATURE_DEGREE = {"quadrilateral": 3, "triangle": 2}
@@ -113,8 +110,8 @@ def _gauss_points(S: fem.FunctionSpace) -> tuple[np.ndarray, np.ndarray, sp.csr_
 
 def contact_points(S: fem.FunctionSpace, scheme: str = "nodes") -> ContactPoints:
     """The contact points of a P1 surface space under ``scheme`` (see module docstring)."""
-    if scheme not in SCHEMES:
-        raise ValueError(f"unknown contact scheme {scheme!r}; use one of {SCHEMES}")
+    if scheme not in CONTACT_POINTS:
+        raise ValueError(f"unknown contact scheme {scheme!r}; use one of {CONTACT_POINTS}")
     x_q, w_q, N_q = _gauss_points(S)
     lumped = N_q.T @ w_q  # row sums of the P1 surface mass matrix
     if scheme == "quadrature":

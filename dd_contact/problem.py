@@ -1,20 +1,19 @@
 """User-facing problems: static and transient analyses of a scene, with contact.
 
-Both are :class:`dd_contact.analysis.Analysis` (assembly, solver, contact iteration,
-results); this module adds the static solve and time stepping: the initial state, Newmark
-steps, the run loop with its output, checkpoints and resume. The side solves of a transient
-start are in :mod:`dd_contact.solvers.auxiliary` and the energy in :mod:`dd_contact.post`.
+Each problem holds an :class:`~dd_contact.analysis.Analysis` (assembly, solver, contact
+iteration, results) built from its own arguments; this module adds the static solve and
+time stepping: the initial state, Newmark steps and the run loop with its output files.
+What a run watches is in :mod:`dd_contact.monitors`, what it checkpoints in
+:mod:`dd_contact.checkpointing`, the side solves of a transient start in
+:mod:`dd_contact.solvers.auxiliary` and the energy in :mod:`dd_contact.post`.
 """
 
 from __future__ import annotations
 
 import logging
 import sys
-import warnings
 from collections.abc import Callable
 from pathlib import Path
-
-from mpi4py import MPI
 
 import dolfinx.fem as fem
 import numpy as np
@@ -22,19 +21,27 @@ from tqdm import tqdm
 
 from dd_contact import timing
 from dd_contact.analysis import Analysis
-from dd_contact.errors import CoarseTimeStepWarning, EnergyGrowthWarning, InputError
+from dd_contact.checkpointing import RunState
+from dd_contact.errors import InputError
 from dd_contact.forms import MASS_KINDS
 from dd_contact.impact import BlockProducts, StartForces, block_product
 from dd_contact.io import RunOutput
 from dd_contact.iteration import ContactSettings
+from dd_contact.monitors import (
+    ENERGY_GROWTH_TOLERANCE,
+    MIN_CONTACT_STEPS,
+    ContactEpisodes,
+    EnergyBalance,
+)
 from dd_contact.parallel import collective, gathered
 from dd_contact.post import energy
+from dd_contact.readout import AnalysisReadout
 from dd_contact.scene import Scene
 from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
-from dd_contact.solvers.linalg import petsc_options
+from dd_contact.solvers.linalg import OPTIONS_PREFIX
 from dd_contact.timestepping import time_scheme
 
-__all__ = ["StaticProblem", "TransientProblem"]
+__all__ = ["ENERGY_GROWTH_TOLERANCE", "MIN_CONTACT_STEPS", "StaticProblem", "TransientProblem"]
 
 logger = logging.getLogger(__name__)
 
@@ -45,25 +52,7 @@ def _check_count(argument: str, value) -> None:
         raise InputError(f"run: {argument} must be a whole number >= 1, got {value!r}")
 
 
-def _print_report(comm, text: str) -> None:
-    """Print a report the user asked for (``run(summary=True)``) on stdout, on rank 0."""
-    if comm.rank == 0:
-        print(text)
-
-
-#: A step whose energy grows by more than this fraction beyond the loads' work warns
-#: (EnergyGrowthWarning). Round-off is far below it: 7e-12 a step at the default tie penalty
-#: (docs/contact.md, free vibration); a contact release of the classic rule gains 1-10 %.
-ENERGY_GROWTH_TOLERANCE = 1e-6
-
-#: A contact episode (a region touching from the step its first point enters to the step its
-#: last one leaves) closed in fewer steps than this warns (CoarseTimeStepWarning): the bar
-#: impact's rebound was 2-4 % slow at 53 steps, 8-16 % at 10-20, within 2.7 % from 80
-#: (docs/contact.md, "A time step too coarse for the impact").
-MIN_CONTACT_STEPS = 60
-
-
-class StaticProblem(Analysis):
+class StaticProblem(AnalysisReadout):
     """Static linear elasticity of a scene with contact (the static form of system (14)).
 
     Args:
@@ -78,8 +67,12 @@ class StaticProblem(Analysis):
         rates: For ``"auto"``: machine rates (default: this machine's, measured once
             and cached; see :func:`dd_contact.timing.machine_rates`).
         petsc_options: PETSc options for the MUMPS factorisations, as dolfinx's
-            ``LinearProblem``: ``{"mat_mumps_icntl_14": 50}`` (read under the prefix
-            ``dd_contact_`` while this problem builds its factorisations; docs/solvers.md).
+            ``LinearProblem``: ``{"mat_mumps_icntl_14": 50}`` (read under
+            ``petsc_options_prefix`` while this problem builds and uses its factorisations;
+            docs/solvers.md).
+        petsc_options_prefix: The PETSc options prefix of this problem's factorisations
+            (default ``dd_contact_``): give two problems of one script their own to tune
+            them apart, e.g. ``-bracket_mat_mumps_icntl_14 50`` on the command line.
 
     Example:
         >>> with StaticProblem(scene) as problem:
@@ -95,12 +88,21 @@ class StaticProblem(Analysis):
         expected_changes: float = 3.0,
         rates: timing.MachineRates | None = None,
         petsc_options: dict | None = None,
+        petsc_options_prefix: str = OPTIONS_PREFIX,
     ):
         scene.check_static_supports()
-        expected = (1, expected_changes)
-        super().__init__(
-            scene, algorithm, 0.0, contact, condensation, expected, rates, petsc_options
+        #: The scene assembled, its solver and contact iteration.
+        self.analysis = Analysis(
+            scene,
+            algorithm,
+            contact=contact,
+            condensation=condensation,
+            expected=(1, expected_changes),
+            rates=rates,
+            options=petsc_options,
+            options_prefix=petsc_options_prefix,
         )
+        #: Contact iterations of the last solve.
         self.iterations = 0
 
     def solve(self, t: float = 0.0) -> list[fem.Function]:
@@ -110,16 +112,18 @@ class StaticProblem(Analysis):
         :attr:`results`, :meth:`contact_forces`, :attr:`reactions` and :attr:`changes`
         then hold this solve's results on every rank.
         """
+        self._check_open()
+        analysis = self.analysis
         self.iteration.start(t)
-        loads = collective(self.comm, lambda: self._loads(t))
-        x, self.iterations, _ = self._solve(t, self._rhs(t, loads), f"t = {t}")
-        self._publish(x)
-        record = {"t": t, "iterations": self.iterations, **self._agree(x, loads, {})}
-        self._results.latest = record
-        return self._functions()
+        loads = analysis.loads(t)
+        x, self.iterations, _ = analysis.solve(t, analysis.rhs(t, loads), f"t = {t}")
+        analysis.publish(x)
+        record = {"t": t, "iterations": self.iterations, **analysis.agree(x, loads, {})}
+        analysis.agreed.latest = record
+        return analysis.functions()
 
 
-class TransientProblem(Analysis):
+class TransientProblem(AnalysisReadout):
     """Time stepping with contact: the trapezoidal rule, generalized-alpha, or quasi-static.
 
     The initial state is read from the scene: ``Subdomain.u`` (displacement) and
@@ -142,14 +146,17 @@ class TransientProblem(Analysis):
         rates: For ``"auto"``: machine rates (default: this machine's, measured once
             and cached; see :func:`dd_contact.timing.machine_rates`).
         petsc_options: PETSc options for the MUMPS factorisations, as dolfinx's
-            ``LinearProblem``: ``{"mat_mumps_icntl_14": 50}`` (read under the prefix
-            ``dd_contact_`` while this problem builds its factorisations; docs/solvers.md).
+            ``LinearProblem``: ``{"mat_mumps_icntl_14": 50}`` (read under
+            ``petsc_options_prefix`` while this problem builds and uses its factorisations;
+            docs/solvers.md).
+        petsc_options_prefix: The PETSc options prefix of this problem's factorisations
+            (default ``dd_contact_``): give two problems of one script their own to tune
+            them apart, e.g. ``-bracket_mat_mumps_icntl_14 50`` on the command line.
         energy_safe_contact: Contact that never creates energy (:mod:`dd_contact.impact`,
             the default): massless contact walls, and a point leaving contact keeps the
-            discrete-gradient share of its start force. The bar impact with the default
-            contact penalty: energy 9-12x -> 1, 59-137 state changes -> 1, contact duration
-            within 1.3 % (docs/contact.md). ``False``: the classic trapezoidal contact (the
-            paper's; it creates energy when points leave contact, which is reported).
+            discrete-gradient share of its start force (docs/contact.md measures what it
+            changes). ``False``: the classic trapezoidal contact (the paper's; it creates
+            energy when points leave contact, which is reported).
         mass: ``"consistent"`` (the default), ``"lumped"`` (row sums for degree 1, the
             diagonal scaled to the exact total mass for degree 2) or ``"averaged"`` (half
             each: an impact's peak force overshoots least; docs/contact.md).
@@ -173,6 +180,7 @@ class TransientProblem(Analysis):
         expected_changes: float | None = None,
         rates: timing.MachineRates | None = None,
         petsc_options: dict | None = None,
+        petsc_options_prefix: str = OPTIONS_PREFIX,
         energy_safe_contact: bool = True,
         mass: str = "consistent",
         scheme: str = "trapezoidal",
@@ -184,17 +192,12 @@ class TransientProblem(Analysis):
                 f"{', '.join(map(repr, MASS_KINDS))} (lumped: a diagonal mass matrix; "
                 "averaged: half consistent, half lumped)"
             )
+        #: The mass matrix's kind.
         self.mass_kind = mass
         #: The time-integration scheme (coefficients and updates).
         self.time_scheme = time_scheme(scheme, dt, rho_infinity)
         self.scheme = scheme
-        self._energy_safe = bool(energy_safe_contact)
-        self._energy_before: float | None = None  # the last step's total energy (its bound)
-        self._previous_loads: tuple[float | None, dict] = (None, {})  # (t, r(t)) of a step
-        self._energy_warned = False
-        self._contact_steps: dict[str, int] = {}  # steps of each region's open episode
-        self._impact: dict[str, bool] = {}  # whether motion, not load, opened that episode
-        self._coarse_warned = False
+        self.energy_safe = bool(energy_safe_contact)
         self.inertia = inertia
         if inertia:
             massless = [s.name for s in scene.subdomains if s.material.rho <= 0]
@@ -205,26 +208,37 @@ class TransientProblem(Analysis):
                 )
         else:
             scene.check_static_supports()
-        mass_coefficient = self.time_scheme.mass_coefficient if inertia else 0.0
         changes = expected_steps if expected_changes is None else expected_changes
-        super().__init__(
+        #: The scene assembled, its solver and contact iteration.
+        self.analysis = Analysis(
             scene,
             algorithm,
-            mass_coefficient,
-            contact,
-            condensation,
-            (expected_steps, changes),
-            rates,
-            petsc_options,
+            mass_coefficient=self.time_scheme.mass_coefficient if inertia else 0.0,
+            mass_kind=mass,
+            massless_walls=self.energy_safe,
+            contact=contact,
+            condensation=condensation,
+            expected=(expected_steps, changes),
+            rates=rates,
+            options=petsc_options,
+            options_prefix=petsc_options_prefix,
         )
         self.track_energy = track_energy
         #: ``K x`` by block rows, shared by the energy and the next step's start forces (it
         #: keeps a copy of x: without the energy there is nothing to share)
-        owned = [block for _, _, block in self._owned]
+        owned = [sub.block for sub in self.analysis.owned]
         self._products = BlockProducts(self.model.system, owned) if track_energy else None
         self.dt, self.t0 = dt, t0
         self.t, self.step = t0, 0
         self.history: list[dict] = []
+        self._previous_loads: tuple[float | None, dict] = (None, {})  # (t, r(t)) of a step
+        #: The energy balance each step is held to (with inertia and ``track_energy``).
+        self.energy_balance = EnergyBalance(
+            self.comm, self.time_scheme.conserves_energy, self.energy_safe
+        )
+        #: The contact episodes (with inertia): a warning if one is too short.
+        self.episodes = ContactEpisodes(dt)
+        self._run_state = RunState(self.analysis.owned, self.zones, self.iteration)
         self._started = False
 
     # -- state ---------------------------------------------------------------------------
@@ -238,8 +252,10 @@ class TransientProblem(Analysis):
             self._start()
 
     def _start(self) -> None:
+        owned = self.analysis.owned
+
         def check_initial_data():
-            for _, sub, _ in self._owned:
+            for sub in owned:
                 for f in (sub.u, sub.velocity):
                     if not np.all(np.isfinite(f.x.array)):
                         raise InputError(
@@ -248,130 +264,42 @@ class TransientProblem(Analysis):
                         )
 
         collective(self.comm, check_initial_data)
-        for _, sub, block in self._owned:
-            fixed = self.model.free(block) == 0
+        for sub in owned:
+            fixed = self.model.free(sub.block) == 0
             sub.velocity.x.array[fixed] = 0.0
         self.iteration.start(self.t0)
         if self.inertia and self.track_energy:
-            self._energy_before = self.energy()["total"]
+            self.energy_balance.start(self.energy()["total"])
         if self.inertia:
-            with petsc_options(self._options):
+            with self.analysis.petsc_options():
                 self._initial_acceleration()
         self._started = True
 
     def _initial_acceleration(self) -> None:
         """M u''(t0) = r(t0) - K u(t0) - tie forces (massless surfaces in equilibrium)."""
-        loads = collective(self.comm, lambda: self._loads(self.t0))
-        u0 = {block: sub.u.x.array[: sub.num_dofs].copy() for _, sub, block in self._owned}
+        owned, system = self.analysis.owned, self.model.system
+        loads = self.analysis.loads(self.t0)
+        u0 = {sub.block: sub.u.x.array[: sub.num_dofs].copy() for sub in owned}
         moved = self.comm.allreduce(any(np.any(u != 0) for u in u0.values()))
         x0 = {s.block: s.u.x.array.copy() for s in self.scene.subdomains}
         if moved:
-            x0.update(surfaces_in_equilibrium(self.comm, self.model.system, u0, self.work))
-            self._publish_surfaces(x0)
+            x0.update(surfaces_in_equilibrium(self.comm, system, u0, self.work))
+            self.analysis.publish_surfaces(x0)
         residual = {}
-        for _, sub, block in self._owned:
-            r = loads[block] - block_product(self.model.system, block, x0)
-            residual[block] = r * self.model.free(block)
-        for _, sub, block in self._owned:
-            if not np.any(residual[block]):
+        for sub in owned:
+            r = loads[sub.block] - block_product(system, sub.block, x0)
+            residual[sub.block] = r * self.model.free(sub.block)
+        for sub in owned:
+            if not np.any(residual[sub.block]):
                 sub.acceleration.x.array[:] = 0.0
                 continue
             # M with the prescribed dofs eliminated, as in the effective matrix.
-            mass = self.model.mass[block]  # a = 0 on prescribed and massless dofs
-            fixed = np.flatnonzero((self.model.free(block) == 0) | (mass.diagonal() == 0))
+            mass = self.model.mass[sub.block]  # a = 0 on prescribed and massless dofs
+            fixed = np.flatnonzero((self.model.free(sub.block) == 0) | (mass.diagonal() == 0))
             sub.acceleration.x.array[:] = solve_mass(
-                self.model.mass[block], fixed, residual[block], self.work, sub.name
+                mass, fixed, residual[sub.block], self.work, sub.name
             )
             logger.debug("initial acceleration of subdomain %r from its mass matrix", sub.name)
-
-    def _check_energy(self, record, before, previous, external, x) -> None:
-        """Collective: warn once if the step's energy grew by more than the loads' work.
-
-        The trapezoidal rule conserves energy exactly but for contact points that change
-        state; a gain beyond round-off is energy the contact created (dd_contact.impact).
-        Generalized-alpha's energy may swing up within a step while it decays overall (its
-        velocity overshoot): it is held to the energy at the start plus the loads' work.
-        Skipped while prescribed displacements move (their reactions' work is not counted).
-        """
-        energy_before = self._energy_before
-        energy_after = record["energy"]["total"]
-        self._energy_before = energy_after
-        if energy_before is None or self._energy_warned:
-            return
-        work, moved = 0.0, False
-        for _, _, block in self._owned:
-            free = self.model.free(block)
-            du = x[block] - before[block]
-            moved = moved or bool(np.any(du[free == 0]))
-            work += 0.5 * float((free * (previous[block] + external[block])) @ du)
-        work = self.comm.allreduce(work)
-        if self.comm.allreduce(moved, op=MPI.LOR):
-            return
-        if not self.time_scheme.conserves_energy:
-            self._energy_before = energy_before + work
-        gain = energy_after - energy_before - work
-        if gain > ENERGY_GROWTH_TOLERANCE * max(abs(energy_before), abs(energy_after)):
-            self._energy_warned = True
-            fix = (
-                "this should not happen with energy_safe_contact=True: please report it"
-                if self._energy_safe
-                else "use TransientProblem(..., energy_safe_contact=True), or a softer "
-                "contact penalty (contact_kappa)"
-            )
-            warnings.warn(
-                f"step {record['step']} (t = {record['t']:.6g}): the energy grew by "
-                f"{gain:.3g} J ({gain / max(abs(energy_before), 1e-300):.2%}) more than the "
-                f"loads' work, with {record['changes']} contact state change(s): the contact "
-                f"created energy; {fix}",
-                EnergyGrowthWarning,
-                stacklevel=3,
-            )
-
-    def _check_episodes(self, record: dict) -> None:
-        """Warn once if an impact's contact episode closed within MIN_CONTACT_STEPS steps.
-
-        An episode is an impact when kinetic energy was at least half of the kinetic and
-        elastic energy at the step before it opened (unknown without ``track_energy``: then
-        every episode counts); a load that presses and lets go slowly is followed by any dt.
-        ``record["active"]`` and the energy are agreed on every rank: every rank warns alike.
-        """
-        before = self.history[-1].get("energy") if self.history else None
-        for name, points in record["active"].items():
-            steps = self._contact_steps.get(name, 0)
-            if points:
-                if not steps:
-                    self._impact[name] = before is None or (
-                        before["kinetic"] >= 0.5 * (before["kinetic"] + before["elastic"])
-                    )
-                self._contact_steps[name] = steps + 1
-                continue
-            self._contact_steps[name] = 0
-            if not steps or steps >= MIN_CONTACT_STEPS or self._coarse_warned:
-                continue
-            if not self._impact.get(name, True):
-                continue
-            self._coarse_warned = True
-            duration = steps * self.dt
-            warnings.warn(
-                f"contact {name!r}: an impact's contact episode ended at step {record['step']} "
-                f"(t = {record['t']:.6g}) after only {steps} time step(s), {duration:.3g} s; "
-                f"with fewer than {MIN_CONTACT_STEPS} steps per contact an impact's rebound is "
-                f"inaccurate (the bar impact: 15 % slow at 8 steps, 2-4 % at 53), though the "
-                f"energy is kept; use a smaller time step, dt <= {duration:.3g} / "
-                f"{MIN_CONTACT_STEPS} = {duration / MIN_CONTACT_STEPS:.3g} s",
-                CoarseTimeStepWarning,
-                stacklevel=3,
-            )
-
-    def _state_now(self) -> dict[str, np.ndarray]:
-        """This rank's view of every block at the current time (subdomains, surfaces)."""
-        sizes = self.model.system.sizes
-        x = {s.block: s.u.x.array[: sizes[s.block]] for s in self.scene.subdomains}
-        if self.scene.interface is not None:
-            x[self.scene.interface.block] = self.scene.interface.v.x.array
-        for c in self.scene.contacts:
-            x.setdefault(c.block, c.w.x.array)
-        return x
 
     @staticmethod
     def _kinematics(sub) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -381,8 +309,9 @@ class TransientProblem(Analysis):
 
     def energy(self) -> dict[str, float]:
         """Collective: kinetic, elastic (with ties) and contact-penalty energy now [J]."""
-        velocities = {block: sub.velocity.x.array for _, sub, block in self._owned}
-        local = energy(self.model, self._state_now(), velocities, self.zones, self._products)
+        velocities = {sub.block: sub.velocity.x.array for sub in self.analysis.owned}
+        state = self.analysis.state_now()
+        local = energy(self.model, state, velocities, self.zones, self._products)
         parts = np.array(
             self.comm.allreduce(np.array([local["kinetic"], local["elastic"], local["contact"]]))
         )
@@ -394,6 +323,34 @@ class TransientProblem(Analysis):
         }
 
     # -- stepping -----------------------------------------------------------------------
+    def _inertia_loads(self, loads: dict, previous: dict) -> StartForces:
+        """Turn ``loads`` (r_n+1) into the scheme's right-hand side in equilibrium form.
+
+        ``r_n+1 + w (r_n - K x_n) + M h`` per owned subdomain (:mod:`dd_contact.impact`);
+        returns the start forces, whose release the contact iteration may ask for.
+        """
+        scheme, owned = self.time_scheme, self.analysis.owned
+        start = StartForces(
+            self.model.system,
+            self.zones,
+            self.analysis.state_now(),
+            self.iteration.active,
+            [sub.block for sub in owned],
+            self.tie_solver.rhs_offset,
+            self.model.free,
+            scheme.start_weight,
+            self._products,
+        )
+        for sub in owned:
+            block = sub.block
+            # summed in this order, in one new array
+            rhs = np.subtract(previous[block], start.internal[block])
+            rhs *= scheme.start_weight
+            rhs += loads[block]
+            rhs += self.model.mass[block] @ scheme.history(*self._kinematics(sub))
+            loads[block] = rhs
+        return start
+
     def advance(self) -> dict:
         """Collective: one time step; returns its record (also appended to :attr:`history`).
 
@@ -402,59 +359,49 @@ class TransientProblem(Analysis):
         region ``force`` [N], ``active`` (points) and ``contact_area`` [m^2], per subdomain
         ``reaction`` [N] (its supports), and ``energy`` [J] (dynamics, ``track_energy``).
         """
+        self._check_open()
         if not self._started:
             self._start()
+        analysis, owned = self.analysis, self.analysis.owned
         t_new = self.t + self.dt
-        loads = collective(self.comm, lambda: self._loads(t_new))
+        loads = analysis.loads(t_new)
         external = dict(loads)
         where = f"step {self.step + 1} (t = {t_new:.6g})"
-        scheme = self.time_scheme
-        if self.inertia:  # the scheme in equilibrium form (dd_contact.impact)
+        release = None
+        if self.inertia:
             if self._previous_loads[0] != self.t:  # the last step's loads are r(t_n)
-                self._previous_loads = (self.t, collective(self.comm, lambda: self._loads(self.t)))
+                self._previous_loads = (self.t, analysis.loads(self.t))
             previous = self._previous_loads[1]
             if self.track_energy:  # for the energy balance of the step
-                before = {b: s.u.x.array[: s.num_dofs].copy() for _, s, b in self._owned}
-            start = StartForces(
-                self.model.system,
-                self.zones,
-                self._state_now(),
-                self.iteration.active,
-                [block for _, _, block in self._owned],
-                self.tie_solver.rhs_offset,
-                self.model.free,
-                scheme.start_weight,
-                self._products,
-            )
-            for _, sub, block in self._owned:
-                # r_n+1 + w (r_n - K x_n) + M h, summed in this order, in one new array
-                rhs = np.subtract(previous[block], start.internal[block])
-                rhs *= scheme.start_weight
-                rhs += loads[block]
-                rhs += self.model.mass[block] @ scheme.history(*self._kinematics(sub))
-                loads[block] = rhs
-
-            release = start if self._energy_safe else None
-            x, iterations, changes = self._solve(t_new, self._rhs(t_new, loads), where, release)
-            for _, sub, block in self._owned:
-                n = sub.num_dofs
-                v, a = scheme.update(x[block], *self._kinematics(sub))
-                sub.velocity.x.array[:n] = v
-                sub.acceleration.x.array[:n] = a
-        else:
-            x, iterations, changes = self._solve(t_new, self._rhs(t_new, loads), where)
-        self._publish(x)
+                before = {s.block: s.u.x.array[: s.num_dofs].copy() for s in owned}
+            start = self._inertia_loads(loads, previous)
+            release = start if self.energy_safe else None
+        x, iterations, changes = analysis.solve(t_new, analysis.rhs(t_new, loads), where, release)
+        if self.inertia:
+            for sub in owned:
+                v, a = self.time_scheme.update(x[sub.block], *self._kinematics(sub))
+                sub.velocity.x.array[: sub.num_dofs] = v
+                sub.acceleration.x.array[: sub.num_dofs] = a
+        analysis.publish(x)
         self.t, self.step = t_new, self.step + 1
         self._previous_loads = (t_new, external)
-        accelerations = {b: s.acceleration.x.array for _, s, b in self._owned if self.inertia}
+        accelerations = {s.block: s.acceleration.x.array for s in owned if self.inertia}
         record = {"step": self.step, "t": t_new, "iterations": iterations, "changes": changes}
-        record.update(self._agree(x, external, accelerations))
+        record.update(analysis.agree(x, external, accelerations))
         if self.inertia and self.track_energy:
+            energy_before = self.history[-1].get("energy") if self.history else None
             record["energy"] = self.energy()
-            self._check_energy(record, before, previous, external, x)
+            self.energy_balance.check(
+                record,
+                lambda: self.energy_balance.loads_work(
+                    before, x, previous, external, self.model.free
+                ),
+            )
+        else:
+            energy_before = None
         if self.inertia:
-            self._check_episodes(record)
-        self._results.latest = record
+            self.episodes.observe(record, energy_before)
+        analysis.agreed.latest = record
         self.history.append(record)
         return record
 
@@ -499,16 +446,7 @@ class TransientProblem(Analysis):
             if output is None:
                 raise InputError("run: checkpoint_every needs an output directory (output=...)")
         files = RunOutput(self.scene, output, self.inertia) if output is not None else None
-        restored = resume and files is not None and files.checkpoint.exists()
-        if restored:
-            self._restore(files.checkpoint.load(), files.history.load())
-        if self.step >= n_steps and not (restored and self.step == n_steps):
-            where = f"the checkpoint in {str(output)!r} is" if restored else "the problem is"
-            raise InputError(
-                f"run(n_steps={n_steps}): {where} already at step {self.step}; n_steps is the "
-                f"step number to reach (counted from t0), not a number of new steps: call "
-                f"run({self.step + n_steps}) for {n_steps} more"
-            )
+        self._resume_or_refuse(n_steps, files if resume else None, output)
         if not self._started:
             self._start()
         if files is not None:
@@ -538,84 +476,55 @@ class TransientProblem(Analysis):
             if files is not None:
                 files.close(self.history)
         if summary:
-            table = self.work_table()
-            report = []
-            if self.choice is not None:
-                report.append(f"algorithm='auto' chose {self.algorithm}:\n{self.choice.table()}")
-            report.append(
-                f"{self.algorithm}: {self.step} steps, {self.iteration.gamma} contact "
-                f"state changes\n{table}"
-            )
-            _print_report(self.comm, "\n".join(report))
+            self._print_summary()
         return self.history
 
+    def _resume_or_refuse(self, n_steps: int, files: RunOutput | None, output) -> None:
+        """Collective: restore the checkpoint in ``files``, if there is one.
+
+        Refuses a run that has nothing to do (its step already past ``n_steps``).
+        """
+        restored = files is not None and files.checkpoint.exists()
+        if restored:
+            self._restore(files.checkpoint.load(), files.history.load())
+        if self.step >= n_steps and not (restored and self.step == n_steps):
+            where = f"the checkpoint in {str(output)!r} is" if restored else "the problem is"
+            raise InputError(
+                f"run(n_steps={n_steps}): {where} already at step {self.step}; n_steps is the "
+                f"step number to reach (counted from t0), not a number of new steps: call "
+                f"run({self.step + n_steps}) for {n_steps} more"
+            )
+
+    def _print_summary(self) -> None:
+        """Collective: the work per block (and auto's choice) on stdout, on rank 0."""
+        table = self.work_table()
+        report = []
+        if self.choice is not None:
+            report.append(f"algorithm='auto' chose {self.algorithm}:\n{self.choice.table()}")
+        report.append(
+            f"{self.algorithm}: {self.step} steps, {self.iteration.gamma} contact "
+            f"state changes\n{table}"
+        )
+        if self.comm.rank == 0:
+            print("\n".join(report))
+
+    # -- checkpoints ----------------------------------------------------------------------
     def _state(self) -> dict[str, np.ndarray]:
-        state = {
-            "step": np.array(self.step),
-            "t": np.array(self.t),
-            "dt": np.array(self.dt),
-            "gamma": np.array(self.iteration.gamma),
-            "integration": np.array(self._integration()),
-            "release_solves": np.array(self.iteration.release_solves),
-        }
-        for _, sub, _ in self._owned:
-            state[f"u/{sub.name}"] = sub.u.x.array
-            state[f"velocity/{sub.name}"] = sub.velocity.x.array
-            state[f"acceleration/{sub.name}"] = sub.acceleration.x.array
-        for z in self.zones:
-            state[f"active/{z.contact.name}"] = self.iteration.active[z.contact.name]
-            state[f"alpha/{z.contact.name}"] = np.array(self.iteration.alpha[z.contact.name])
-            state[f"releases/{z.contact.name}"] = np.array(self.iteration.releases[z.contact.name])
-        return state
+        return self._run_state.arrays(self.step, self.t, self.dt, self._integration())
 
     def _integration(self) -> str:
         """The settings a resumed run must share with its checkpoint (besides dt)."""
         rho = getattr(self.time_scheme, "rho_infinity", 1.0)
         return (
             f"inertia={self.inertia}, scheme={self.scheme!r}, rho_infinity={rho}, "
-            f"mass={self.mass_kind!r}, energy_safe_contact={self._energy_safe}"
+            f"mass={self.mass_kind!r}, energy_safe_contact={self.energy_safe}"
         )
 
     def _restore(self, state: dict[str, np.ndarray], history: list[dict]) -> None:
         """Collective: the state of a checkpoint, and the history up to its step."""
-        if float(state["dt"]) != self.dt:
-            raise InputError(
-                f"resume: the checkpoint was written with dt = {float(state['dt'])}, this run "
-                f"has dt = {self.dt}; use the same time step or start a new output directory"
-            )
-        written = str(state["integration"]) if "integration" in state else None
-        if written is not None and written != self._integration():
-            raise InputError(
-                f"resume: the checkpoint was written with {written}; this run has "
-                f"{self._integration()}; use the same settings or start a new output directory"
-            )
-        for _, sub, _ in self._owned:
-            for name in ("u", "velocity", "acceleration"):
-                key = f"{name}/{sub.name}"
-                target = getattr(sub, name).x.array
-                if key not in state or state[key].shape != target.shape:
-                    raise InputError(
-                        f"resume: the checkpoint does not match subdomain {sub.name!r} "
-                        "(different scene or mesh); start a new output directory"
-                    )
-                target[:] = state[key]
-        self.step, self.t = int(state["step"]), float(state["t"])
-        self.iteration.gamma = int(state["gamma"])
-        for z in self.zones:
-            self.iteration.active[z.contact.name] = state[f"active/{z.contact.name}"]
-            self.iteration.alpha[z.contact.name] = int(state[f"alpha/{z.contact.name}"])
-            key = f"releases/{z.contact.name}"  # absent in checkpoints before the count
-            self.iteration.releases[z.contact.name] = int(state[key]) if key in state else 0
-        self.iteration.release_solves = int(state.get("release_solves", 0))
-        # v and w need no restoring: they are massless and solved afresh in every step.
+        self.step, self.t = self._run_state.restore(state, self.dt, self._integration())
         self.history = [r for r in history if r["step"] <= self.step]
-        self._results.latest = self.history[-1] if self.history else {}
-        self._results.alpha = gathered(self.comm, self.iteration.alpha)
+        agreed = self.analysis.agreed
+        agreed.latest = self.history[-1] if self.history else {}
+        agreed.alpha = gathered(self.comm, self.iteration.alpha)
         self._started = True
-
-    def _publish_surfaces(self, surfaces: dict[str, np.ndarray]) -> None:
-        if self.scene.interface is not None:
-            self.scene.interface.v.x.array[:] = surfaces[self.scene.interface.block]
-        for z in self.zones:
-            if z.block in surfaces:
-                z.contact.w.x.array[:] = surfaces[z.block][z.dofs]

@@ -23,13 +23,13 @@ from dd_contact import arguments, meshes
 from dd_contact.arguments import Region
 from dd_contact.blocks import Block
 from dd_contact.bodies import Body
-from dd_contact.contact import SCHEMES
 from dd_contact.errors import InputError
 from dd_contact.obstacles import Obstacle
 from dd_contact.parallel import owner_of
 from dd_contact.prescribed import Prescribed, Value
 
 __all__ = [
+    "CONTACT_POINTS",
     "DEFAULT_KAPPA",
     "ContactBoundary",
     "ContactInterface",
@@ -39,6 +39,10 @@ __all__ = [
     "Scene",
     "Subdomain",
 ]
+
+#: Where a contact's penalty is evaluated: at the surface nodes (lumped weights) or at
+#: the quadrature points of the surface cells.
+CONTACT_POINTS = ("nodes", "quadrature")
 
 #: Default dimensionless penalty kappa = h / (E * eps): ties 1e6 times stiffer than the
 #: elements behind them, so the penalty gap costs about 1e-6 of the response.
@@ -453,8 +457,10 @@ class _ContactBase:
                 f"contact {name!r}: obstacle must be a dd_contact.obstacles.Obstacle (Plane, "
                 f"Sphere, Cylinder or UserObstacle), got {type(obstacle).__name__}"
             )
-        if points not in SCHEMES:
-            raise InputError(f"contact {name!r}: points must be one of {SCHEMES}, got {points!r}")
+        if points not in CONTACT_POINTS:
+            raise InputError(
+                f"contact {name!r}: points must be one of {CONTACT_POINTS}, got {points!r}"
+            )
         self.mesh = mesh
         self.subdomain = subdomain
         self.obstacle = obstacle

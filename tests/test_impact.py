@@ -185,7 +185,7 @@ def test_the_energy_and_the_next_start_forces_share_one_product_per_subdomain_ro
         for step in range(1, 4):
             problem.advance()  # start forces (found), then the energy at the step's end
             assert products.computed == step + 1
-        x = problem._state_now()
+        x = problem.analysis.state_now()
         direct = sum(
             (0.5 if r == c else 1.0) * float(x[r] @ (A @ x[c]))
             for (r, c), A in problem.model.system.matrices.items()

@@ -295,3 +295,30 @@ def test_petsc_options_reach_mumps_and_leave_the_database_as_it_was():
     assert not database.hasName("dd_contact_mat_mumps_icntl_24")
     with pytest.raises(dd.InputError, match="key '-mat_mumps_icntl_14' must be an option name"):
         dd.StaticProblem(scene, petsc_options={"-mat_mumps_icntl_14": 50})
+
+
+def test_two_problems_are_tuned_apart_by_their_options_prefixes():
+    from petsc4py import PETSc
+
+    _, _, scene = _pressed_block()
+    database = PETSc.Options()
+    database["bracket_mat_mumps_icntl_14"] = 61
+    database["lever_mat_mumps_icntl_24"] = 0  # the package relies on null-pivot detection
+    try:
+        bracket = dd.StaticProblem(scene, petsc_options_prefix="bracket_")
+        plain = dd.StaticProblem(scene)
+        bracket.solve()
+        plain.solve()
+        factor = bracket.solver._factor.ksp.getPC().getFactorMatrix()
+        assert factor.getMumpsIcntl(14) == 61
+        assert plain.solver._factor.ksp.getPC().getFactorMatrix().getMumpsIcntl(14) == 5
+        assert bracket.solver._factor.ksp.getOptionsPrefix() == "bracket_"
+        with pytest.raises(dd.InputError, match="-lever_mat_mumps_icntl_24 must be 1"):
+            dd.StaticProblem(scene, petsc_options_prefix="lever_").solve()
+        bracket.close()
+        plain.close()
+    finally:
+        database.delValue("bracket_mat_mumps_icntl_14")
+        database.delValue("lever_mat_mumps_icntl_24")
+    with pytest.raises(dd.InputError, match="'-x_' is not a PETSc options prefix"):
+        dd.StaticProblem(scene, petsc_options_prefix="-x_")

@@ -5,16 +5,19 @@ Every factorisation and solve is appended to a :class:`~dd_contact.solvers.workl
 factorisations, LAPACK's operation count for dense ones), so a run can report what it did
 and compare it with the paper's counting (``dd_contact.flops``).
 
-MUMPS can be tuned through the PETSc options database under the prefix
-:data:`OPTIONS_PREFIX` (``dd_contact_``), e.g. ``-dd_contact_mat_mumps_icntl_14 50``; the
-settings the package relies on (:data:`REQUIRED_ICNTL`) cannot be changed that way.
+MUMPS can be tuned through the PETSc options database under a problem's options prefix
+(:data:`OPTIONS_PREFIX`, ``dd_contact_``, unless the problem names its own), e.g.
+``-dd_contact_mat_mumps_icntl_14 50``; the settings the package relies on
+(:data:`REQUIRED_ICNTL`) cannot be changed that way.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import ctypes
 import functools
+import re
 import time
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -39,16 +42,38 @@ __all__ = [
     "SingularMatrixError",
     "SparseCholesky",
     "SparseStatistics",
+    "options_prefix",
     "petsc_matrix",
     "petsc_options",
     "release_freed_memory",
     "sparse_statistics",
 ]
 
-#: PETSc options prefix of every MUMPS factorisation of the package (the KSP, its PC and
-#: the factor matrix): ``-dd_contact_mat_mumps_icntl_14 50`` on the command line, or
-#: ``PETSc.Options()["dd_contact_mat_mumps_icntl_14"] = 50`` before the solver is built.
+#: The default PETSc options prefix of the package's MUMPS factorisations (the KSP, its PC
+#: and the factor matrix): ``-dd_contact_mat_mumps_icntl_14 50`` on the command line, or
+#: ``PETSc.Options()["dd_contact_mat_mumps_icntl_14"] = 50`` before the solver is built. A
+#: problem given ``petsc_options_prefix`` reads its own instead.
 OPTIONS_PREFIX = "dd_contact_"
+
+# The prefix of the problem whose factorisations are being built or solved (petsc_options).
+_ACTIVE_PREFIX = contextvars.ContextVar("dd_contact_options_prefix", default=OPTIONS_PREFIX)
+
+
+def options_prefix() -> str:
+    """The options prefix the factorisations built now read (:func:`petsc_options`)."""
+    return _ACTIVE_PREFIX.get()
+
+
+def check_options_prefix(prefix: object) -> str:
+    """``prefix`` if it can be a PETSc options prefix, else an :class:`InputError`."""
+    if not isinstance(prefix, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", prefix):
+        raise InputError(
+            f"petsc_options_prefix: {prefix!r} is not a PETSc options prefix; give letters, "
+            "digits and underscores starting with a letter, ending in '_' by convention "
+            "(e.g. 'bracket_')"
+        )
+    return prefix
+
 
 # MUMPS control parameters and statistics (MUMPS 5.8 Users' guide, sections 6.1 "Integer
 # control parameters" and 7 "Information parameters"; ICNTL(k) is ``id.ICNTL(k)``).
@@ -136,22 +161,35 @@ def release_freed_memory() -> None:
 
 
 @contextlib.contextmanager
-def petsc_options(options: Mapping[str, object] | None) -> Iterator[None]:
-    """Put ``options`` under :data:`OPTIONS_PREFIX` in the PETSc database, then restore it.
+def petsc_options(
+    options: Mapping[str, object] | None, prefix: str = OPTIONS_PREFIX
+) -> Iterator[None]:
+    """Put ``options`` under ``prefix`` in the PETSc database, then restore it.
 
-    As dolfinx's ``LinearProblem(petsc_options=...)``: keys without the prefix or dash
-    (``{"mat_mumps_icntl_14": 50}``), values a number, string, bool or ``None`` (a flag).
-    The factorisations built inside read them; what was there before is put back after.
+    As dolfinx's ``LinearProblem(petsc_options=..., petsc_options_prefix=...)``: keys without
+    the prefix or dash (``{"mat_mumps_icntl_14": 50}``), values a number, string, bool or
+    ``None`` (a flag). The factorisations built or solved inside read options under
+    ``prefix`` (:func:`options_prefix`); what was in the database before is put back after.
     """
-    if not options:
-        yield
-        return
-    database = PETSc.Options(OPTIONS_PREFIX)
+    token = _ACTIVE_PREFIX.set(prefix)
+    try:
+        if not options:
+            yield
+            return
+        with _options_under(prefix, options):
+            yield
+    finally:
+        _ACTIVE_PREFIX.reset(token)
+
+
+@contextlib.contextmanager
+def _options_under(prefix: str, options: Mapping[str, object]) -> Iterator[None]:
+    database = PETSc.Options(prefix)
     for key, value in options.items():
-        if not isinstance(key, str) or key.startswith("-") or key.startswith(OPTIONS_PREFIX):
+        if not isinstance(key, str) or key.startswith("-") or key.startswith(prefix):
             raise InputError(
                 f"petsc_options: key {key!r} must be an option name without the dash and the "
-                f"prefix, e.g. 'mat_mumps_icntl_14' (it is read as -{OPTIONS_PREFIX}<key>)"
+                f"prefix, e.g. 'mat_mumps_icntl_14' (it is read as -{prefix}<key>)"
             )
         if value is not None and not isinstance(value, str | int | float | bool):
             raise InputError(
@@ -173,13 +211,14 @@ def petsc_options(options: Mapping[str, object] | None) -> Iterator[None]:
 
 
 def _check_required_options() -> None:
-    """Refuse options under :data:`OPTIONS_PREFIX` that change :data:`REQUIRED_ICNTL`."""
-    options = PETSc.Options(OPTIONS_PREFIX)
+    """Refuse options under the active prefix that change :data:`REQUIRED_ICNTL`."""
+    prefix = options_prefix()
+    options = PETSc.Options(prefix)
     for icntl, value in REQUIRED_ICNTL.items():
         name = f"mat_mumps_icntl_{icntl}"
         if options.getInt(name, value) != value:
             raise InputError(
-                f"-{OPTIONS_PREFIX}{name} must be {value} (MUMPS ICNTL({icntl})): dd_contact "
+                f"-{prefix}{name} must be {value} (MUMPS ICNTL({icntl})): dd_contact "
                 "relies on it to report singular blocks; remove the option"
             )
 
@@ -207,7 +246,7 @@ class SparseCholesky:
         A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
         A.setOption(PETSc.Mat.Option.SPD, True)
         self.ksp = PETSc.KSP().create(A.comm)
-        self.ksp.setOptionsPrefix(OPTIONS_PREFIX)  # the factor matrix inherits it
+        self.ksp.setOptionsPrefix(options_prefix())  # the factor matrix inherits it
         self.ksp.setOperators(A)
         self._set_types()
         # The user's options (-dd_contact_pc_factor_*, ...) after the defaults they adjust;
@@ -348,7 +387,7 @@ def sparse_statistics(A: PETSc.Mat, schur: int = 0) -> SparseStatistics:
 
     For an SPD matrix MUMPS does not pivot, so the analysis gives the flops and factor size
     of the factorisation exactly. ``schur`` trailing rows form a Schur block, as in
-    :class:`SparseCholesky`; the options under :data:`OPTIONS_PREFIX` apply here too.
+    :class:`SparseCholesky`; the options under the active prefix apply here too.
     """
     _check_required_options()
     lib = _libpetsc()
@@ -359,7 +398,7 @@ def sparse_statistics(A: PETSc.Mat, schur: int = 0) -> SparseStatistics:
     _check(lib.MatGetFactor(_ptr(A), b"mumps", MAT_FACTOR_CHOLESKY, ctypes.byref(F)))
     try:
         schur_is = None
-        _check(lib.MatSetOptionsPrefix(F, OPTIONS_PREFIX.encode()))  # as SparseCholesky's
+        _check(lib.MatSetOptionsPrefix(F, options_prefix().encode()))  # as SparseCholesky's
         if schur:
             n = A.getSize()[0]
             schur_is = PETSc.IS().createStride(schur, n - schur, 1, comm=A.comm)

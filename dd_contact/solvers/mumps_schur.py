@@ -33,7 +33,6 @@ from dd_contact.solvers.linalg import (
     INFOG_FACTOR_ENTRIES_ESTIMATED,
     INFOG_NULL_PIVOTS,
     INFOG_STATUS,
-    OPTIONS_PREFIX,
     REQUIRED_ICNTL,
     RINFOG_FLOPS,
     RINFOG_FLOPS_ESTIMATED,
@@ -41,6 +40,7 @@ from dd_contact.solvers.linalg import (
     _check_required_options,
     _libpetsc,
     _mumps_count,
+    options_prefix,
 )
 from dd_contact.solvers.worklog import WorkLog
 
@@ -173,9 +173,10 @@ def layout_known() -> bool:
 
 
 def _user_controls() -> tuple[dict[int, int], dict[int, float]]:
-    """ICNTL and CNTL given under :data:`OPTIONS_PREFIX` (``mat_mumps_icntl_<k>``, ...)."""
+    """ICNTL and CNTL given under the active options prefix (``mat_mumps_icntl_<k>``, ...)."""
     _check_required_options()
-    options = PETSc.Options(OPTIONS_PREFIX)
+    prefix = options_prefix()
+    options = PETSc.Options(prefix)
     icntl = {
         k: options.getInt(f"mat_mumps_icntl_{k}")
         for k in range(1, 61)
@@ -184,7 +185,7 @@ def _user_controls() -> tuple[dict[int, int], dict[int, float]]:
     for k, value in icntl.items():
         if k in PACKAGE_ICNTL and value != PACKAGE_ICNTL[k] and k not in (1, 2, 3, 4):
             raise InputError(
-                f"-{OPTIONS_PREFIX}mat_mumps_icntl_{k} = {value}: dd_contact sets MUMPS "
+                f"-{prefix}mat_mumps_icntl_{k} = {value}: dd_contact sets MUMPS "
                 f"ICNTL({k}) = {PACKAGE_ICNTL[k]} for its Schur factorisations; remove the option"
             )
     cntl = {
@@ -384,7 +385,8 @@ class SchurFactorisation:
             raise SingularMatrixError(
                 f"MUMPS {phase} of block {self.block!r} failed (INFOG(1) = {status}, "
                 f"INFOG(2) = {self._id.infog[1]}); the matrix is singular or not positive "
-                "definite, or MUMPS ran out of memory (raise -dd_contact_mat_mumps_icntl_14)"
+                "definite, or MUMPS ran out of memory (raise "
+                f"-{options_prefix()}mat_mumps_icntl_14)"
             )
 
     def destroy(self) -> None:
