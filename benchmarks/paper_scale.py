@@ -110,10 +110,11 @@ def _joint_layout(scale: str):
 def _analysis(problem) -> dict:
     """MUMPS's analysis of what the run factorises, and the timing model's prediction."""
     from dd_contact import timing
+    from dd_contact.solvers import analysed
 
     full = problem.algorithm == "FULL"
     with problem.analysis.petsc_options():  # the analysis reads the factorisations' options
-        structure = timing.scene_structure(
+        structure = analysed.scene_structure(
             problem.comm,
             problem.solver.system,
             [z.region for z in problem.zones],

@@ -57,12 +57,13 @@ def plan_of(algorithm: str, elements: list[int], dt: float):
     import dd_contact as dd
     from dd_contact import timing
     from dd_contact.examples import parallelepiped
+    from dd_contact.solvers import analysed
 
     scene = parallelepiped(algorithm, tuple(elements), comm=MPI.COMM_SELF)
     problem = dd.TransientProblem(scene, dt, algorithm=algorithm, track_energy=False)
     contacts = [z.region for z in problem.zones]
     full = algorithm == "FULL"
-    structure = timing.scene_structure(
+    structure = analysed.scene_structure(
         MPI.COMM_SELF, problem.solver.system, contacts, full=full, orders=not full
     )
     problem.solver.destroy()

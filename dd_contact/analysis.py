@@ -31,6 +31,7 @@ from dd_contact.parallel import allgather_blocks, collective, gathered
 from dd_contact.post import Results
 from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene, Subdomain
 from dd_contact.solvers import MonolithicSolver, WorkLog
+from dd_contact.solvers.analysed import Candidates, scene_structure
 from dd_contact.solvers.engine import BlockEliminationSolver
 from dd_contact.solvers.linalg import (
     OPTIONS_PREFIX,
@@ -198,25 +199,29 @@ class Analysis:
 
     # -- the solver -----------------------------------------------------------------------
     def _choose(self, valid, expected, rates):
-        """Collective: ``algorithm="auto"``'s choice, and the parts it built for it."""
+        """Collective: ``algorithm="auto"``'s choice, and the analysed parts of its solver.
+
+        The orders are analysed first (their subdomains kept for the chosen solver); FULL
+        only if :func:`dd_contact.timing.full_cannot_win` does not rule it out.
+        """
         steps, changes = expected
         rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
         contacts = [z.region for z in self.zones]
-        self.choice, structure = timing.auto_choice(
-            self.comm,
-            self._system,
-            contacts,
-            self.condensation,
-            valid,
-            rates,
-            steps,
-            changes,
-            self.work,
-        )
-        reused = structure.parts.take(self.choice.algorithm)
-        structure.parts = None
+        candidates = Candidates(self.comm, self._system, contacts, self.condensation, self.work)
+        orders = tuple(a for a in valid if a != "FULL")
+        structure = candidates.analyse_orders() if orders else None
+        skipped = {}
+        if structure is not None:
+            least = timing.full_cannot_win(structure, rates, orders, steps, changes)
+            if least is not None:
+                skipped["FULL"] = least
+        if "FULL" in valid and not skipped:
+            structure = candidates.analyse_full(structure)
+        analysed = tuple(a for a in valid if a not in skipped)
+        self.choice = timing.choose(structure, rates, analysed, steps, changes)
+        self.choice.skipped = skipped
         self._auto = (structure, rates, steps, changes)  # for the check after CHECK_SOLVES
-        return self.choice.algorithm, reused
+        return self.choice.algorithm, candidates.take(self.choice.algorithm)
 
     def _use(self, algorithm: str, reused=None) -> None:
         """Build ``algorithm``'s solver (from the parts auto analysed, if given)."""
@@ -440,7 +445,7 @@ class Analysis:
         full = self.algorithm == "FULL"
         rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
         with self.petsc_options():  # the analysis reads the factorisations' options
-            structure = timing.scene_structure(
+            structure = scene_structure(
                 self.comm,
                 self.solver.system,
                 contacts,

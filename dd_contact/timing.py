@@ -21,11 +21,7 @@ from __future__ import annotations
 import statistics
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
-from mpi4py import MPI
-
-from dd_contact.blocks import ContactRegion
 from dd_contact.calibration import (
     PLAUSIBLE_RATES,
     RATE_KINDS,
@@ -33,17 +29,10 @@ from dd_contact.calibration import (
     calibrate,
     machine_rates,
 )
-from dd_contact.solvers.engine import owned_subdomains, subdomain_statistics, surface_structure
-from dd_contact.solvers.full import MonolithicSolver, monolithic_statistics
+from dd_contact.solvers.analysed import SceneStructure
 from dd_contact.solvers.linalg import SparseStatistics
-from dd_contact.solvers.schedule import (
-    ALGORITHMS,
-    SWEEPS,
-    FullSchedule,
-    Operation,
-    Schedule,
-)
-from dd_contact.solvers.worklog import WorkLog, WorkRecord
+from dd_contact.solvers.schedule import ALGORITHMS, SWEEPS, Operation
+from dd_contact.solvers.worklog import WorkRecord
 
 __all__ = [
     "MISS",
@@ -53,10 +42,9 @@ __all__ = [
     "MachineRates",
     "Plan",
     "Prediction",
-    "SceneStructure",
-    "auto_choice",
     "calibrate",
     "choose",
+    "full_cannot_win",
     "machine_rates",
     "misses",
     "plan",
@@ -100,110 +88,6 @@ def record_seconds(record: WorkRecord, rates: MachineRates) -> float:
 
 
 # -- the work -------------------------------------------------------------------------------
-@dataclass
-class SceneStructure:
-    """What the plans need to know about a scene's (constrained) block system.
-
-    Attributes:
-        sizes: Size of every block.
-        regions: Contact region -> the block it acts on.
-        subdomains: Per subdomain, MUMPS's analysis of the matrix the orders factorise.
-        layouts: Per subdomain, ``(surface block, tied dofs)`` of each of its couplings.
-        base_pairs: Surface block pairs with a matrix of their own.
-        full: MUMPS's analysis of FULL's matrix (``None``: FULL not considered).
-        condensation: How the orders condense a subdomain (``"schur"``, ``"multi-rhs"``).
-        parts: The analysed solver parts, if kept (``scene_structure(log=...)``).
-    """
-
-    sizes: dict[str, int]
-    regions: dict[str, str]
-    subdomains: dict[str, SparseStatistics]
-    layouts: dict[str, list]
-    base_pairs: set
-    full: SparseStatistics | None
-    condensation: str = "schur"
-    parts: AnalysedParts | None = None  # kept by scene_structure(log=...)
-
-    def schedule(self, algorithm: str) -> Schedule | FullSchedule:
-        """The schedule ``algorithm`` follows on this scene."""
-        if algorithm == "FULL":
-            return FullSchedule(sum(self.sizes.values()), self.regions)
-        return Schedule(
-            algorithm, self.sizes, self.layouts, self.base_pairs, self.regions, self.condensation
-        )
-
-
-def scene_structure(
-    comm: MPI.Comm,
-    system,
-    contacts: Sequence[ContactRegion],
-    condensation: str = "schur",
-    full: bool = True,
-    orders: bool = True,
-    log: WorkLog | None = None,
-) -> SceneStructure:
-    """Collective: analyse the matrices each algorithm would factorise (no factorisation).
-
-    Args:
-        comm: Communicator of the problem.
-        system: This rank's pieces of the constrained block system.
-        contacts: This rank's contact regions.
-        condensation: As for :class:`dd_contact.solvers.engine.BlockEliminationSolver`.
-        full: Analyse FULL's matrix.
-        orders: Analyse the subdomain matrices of the decomposition orders.
-        log: Keep the analysed solver parts, recording into this log, for the chosen
-            algorithm to reuse (:meth:`SceneStructure.take_parts`); by default freed here.
-    """
-    subdomains: dict[str, SparseStatistics] = {}
-    layouts: dict[str, list] = {}
-    parts = AnalysedParts()
-    if orders:
-        if log is not None:
-            parts.subdomains = owned_subdomains(comm, system, contacts, log, condensation)
-        analysed = subdomain_statistics(
-            comm, system, contacts, condensation, parts.subdomains if log is not None else None
-        )
-        for block, (stats, layout) in analysed.items():
-            subdomains[block], layouts[block] = stats, layout
-    pairs, regions = surface_structure(comm, system, contacts)
-    full_stats = None
-    if full and log is not None:
-        parts.full = MonolithicSolver(comm, system, contacts, log)
-        full_stats = parts.full.analyse()
-    elif full:
-        full_stats = monolithic_statistics(comm, system, contacts)
-    structure = SceneStructure(
-        dict(system.sizes), regions, subdomains, layouts, pairs, full_stats, condensation
-    )
-    structure.parts = parts
-    return structure
-
-
-@dataclass
-class AnalysedParts:
-    """Solver parts built and analysed for the prediction, kept for the chosen solver.
-
-    Attributes:
-        subdomains: This rank's subdomains (:func:`~dd_contact.solvers.engine.owned_subdomains`).
-        full: FULL's solver (its matrix assembled).
-    """
-
-    subdomains: dict | None = None
-    full: Any = None
-
-    def take(self, algorithm: str) -> dict | Any:
-        """The parts ``algorithm``'s solver reuses (``None``: none kept); the rest is freed."""
-        keep = self.full if algorithm == "FULL" else self.subdomains
-        if algorithm != "FULL":
-            if self.full is not None:
-                self.full.destroy()
-        else:
-            for sub in (self.subdomains or {}).values():
-                sub.destroy()
-        self.subdomains, self.full = None, None
-        return keep
-
-
 @dataclass
 class Plan:
     """The factorisations and solves of one algorithm (records with zero seconds).
@@ -402,41 +286,22 @@ def replan(
 FULL_FACTOR_BOUND = 0.25
 
 
-def auto_choice(
-    comm: MPI.Comm,
-    system,
-    contacts: Sequence[ContactRegion],
-    condensation: str,
-    candidates: tuple[str, ...],
+def full_cannot_win(
+    structure: SceneStructure,
     rates: MachineRates,
+    orders: tuple[str, ...],
     steps: float,
     changes: float,
-    log: WorkLog,
-) -> tuple[Choice, SceneStructure]:
-    """Collective: ``algorithm="auto"``: analyse the candidates that can win, choose.
+) -> float | None:
+    """The least FULL's run can cost [s] if that is more than the best order's, else ``None``.
 
-    The orders are analysed first (their subdomains kept for the chosen solver); FULL,
-    whose factorisation and every re-factorisation cost at least :data:`FULL_FACTOR_BOUND`
-    of the subdomains', only if that bound is below the best order's predicted total.
+    FULL's factorisation and every re-factorisation cost at least :data:`FULL_FACTOR_BOUND`
+    of the subdomains' (analysed in ``structure``): when that bound already loses to the
+    best of ``orders``, FULL need not be analysed at all.
     """
-    orders = tuple(a for a in candidates if a != "FULL")
-    structure = scene_structure(
-        comm, system, contacts, condensation, full=False, orders=bool(orders), log=log
-    )
-    skipped = {}
-    if orders:
-        best = min(predict(plan(structure, a), rates, steps, changes).total for a in orders)
-        subdomains = sum(
-            rates.seconds("sparse_factor", s.flops) for s in structure.subdomains.values()
-        )
-        least = FULL_FACTOR_BOUND * (1.0 + changes) * subdomains
-        if least > best:
-            skipped["FULL"] = least
-    if "FULL" in candidates and not skipped:
-        structure.parts.full = MonolithicSolver(comm, system, contacts, log)
-        structure.full = structure.parts.full.analyse()
-    choice = choose(
-        structure, rates, tuple(a for a in candidates if a not in skipped), steps, changes
-    )
-    choice.skipped = skipped
-    return choice, structure
+    if not orders:
+        return None
+    best = min(predict(plan(structure, a), rates, steps, changes).total for a in orders)
+    subdomains = sum(rates.seconds("sparse_factor", s.flops) for s in structure.subdomains.values())
+    least = FULL_FACTOR_BOUND * (1.0 + changes) * subdomains
+    return least if least > best else None

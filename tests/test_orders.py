@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 import dd_contact as dd
-from dd_contact import flops, timing, verify
+from dd_contact import flops, verify
+from dd_contact.solvers import analysed
 from dd_contact.solvers.worklog import WorkLog
 
 
@@ -66,7 +67,7 @@ def test_work_counts_equal_the_papers(kind, order, condensation):
     assert problem.changes["gamma"] >= 2
     # The paper's model has no energy-safe release solves (the same contact state solved
     # again): their work is the schedule's release plan, added to the paper's counts.
-    schedule = timing.scene_structure(
+    schedule = analysed.scene_structure(
         problem.comm,
         problem.solver.system,
         [z.region for z in problem.zones],

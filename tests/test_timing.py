@@ -13,6 +13,7 @@ import pytest
 import dd_contact as dd
 from dd_contact import calibration, timing, verify
 from dd_contact.examples import parallelepiped, row_of_blocks
+from dd_contact.solvers import analysed
 from dd_contact.solvers.worklog import WorkLog, WorkRecord
 
 
@@ -207,7 +208,7 @@ def test_the_plan_is_what_the_solver_does(kind, algorithm, condensation):
         verify.order_scene(kind, True, 1e4), 0.01, algorithm=algorithm, condensation=condensation
     )
     full = algorithm == "FULL"
-    structure = timing.scene_structure(
+    structure = analysed.scene_structure(
         problem.comm,
         problem.solver.system,
         [z.region for z in problem.zones],
@@ -359,7 +360,7 @@ def test_auto_chooses_again_when_the_first_solves_miss_by_more_than_2x(rates, ca
 
 
 def test_a_replan_switches_only_for_a_clear_gain():
-    structure = timing.SceneStructure({}, {}, {}, {}, set(), None)
+    structure = analysed.SceneStructure({}, {}, {}, {}, set(), None)
 
     def priced(totals):  # the rest of the run of each (one "step" of that many seconds)
         def predict(plan, rates, steps, changes):
