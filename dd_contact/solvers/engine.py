@@ -72,13 +72,11 @@ def coupling_layout(block: str, system: BlockSystem) -> tuple[list, sp.csr_array
     Returns the layout and ``C``, the subdomain's non-zero coupling columns side by side.
     """
     layout, columns = [], []
-    for (row, col), A in system.matrices.items():
-        if row == col or block not in (row, col):
-            continue
-        A = sp.csr_array(A if row == block else A.T)
+    for surface, A in system.coupled(block):
+        A = sp.csr_array(A)
         A.eliminate_zeros()
         J = np.unique(A.indices)
-        layout.append((col if row == block else row, J))
+        layout.append((surface, J))
         columns.append(A[:, J])
     n = system.sizes[block]
     return layout, (sp.csr_array(sp.hstack(columns)) if columns else sp.csr_array((n, 0)))
@@ -114,10 +112,10 @@ def surface_structure(
     Returns the surface block pairs with a matrix of their own (both orientations) and the
     block each contact region acts on.
     """
-    pairs = {(r, c) for r, c in system.matrices if r.kind != "u" != c.kind}
+    pairs = {(r, c) for r, c, _ in system.all_blocks() if r.kind != "u" != c.kind}
     pairs = {p for part in comm.allgather(pairs) for p in part}
     regions = gathered(comm, {region.name: region.block for region in contacts})
-    return pairs | {(c, r) for r, c in pairs}, regions
+    return pairs, regions
 
 
 # -- the subdomain level ------------------------------------------------------------------
@@ -159,7 +157,7 @@ class SubdomainCondensation:
         # block; it gives -Z directly, and its reduction and expansion phases give the
         # surface right-hand side and u with one forward and one backward sweep.
         self.schur = m if condensation == "schur" else 0
-        rows, cols, values = coo_of(system.matrices[(block, block)])
+        rows, cols, values = coo_of(system.block(block, block))
         if self.schur:
             cr, cc, cv = coo_of(self.C)
             diagonal = n + np.arange(m)  # the Schur block's pattern, zero
@@ -347,7 +345,10 @@ class _Surface:
         self.stale: set[str] = {g.name for g in schedule.flat}  # nothing factorised yet
 
     def add_base(self, row: str, col: str, A: sp.sparray) -> None:
-        """Add a surface block's own matrix (not from condensation)."""
+        """Add a stored piece of a surface pair's own matrix (``BlockSystem.matrices``).
+
+        The dense pair it stands for in both orientations: the transpose is a view.
+        """
         dense = sp.csr_array(A).toarray()
         self.base[(row, col)] = self.base.get((row, col), 0.0) + dense
         if row != col:
