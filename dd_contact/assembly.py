@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 
 from mpi4py import MPI
@@ -82,6 +83,12 @@ class StiffTie:
 @dataclass
 class BlockSystem:
     """The local pieces of a symmetric block system ``A x = b``.
+
+    Only one triangle of A is stored: an off-diagonal block is held once, as (row, col) or
+    as (col, row), and stands for its transpose too. That rule is applied here and nowhere
+    else: read A through :meth:`block`, :meth:`all_blocks`, :meth:`block_row`,
+    :meth:`coupled`, :meth:`row_product` and :meth:`triplets`. :attr:`matrices` is the
+    storage: for adding to it, changing it in place, or sending its pieces elsewhere.
 
     Attributes:
         sizes: Size of every block, in block order (same on all ranks).
@@ -161,13 +168,77 @@ class BlockSystem:
 
         Prescribed values g put ``-A[r, D] g`` on the right-hand side of row block r.
         """
-        columns = []
+        return [
+            (row, sp.csr_array(sp.csc_array(A)[:, dofs]))
+            for row, col, A in self.all_blocks()
+            if col == block
+        ]
+
+    # -- A itself: the only code that knows a block is stored once for both triangles ----
+    def block(self, row: Block, col: Block) -> sp.sparray | None:
+        """``A[row, col]``, or ``None`` where the two blocks are not coupled.
+
+        The stored matrix, or the transpose of the stored ``(col, row)``: a view (CSC), no copy.
+        """
+        if (row, col) in self.matrices:
+            return self.matrices[(row, col)]
+        if (col, row) in self.matrices:
+            return self.matrices[(col, row)].T
+        return None
+
+    def all_blocks(self) -> Iterator[tuple[Block, Block, sp.sparray]]:
+        """``(row, col, A[row, col])`` of every non-zero block of A.
+
+        In storage order, each stored block followed by its transpose (a view) if it is off
+        the diagonal. Sums over these blocks depend on that order in their last bits; the
+        callers keep it.
+        """
         for (row, col), A in self.matrices.items():
-            if col == block:
-                columns.append((row, sp.csr_array(sp.csc_array(A)[:, dofs])))
-            elif row == block:  # an off-diagonal pair stands for its transpose too
-                columns.append((col, sp.csr_array(sp.csr_array(A)[dofs].T)))
-        return columns
+            yield row, col, A
+            if row != col:
+                yield col, row, A.T
+
+    def block_row(self, row: Block) -> Iterator[tuple[Block, sp.sparray]]:
+        """``(col, A[row, col])`` of every non-zero block in block row ``row``.
+
+        The diagonal block included, in the order of :meth:`all_blocks`.
+        """
+        for r, col, A in self.all_blocks():
+            if r == row:
+                yield col, A
+
+    def coupled(self, block: Block) -> Iterator[tuple[Block, sp.sparray]]:
+        """``(other, A[block, other])`` of every other block coupled to ``block``."""
+        for other, A in self.block_row(block):
+            if other != block:
+                yield other, A
+
+    def row_product(self, row: Block, x: Mapping[Block, np.ndarray]) -> np.ndarray:
+        """``(A x)_row``, a new array; a block missing from ``x`` counts as zero."""
+        out = np.zeros(self.sizes[row])
+        for col, A in self.block_row(row):
+            if col in x:
+                out += A @ x[col]
+        return out
+
+    def triplets(self, offsets: Mapping[Block, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A's entries, both triangles, as COO ``(rows, cols, values)`` in one numbering.
+
+        Each block starts at ``offsets[block]``. A transposed block is the stored one's
+        entries with rows and columns swapped: no arrays of its own before the concatenation.
+        """
+        rows, cols, values = [], [], []
+        for (row, col), A in self.matrices.items():
+            coo = sp.coo_array(A)
+            r, c = coo.row + offsets[row], coo.col + offsets[col]
+            rows.append(r), cols.append(c), values.append(coo.data)
+            if row != col:
+                rows.append(c), cols.append(r), values.append(coo.data)
+        return _joined(rows, np.int64), _joined(cols, np.int64), _joined(values, np.float64)
+
+
+def _joined(arrays: list[np.ndarray], dtype) -> np.ndarray:
+    return np.concatenate(arrays, dtype=dtype) if arrays else np.zeros(0, dtype)
 
 
 def _tie_operators(surface, sub, what: str) -> coupling.TieOperators:

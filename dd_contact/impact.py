@@ -85,18 +85,12 @@ GEOMETRIC_STEPS = 8
 
 
 def block_product(system: BlockSystem, row: Block, x: Mapping[Block, np.ndarray]) -> np.ndarray:
-    """``(A x)_row``: the block row ``row`` of the (symmetric, stored once) system times x."""
-    out = np.zeros(system.sizes[row])
-    for (r, c), A in system.matrices.items():
-        if r == row and c in x:
-            out += A @ x[c]
-        elif c == row and r != c and r in x:
-            out += A.T @ x[r]
-    return out
+    """``(A x)_row``: :meth:`~dd_contact.assembly.BlockSystem.row_product`."""
+    return system.row_product(row, x)
 
 
 class BlockProducts:
-    """Block rows of ``A x`` (:func:`block_product`), the ``kept`` ones remembered per x.
+    """Block rows of ``A x`` (``BlockSystem.row_product``), the ``kept`` ones remembered per x.
 
     The energy at the end of a step and the start forces of the next one both read ``K x_n``
     on every owned subdomain row, a sparse product of the subdomain's size: the second finds
@@ -107,18 +101,15 @@ class BlockProducts:
 
     def __init__(self, system: BlockSystem, kept: Iterable[Block]):
         self.system = system
-        self._read = {row: set() for row in kept}  # a kept row -> the blocks it reads
-        for r, c in system.matrices:
-            for row, col in ((r, c), (c, r)):
-                if row in self._read:
-                    self._read[row].add(col)
+        # a kept row -> the blocks it reads
+        self._read = {row: {col for col, _ in system.block_row(row)} for row in kept}
         self._last: dict[Block, tuple[dict[Block, np.ndarray], np.ndarray]] = {}
         self.computed = 0  # products of kept rows taken (not found): a count for tests
 
     def row(self, row: Block, x: Mapping[Block, np.ndarray]) -> np.ndarray:
         """``(A x)_row`` as a new array (the caller may change it)."""
         if row not in self._read:
-            return block_product(self.system, row, x)
+            return self.system.row_product(row, x)
         read = {c: x[c] for c in self._read[row] if c in x}
         last = self._last.get(row)
         if (
@@ -128,7 +119,7 @@ class BlockProducts:
         ):
             last = self._last[row] = (
                 {c: v.copy() for c, v in read.items()},
-                block_product(self.system, row, x),
+                self.system.row_product(row, x),
             )
             self.computed += 1
         return last[1].copy()
@@ -177,7 +168,7 @@ class StartForces:
         #: ``K x_n - f_C(x_n; A_n)`` on each owned subdomain block (ties and stiff-tie forces in).
         self.internal = {}
         for block in owned:
-            force = products.row(block, x) if products else block_product(system, block, x)
+            force = products.row(block, x) if products else system.row_product(block, x)
             if block in offset:
                 force += offset[block]
             self.internal[block] = force
@@ -227,10 +218,10 @@ class StartForces:
             shift = self.x[z.block] - self._surface_at_start(z, both, remaining)
             if self.system.stiff_ties:
                 u = z.contact.subdomain.block
-                rhs[u] = rhs.get(u, 0.0) + self._coupling(u, z.block) @ shift
+                rhs[u] = rhs.get(u, 0.0) + sp.csr_array(self.system.block(u, z.block)) @ shift
                 continue
             matrix, _ = z.contribution(active[name])
-            w_rows = self.system.matrices[(z.block, z.block)] @ shift
+            w_rows = self.system.block(z.block, z.block) @ shift
             w_rows[z.dofs] += matrix @ shift[z.dofs]
             rhs[z.block] = rhs.get(z.block, 0.0) - w_rows
             shifts[z.block] = shift
@@ -301,11 +292,6 @@ class StartForces:
         pen = op.penetration(self.x[z.block][z.dofs])
         return z.free * (op.G.T @ (factor * op.points.weight / op.epsilon * pen))
 
-    def _coupling(self, row: Block, col: Block) -> sp.csr_array:
-        if (row, col) in self.system.matrices:
-            return self.system.matrices[(row, col)]
-        return sp.csr_array(self.system.matrices[(col, row)].T)
-
     def _surface_at_start(
         self, z: ContactZone, active: Mapping[str, np.ndarray], forces: np.ndarray
     ) -> np.ndarray:
@@ -313,11 +299,10 @@ class StartForces:
         w = z.block
         matrix, vector = z.contribution(active[z.contact.name])
         C = sp.coo_array(matrix)  # the contact block placed on the zone's dofs of w
-        placed = sp.csr_array(
-            (C.data, (z.dofs[C.row], z.dofs[C.col])), shape=self.system.matrices[(w, w)].shape
-        )
-        A = self.system.matrices[(w, w)] + placed
-        b = -block_product(self.system, w, {k: v for k, v in self.x.items() if k != w})
+        A = self.system.block(w, w)
+        placed = sp.csr_array((C.data, (z.dofs[C.row], z.dofs[C.col])), shape=A.shape)
+        A = A + placed
+        b = -self.system.row_product(w, {k: v for k, v in self.x.items() if k != w})
         np.add.at(b, z.dofs, vector - forces)
         return spsolve(sp.csc_array(A), b)
 

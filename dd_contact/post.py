@@ -6,7 +6,6 @@ contact pressure in Pa, areas in m^2, gaps in m and energies in J.
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -18,7 +17,7 @@ import ufl
 
 from dd_contact.assembly import ContactZone, Model
 from dd_contact.forms import stress
-from dd_contact.impact import BlockProducts, block_product
+from dd_contact.impact import BlockProducts
 from dd_contact.parallel import gathered
 from dd_contact.scene import ContactBoundary, ContactInterface, Scene, Subdomain, Where
 
@@ -86,7 +85,7 @@ def energy(
     Returns:
         ``"kinetic"``, ``"elastic"`` and ``"contact"``.
     """
-    product = products.row if products else functools.partial(block_product, model.system)
+    product = products.row if products else model.system.row_product
     rows = sorted({block for pair in model.system.matrices for block in pair})
     # x K x / 2 row by row: each off-diagonal piece is read from both its blocks' rows
     elastic = 0.5 * sum(float(x[row] @ product(row, x)) for row in rows)
@@ -188,14 +187,10 @@ class Reactions:
         self.rows: dict[str, list[tuple[str, sp.csr_array]]] = {}
         self.mass: dict[str, sp.csr_array] = {}
         for block, (dofs, _) in model.dirichlet.items():
-            rows = []
-            # Off-diagonal coupling is stored once, as (row, column) or (column, row).
-            for (rb, cb), A in model.system.matrices.items():
-                if rb == block:
-                    rows.append((cb, sp.csr_array(A[dofs])))
-                elif cb == block:
-                    rows.append((rb, sp.csr_array(sp.csr_array(A.T)[dofs])))
-            self.rows[block] = rows
+            self.rows[block] = [
+                (col, sp.csr_array(sp.csr_array(A)[dofs]))
+                for col, A in model.system.block_row(block)
+            ]
             if block in model.mass:
                 self.mass[block] = sp.csr_array(model.mass[block][dofs])
 

@@ -242,7 +242,8 @@ def test_a_schur_subdomain_keeps_one_copy_of_its_matrix_and_of_its_complement():
         assert sub.Z is None  # sent to the surface, which built its pairs from it
     surface = solver.surface
     assert surface.condensed == {}  # no contact on a subdomain's boundary: no Z changes
-    assert surface.R and not set(surface.base) & set(surface.R)  # R holds what they were
+    # S holds what they were
+    assert surface.schur_pairs and not set(surface.base) & set(surface.schur_pairs)
     problem.close()
 
 

@@ -44,13 +44,14 @@ def stepped():
 
 def test_the_surface_keeps_one_copy_of_each_symmetric_pair(stepped):
     surface = stepped[0].solver.surface
-    pairs = [p for p in surface.R if p[0] != p[1]]
+    S = surface.schur_pairs
+    pairs = [p for p in S if p[0] != p[1]]
     assert len(pairs) == 20  # the interface with each of the ten walls, both ways
     for a, b in pairs:
-        assert np.shares_memory(surface.R[(a, b)], surface.R[(b, a)])
-        np.testing.assert_array_equal(surface.R[(a, b)], surface.R[(b, a)].T)
-    owners = {id(v.base if v.base is not None else v) for v in surface.R.values()}
-    assert len(owners) == len(surface.R) - 10  # 1 (v, v) + 10 (w, w) + 10 off-diagonal
+        assert np.shares_memory(S[(a, b)], S[(b, a)])
+        np.testing.assert_array_equal(S[(a, b)], S[(b, a)].T)
+    owners = {id(v.base if v.base is not None else v) for v in S.values()}
+    assert len(owners) == len(S) - 10  # 1 (v, v) + 10 (w, w) + 10 off-diagonal
 
 
 def test_no_group_keeps_its_condensation_once_eliminated(stepped):
@@ -58,7 +59,7 @@ def test_no_group_keeps_its_condensation_once_eliminated(stepped):
     first, last = surface.schedule.groups
     assert [len(g.blocks) for g in first] == [1] and [len(g.blocks) for g in last] == [10]
     groups = [g for level in surface.schedule.groups for g in level]
-    assert all(surface.state[g.name].BtX is None for g in groups)
+    assert all(surface.state[g.name].subtracted is None for g in groups)
     assert surface.state[first[0].name].B is not None  # its solves still need B
 
 
@@ -71,7 +72,7 @@ def test_re_eliminating_a_pair_recomputes_the_freed_condensation(stepped):
     surface.stale.add(surface.schedule.groups[-1][0].name)  # re-factorise the last group only
     surface.factorise()
     np.testing.assert_array_equal(surface.eliminated[pair], before)
-    assert surface.state[surface.schedule.groups[0][0].name].BtX is None
+    assert surface.state[surface.schedule.groups[0][0].name].subtracted is None
 
 
 def test_mumps_compacts_its_workspace_and_the_results_do_not_change(stepped):

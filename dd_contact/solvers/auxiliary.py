@@ -48,7 +48,7 @@ def solve_mass(
     block = Block("u", name)
     mass = BlockSystem({block: n}, {block: 0}, {(block, block): mass_matrix})
     mass.constrain(block, fixed_dofs, np.zeros(fixed_dofs.size))
-    row, col, val = coo_of(mass.matrices[(block, block)])
+    row, col, val = coo_of(mass.block(block, block))
     A = petsc_matrix(MPI.COMM_SELF, n, n, row, col, val)
     factor = b = a = None
     try:

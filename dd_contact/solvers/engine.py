@@ -72,13 +72,11 @@ def coupling_layout(block: str, system: BlockSystem) -> tuple[list, sp.csr_array
     Returns the layout and ``C``, the subdomain's non-zero coupling columns side by side.
     """
     layout, columns = [], []
-    for (row, col), A in system.matrices.items():
-        if row == col or block not in (row, col):
-            continue
-        A = sp.csr_array(A if row == block else A.T)
+    for surface, A in system.coupled(block):
+        A = sp.csr_array(A)
         A.eliminate_zeros()
         J = np.unique(A.indices)
-        layout.append((col if row == block else row, J))
+        layout.append((surface, J))
         columns.append(A[:, J])
     n = system.sizes[block]
     return layout, (sp.csr_array(sp.hstack(columns)) if columns else sp.csr_array((n, 0)))
@@ -114,10 +112,10 @@ def surface_structure(
     Returns the surface block pairs with a matrix of their own (both orientations) and the
     block each contact region acts on.
     """
-    pairs = {(r, c) for r, c in system.matrices if r.kind != "u" != c.kind}
+    pairs = {(r, c) for r, c, _ in system.all_blocks() if r.kind != "u" != c.kind}
     pairs = {p for part in comm.allgather(pairs) for p in part}
     regions = gathered(comm, {region.name: region.block for region in contacts})
-    return pairs | {(c, r) for r, c in pairs}, regions
+    return pairs, regions
 
 
 # -- the subdomain level ------------------------------------------------------------------
@@ -159,7 +157,7 @@ class SubdomainCondensation:
         # block; it gives -Z directly, and its reduction and expansion phases give the
         # surface right-hand side and u with one forward and one backward sweep.
         self.schur = m if condensation == "schur" else 0
-        rows, cols, values = coo_of(system.matrices[(block, block)])
+        rows, cols, values = coo_of(system.block(block, block))
         if self.schur:
             cr, cc, cv = coo_of(self.C)
             diagonal = n + np.arange(m)  # the Schur block's pattern, zero
@@ -313,7 +311,7 @@ class _GroupState:
 
     factor: DenseCholesky | None = None
     B: np.ndarray | None = None  # the non-zero coupling columns to the neighbours
-    BtX: np.ndarray | None = None  # B^T A_GG^-1 B: what eliminating the group subtracts
+    subtracted: np.ndarray | None = None  # B^T A_GG^-1 B: what eliminating the group subtracts
     columns: list[tuple[str, np.ndarray]] = field(default_factory=list)
     offsets: np.ndarray | None = None
     g_in: np.ndarray | None = None  # right-hand side when last eliminated
@@ -327,9 +325,16 @@ class _Surface:
         schedule: The elimination schedule.
         log: Where the dense work is recorded.
         recondensed: Whether a subdomain can send a new Z (it has contact on its own boundary
-            and is re-factorised on a change). The surface pairs R are then rebuilt from the
+            and is re-factorised on a change). The Schur pairs are then rebuilt from the
             base and every subdomain's Z, which are kept. Otherwise both are freed once every
-            subdomain's Z is in R (at 306k dofs 84 MB of dense copies; a new Z then raises).
+            subdomain's Z is in them (at 306k dofs 84 MB of dense copies; a new Z then raises).
+
+    Attributes:
+        base: The surface pairs' own matrices, dense (an off-diagonal one and its transpose
+            share their memory).
+        schur_pairs: The pairs of S = base - sum_k Z_k (A14-A18), each subdomain's
+            condensation Z_k subtracted where it touches.
+        eliminated: The pairs after the earlier levels' groups are eliminated.
     """
 
     def __init__(self, schedule: Schedule, log: WorkLog, recondensed: bool = True):
@@ -337,17 +342,20 @@ class _Surface:
         self.recondensed = recondensed
         self.base: dict[tuple[str, str], np.ndarray] = {}
         self.condensed: dict[str, np.ndarray] = {}  # latest Z of each subdomain (if kept)
-        self._sources_freed = False  # base pairs in R and every Z freed (not recondensed)
+        self._sources_freed = False  # base pairs in S and every Z freed (not recondensed)
         self.contact: dict[str, sp.csr_array] = {}
-        self.R: dict[tuple[str, str], np.ndarray] = {}  # base minus the condensations
-        self.eliminated: dict[tuple[str, str], np.ndarray] = {}  # after an earlier level
+        self.schur_pairs: dict[tuple[str, str], np.ndarray] = {}
+        self.eliminated: dict[tuple[str, str], np.ndarray] = {}
         self.state = {g.name: _GroupState() for g in schedule.flat}
         self.changed: set[str] = set()  # surface blocks changed since the last factorise
-        self.new_pairs: set[tuple[str, str]] = set()  # pairs of R changed since then
+        self.new_pairs: set[tuple[str, str]] = set()  # Schur pairs changed since then
         self.stale: set[str] = {g.name for g in schedule.flat}  # nothing factorised yet
 
     def add_base(self, row: str, col: str, A: sp.sparray) -> None:
-        """Add a surface block's own matrix (not from condensation)."""
+        """Add a stored piece of a surface pair's own matrix (``BlockSystem.matrices``).
+
+        The dense pair it stands for in both orientations: the transpose is a view.
+        """
         dense = sp.csr_array(A).toarray()
         self.base[(row, col)] = self.base.get((row, col), 0.0) + dense
         if row != col:
@@ -364,20 +372,21 @@ class _Surface:
         where = self.schedule.where
         touched = {(a, b) for a in where[block] for b in where[block]}
         for pair in sorted(touched):
-            if pair[::-1] in touched and pair[::-1] < pair:  # R is symmetric: a view, no copy
-                self.R[pair] = self.R[pair[::-1]].T
+            if pair[::-1] in touched and pair[::-1] < pair:  # S is symmetric: a view, no copy
+                self.schur_pairs[pair] = self.schur_pairs[pair[::-1]].T
                 continue
-            R = np.array(self.base.get(pair, np.zeros((self.sizes[pair[0]], self.sizes[pair[1]]))))
+            matrix = self.base.get(pair, np.zeros((self.sizes[pair[0]], self.sizes[pair[1]])))
+            matrix = np.array(matrix)
             for k, Zk in self.condensed.items():
                 if pair[0] in where[k] and pair[1] in where[k]:
                     (o1, J1), (o2, J2) = where[k][pair[0]], where[k][pair[1]]
-                    R[np.ix_(J1, J2)] -= Zk[o1 : o1 + len(J1), o2 : o2 + len(J2)]
-            self.R[pair] = R
+                    matrix[np.ix_(J1, J2)] -= Zk[o1 : o1 + len(J1), o2 : o2 + len(J2)]
+            self.schur_pairs[pair] = matrix
         self.new_pairs |= touched
         self.changed |= self.schedule.touched(block)
         if not self.recondensed and self.condensed.keys() == where.keys():
-            self.condensed.clear()  # every Z is in R now, and none will change
-            for pair in self.R:
+            self.condensed.clear()  # every Z is in S now, and none will change
+            for pair in self.schur_pairs:
                 self.base.pop(pair, None)
             self._sources_freed = True
 
@@ -386,8 +395,9 @@ class _Surface:
         self.contact[block] = matrix
         self.changed.add(block)
 
-    def _raw(self, pair) -> np.ndarray | None:
-        return self.R[pair] if pair in self.R else self.base.get(pair)
+    def _schur_pair(self, pair) -> np.ndarray | None:
+        """The pair's matrix in S (its base matrix if no subdomain touches it), or None."""
+        return self.schur_pairs[pair] if pair in self.schur_pairs else self.base.get(pair)
 
     def factorise(self) -> None:
         """Re-factorise the groups the schedule finds stale after what changed."""
@@ -395,66 +405,67 @@ class _Surface:
             self.stale |= self.schedule.stale_groups(self.changed)
         if not self.stale:
             return
-        E = {p: self._raw(p) for p in self.schedule.pairs}  # the pairs as each level sees them
+        # every pair's matrix as the current level sees it: S's, then each level's eliminated
+        level_pairs = {p: self._schur_pair(p) for p in self.schedule.pairs}
         for level in self.schedule.groups:
             updates: dict[tuple[str, str], list] = {}
             for g in level:
-                st = self.state[g.name]
+                state = self.state[g.name]
                 if g.name in self.stale:
-                    st.factor = None  # freed before its successor is assembled: not two at once
-                    st.factor = DenseCholesky(self._assemble(g, E), self.log, g.name)
+                    state.factor = None  # freed before its successor is assembled: not two at once
+                    state.factor = DenseCholesky(self._assemble(g, level_pairs), self.log, g.name)
                     if not g.last and g.neighbours:
-                        self._couple(g, st, E)
+                        self._couple(g, state, level_pairs)
                 if not g.last and g.neighbours:
-                    for i, (r1, _) in enumerate(st.columns):
-                        for j, (r2, _) in enumerate(st.columns):
-                            updates.setdefault((r1, r2), []).append((g, st, i, j))
+                    for i, (r1, _) in enumerate(state.columns):
+                        for j, (r2, _) in enumerate(state.columns):
+                            updates.setdefault((r1, r2), []).append((g, state, i, j))
             for pair, parts in updates.items():
                 redo = pair in self.new_pairs or any(g.name in self.stale for g, *_ in parts)
                 if redo or pair not in self.eliminated:
-                    for g, st, *_ in parts:
-                        if st.BtX is None:  # freed after its last use below
-                            self._couple(g, st, E)
-                    M = E.get(pair)
+                    for g, state, *_ in parts:
+                        if state.subtracted is None:  # freed after its last use below
+                            self._couple(g, state, level_pairs)
+                    M = level_pairs.get(pair)
                     M = np.zeros((self.sizes[pair[0]], self.sizes[pair[1]])) if M is None else M
                     M = M.copy()
-                    for _, st, i, j in parts:
-                        (_, J1), (_, J2) = st.columns[i], st.columns[j]
-                        o1, o2 = st.offsets[i], st.offsets[j]
-                        M[np.ix_(J1, J2)] -= st.BtX[o1 : o1 + len(J1), o2 : o2 + len(J2)]
+                    for _, state, i, j in parts:
+                        (_, J1), (_, J2) = state.columns[i], state.columns[j]
+                        o1, o2 = state.offsets[i], state.offsets[j]
+                        M[np.ix_(J1, J2)] -= state.subtracted[o1 : o1 + len(J1), o2 : o2 + len(J2)]
                     self.eliminated[pair] = M
-                E[pair] = self.eliminated[pair]
+                level_pairs[pair] = self.eliminated[pair]
             for g in level:  # B^T A_GG^-1 B is in the eliminated pairs now: as large as they
-                self.state[g.name].BtX = None
+                self.state[g.name].subtracted = None
         self.changed, self.new_pairs = set(), set()
 
-    def _assemble(self, g: Group, E) -> np.ndarray:
+    def _assemble(self, g: Group, level_pairs) -> np.ndarray:
         offsets = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
         A = np.zeros((offsets[-1], offsets[-1]))
         for i, a in enumerate(g.blocks):
             rows = slice(offsets[i], offsets[i + 1])
             for j, b in enumerate(g.blocks):
-                if E.get((a, b)) is not None:
-                    A[rows, offsets[j] : offsets[j + 1]] = E[(a, b)]
+                if level_pairs.get((a, b)) is not None:
+                    A[rows, offsets[j] : offsets[j + 1]] = level_pairs[(a, b)]
             if a in self.contact:
                 A[rows, rows] += self.contact[a].toarray()
         return A
 
-    def _couple(self, g: Group, st: _GroupState, E) -> None:
+    def _couple(self, g: Group, state: _GroupState, level_pairs) -> None:
         """X = A_GG^-1 B with B the non-zero coupling columns to the later blocks."""
         rows = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
-        st.columns, parts = [], []
+        state.columns, parts = [], []
         for r in g.neighbours:
             B = np.zeros((rows[-1], self.sizes[r]))
             for i, a in enumerate(g.blocks):
-                if E.get((a, r)) is not None:
-                    B[rows[i] : rows[i + 1]] = E[(a, r)]
+                if level_pairs.get((a, r)) is not None:
+                    B[rows[i] : rows[i + 1]] = level_pairs[(a, r)]
             J = np.flatnonzero(np.any(B != 0.0, axis=0))
-            st.columns.append((r, J))
+            state.columns.append((r, J))
             parts.append(B[:, J])
-        st.B = np.hstack(parts)
-        st.offsets = np.cumsum([0] + [len(J) for _, J in st.columns])
-        st.BtX = st.factor.congruence(st.B, "condense")
+        state.B = np.hstack(parts)
+        state.offsets = np.cumsum([0] + [len(J) for _, J in state.columns])
+        state.subtracted = state.factor.congruence(state.B, "condense")
 
     def solve(self, g: dict[str, np.ndarray], complete: bool) -> dict[str, np.ndarray]:
         """Eliminate the right-hand side forward and solve the last level.
@@ -464,18 +475,18 @@ class _Surface:
         g = {b: v.copy() for b, v in g.items()}
         for level in self.schedule.groups:
             for grp in level:
-                st = self.state[grp.name]
+                state = self.state[grp.name]
                 rhs = np.concatenate([g[b] for b in grp.blocks])
                 if grp.last:
-                    self._split(grp, st.factor.solve(rhs, "x"), g)
+                    self._split(grp, state.factor.solve(rhs, "x"), g)
                     continue
-                new_rhs = st.y is None or not np.array_equal(rhs, st.g_in)
+                new_rhs = state.y is None or not np.array_equal(rhs, state.g_in)
                 if self.schedule.solves(grp, self.stale, new_rhs):
-                    st.y, st.g_in = st.factor.solve(rhs, "y"), rhs
+                    state.y, state.g_in = state.factor.solve(rhs, "y"), rhs
                 if grp.neighbours:
-                    correction = st.B.T @ st.y
-                    for i, (r, J) in enumerate(st.columns):
-                        g[r][J] -= correction[st.offsets[i] : st.offsets[i + 1]]
+                    correction = state.B.T @ state.y
+                    for i, (r, J) in enumerate(state.columns):
+                        g[r][J] -= correction[state.offsets[i] : state.offsets[i + 1]]
         self.stale = set()
         x = {b: g[b] for grp in self.schedule.groups[-1] for b in grp.blocks}
         if complete:
@@ -487,12 +498,12 @@ class _Surface:
         x = dict(x)
         for level in reversed(self.schedule.groups[:-1]):
             for grp in level:
-                st = self.state[grp.name]
-                rhs = st.g_in.copy()
+                state = self.state[grp.name]
+                rhs = state.g_in.copy()
                 if grp.neighbours:
-                    coupled = np.concatenate([x[r][J] for r, J in st.columns])
-                    rhs -= st.B @ coupled
-                self._split(grp, st.factor.solve(rhs, "x"), x)
+                    coupled = np.concatenate([x[r][J] for r, J in state.columns])
+                    rhs -= state.B @ coupled
+                self._split(grp, state.factor.solve(rhs, "x"), x)
         return x
 
     def _split(self, grp: Group, values: np.ndarray, out: dict) -> None:

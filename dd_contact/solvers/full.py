@@ -21,16 +21,11 @@ from dd_contact.solvers.linalg import (
     PatternedMatrix,
     SparseCholesky,
     SparseStatistics,
-    coo_of,
     sparse_statistics,
 )
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = ["MonolithicSolver", "monolithic_statistics"]
-
-
-def _cat(arrays: list[np.ndarray], dtype) -> np.ndarray:
-    return np.concatenate(arrays, dtype=dtype) if arrays else np.zeros(0, dtype)
 
 
 class MonolithicSolver:
@@ -63,15 +58,7 @@ class MonolithicSolver:
             start += system.sizes[name]
         self.size = start
         self.local_size = sum(system.sizes[b] for b in order if system.owners[b] == comm.rank)
-        rows, cols, vals = [], [], []
-        for (rb, cb), block in system.matrices.items():
-            r, c, v = coo_of(block)
-            r, c = r + self.offsets[rb], c + self.offsets[cb]
-            rows.append(r), cols.append(c), vals.append(v)
-            if rb != cb:  # the transpose is implied
-                rows.append(c), cols.append(r), vals.append(v)
-        base = (_cat(rows, np.int64), _cat(cols, np.int64), _cat(vals, np.float64))
-        del rows, cols, vals  # the per-block pieces, before the matrix's own copies
+        base = system.triplets(self.offsets)
         self.matrix = PatternedMatrix(
             comm,
             self.local_size,

@@ -77,12 +77,9 @@ def free_rows(
 ) -> dict[str, np.ndarray]:
     """The free rows of this rank's subdomain blocks: no tie or contact term acts on them."""
     tied = {b: np.zeros(n, bool) for b, n in system.sizes.items() if b.kind == "u"}
-    for (row, col), A in system.matrices.items():
-        if row != col:
-            coo = sp.coo_array(A)
-            for block, index in ((row, coo.row), (col, coo.col)):
-                if block in tied:
-                    tied[block][index] = True
+    for block, rows in tied.items():
+        for _, A in system.coupled(block):
+            rows[sp.coo_array(A).row] = True
     for block, dofs in (contact_dofs or {}).items():
         if block in tied:
             tied[block][dofs] = True
@@ -103,10 +100,8 @@ def exact_residual(
     r = {b: np.zeros(n) for b, n in system.sizes.items()}
     for block, vector in rhs.items():
         r[block] += vector
-    for (row, col), A in system.matrices.items():
+    for row, col, A in system.all_blocks():
         r[row] -= A @ x[col]
-        if row != col:
-            r[col] -= A.T @ x[row]
     for block, dofs, matrix in contact:
         r[block][dofs] -= matrix @ x[block][dofs]
     b = np.linalg.norm(np.concatenate([rhs.get(k, np.zeros(n)) for k, n in system.sizes.items()]))
@@ -146,13 +141,12 @@ class ResidualCheck:
         #: ``A z`` and ``A z_free`` restricted to each block, from this rank's pieces.
         self._az: dict[str, np.ndarray] = {}
         self._az_free: dict[str, np.ndarray] = {}
-        for (row, col), A in system.matrices.items():
-            pairs = [(col, A.T, row)] + ([(row, A, col)] if row != col else [])
-            for target, M, source in pairs:  # an off-diagonal piece stands for its transpose
-                z = self.probe(source)
-                self._add(self._az, target, M @ z)
-                if source in self._free:
-                    self._add(self._az_free, target, M @ (z * self._free[source]))
+        # (A^T z)_col = sum over the rows of A[row, col]^T z_row
+        for row, col, A in system.all_blocks():
+            z = self.probe(row)
+            self._add(self._az, col, A.T @ z)
+            if row in self._free:
+                self._add(self._az_free, col, A.T @ (z * self._free[row]))
 
     @staticmethod
     def _add(store: dict, block: str, value: np.ndarray) -> None:
