@@ -26,6 +26,7 @@ __all__ = [
     "Schedule",
     "condensation_chunks",
     "fitting_algorithms",
+    "region_blocks",
     "run_operations",
 ]
 
@@ -79,6 +80,18 @@ def fitting_algorithms(
         if (set(levels) <= kinds if variants else set(levels) == kinds)
     ]
     return ("FULL", *fit)
+
+
+def region_blocks(blocks: str | tuple[str, ...]) -> tuple[Block, ...]:
+    """The blocks a contact region's matrix couples, from one block or several.
+
+    One for contact against an obstacle (a contact interface ``w`` or, on a subdomain's own
+    boundary, ``u``); two for a contact pair between the surfaces of two bodies.
+    """
+    names = (blocks,) if isinstance(blocks, str) else tuple(blocks)
+    if not names:
+        raise ValueError("a contact region couples at least one block")
+    return tuple(Block.parse(b) for b in names)
 
 
 def condensation_chunks(m: int) -> list[tuple[int, int]]:
@@ -177,7 +190,9 @@ class Schedule:
             non-zero columns of its coupling matrices.
         base_pairs: Surface block pairs with a matrix of their own (either orientation).
         regions: Contact region -> the block it acts on (``w:`` or, for contact on a
-            subdomain's own boundary, ``u:``).
+            subdomain's own boundary, ``u:``), or the blocks its matrix couples: a contact
+            pair between two bodies couples two (:func:`region_blocks`); they are always
+            eliminated in one group, so a change on the pair re-factorises that group.
         condensation: One of :data:`CONDENSATIONS`.
         split_substitution: Substitute a subdomain once per right-hand side, split in a
             forward sweep (the surface right-hand side) and a backward sweep (u), as
@@ -209,7 +224,8 @@ class Schedule:
         self.surface = {b: n for b, n in blocks.items() if b.kind != "u"}
         self.subdomains = {b: n for b, n in blocks.items() if b.kind == "u"}
         self.layouts = {Block.parse(b): layout for b, layout in layouts.items()}
-        self.regions = {key: Block.parse(b) for key, b in regions.items()}
+        #: Contact region -> the blocks its contact matrix couples.
+        self.regions = {key: region_blocks(b) for key, b in regions.items()}
         #: Per subdomain: surface block -> (offset in the condensed operator Z, tied dofs).
         self.where: dict[str, dict[str, tuple[int, np.ndarray]]] = {}
         pairs = {(a, b) for a, b in base_pairs} | {(b, a) for a, b in base_pairs}
@@ -218,12 +234,14 @@ class Schedule:
             offsets = np.cumsum([0] + [len(J) for _, J in layout])
             self.where[block] = {s: (int(offsets[i]), J) for i, (s, J) in enumerate(layout)}
             pairs |= {(a, b) for a, _ in layout for b, _ in layout}
+        for blocks in self.regions.values():  # a contact pair's blocks are one group
+            pairs |= {(a, b) for a in blocks for b in blocks if a != b}
         #: Surface block pairs that are not zero after the subdomain condensation.
         self.pairs = frozenset(pairs)
         #: The groups of each level, first level first.
         self.groups = _plan_groups(self.surface, pairs, self.levels)
         self.flat = [g for level in self.groups for g in level]
-        needed = set(self.regions.values())
+        needed = {b for blocks in self.regions.values() for b in blocks}
         #: Blocks the contact check reads that are not in the last level: every solve of the
         #: contact iteration must back-substitute the earlier levels too.
         self.needs_all_surface = any(b.kind != self.levels[-1] for b in needed)
@@ -235,14 +253,16 @@ class Schedule:
         """Columns of a subdomain's couplings: the size of its condensed operator."""
         return sum(len(J) for _, J in self.layouts.get(block, []))
 
-    def touched(self, block: str) -> set[str]:
-        """Surface blocks whose matrices change when ``block`` changes.
+    def touched(self, *blocks: str) -> set[str]:
+        """Surface blocks whose matrices change when ``blocks`` change.
 
         A surface block itself; for a subdomain (re-condensed after its own contact changed),
         the surface blocks it is tied to.
         """
-        block = Block.parse(block)
-        return set(self.where.get(block, {})) if block.kind == "u" else {block}
+        out: set[str] = set()
+        for block in map(Block.parse, blocks):
+            out |= set(self.where.get(block, {})) if block.kind == "u" else {block}
+        return out
 
     def stale_groups(self, changed: set[str]) -> set[str]:
         """Names of the groups to re-factorise after the surface blocks ``changed`` changed.
@@ -340,15 +360,16 @@ class Schedule:
 
     def change(self, region: str) -> list[Operation]:
         """One more solve of the contact iteration after a change on ``region``."""
-        block = self.regions[region]
+        blocks = self.regions[region]
         ops: list[Operation] = []
-        if block.kind == "u":  # contact on the subdomain's own boundary: K changes
-            ops += self.factorise_subdomain(block, False)
-            ops.append(self.substitute_subdomain(block, "u_hat"))
-        stale = self.stale_groups(self.touched(block))
+        for block in blocks:
+            if block.kind == "u":  # contact on the subdomain's own boundary: K changes
+                ops += self.factorise_subdomain(block, False)
+                ops.append(self.substitute_subdomain(block, "u_hat"))
+        stale = self.stale_groups(self.touched(*blocks))
         ops += [op for g in self.flat if g.name in stale for op in self.factorise_group(g)]
         ops += [self.solve_group(g) for g in self.flat if self.solves(g, stale, False)]
-        return ops + self._read_back(block)
+        return ops + self._read_back(blocks)
 
     def release(self, region: str) -> list[Operation]:
         """One more solve of the same contact state, with a new right-hand side on ``region``.
@@ -359,19 +380,20 @@ class Schedule:
         subdomain's own boundary changes that subdomain's right-hand side (a forward sweep).
         Split ties (``kappa`` above 1e6) carry a w release on the subdomain: not planned.
         """
-        block = self.regions[region]
+        blocks = self.regions[region]
         ops: list[Operation] = []
-        if block.kind == "u":
-            ops.append(self.substitute_subdomain(block, "u_hat"))
-        new_rhs = self.stale_groups(self.touched(block))  # a new rhs propagates as staleness
+        for block in blocks:
+            if block.kind == "u":
+                ops.append(self.substitute_subdomain(block, "u_hat"))
+        new_rhs = self.stale_groups(self.touched(*blocks))  # a new rhs propagates as staleness
         ops += [self.solve_group(g) for g in self.flat if self.solves(g, set(), g.name in new_rhs)]
-        return ops + self._read_back(block)
+        return ops + self._read_back(blocks)
 
-    def _read_back(self, block: str) -> list[Operation]:
-        """After a surface solve for ``block``: what the contact check reads is substituted."""
+    def _read_back(self, blocks: tuple[Block, ...]) -> list[Operation]:
+        """After a surface solve for ``blocks``: what the contact check reads is substituted."""
         ops = self.back_substitution() if self.needs_all_surface else []
         for b in self.needed_u:
-            if self.split_substitution and self.coupling_size(b) and b != block:
+            if self.split_substitution and self.coupling_size(b) and b not in blocks:
                 # the forward sweep was used by the last expansion: sweep forward again
                 ops.append(Operation(b, SWEEPS[0], self.subdomains[b], 1, "u"))
             ops.append(self.substitute_subdomain(b, "u"))

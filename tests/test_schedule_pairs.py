@@ -1,0 +1,46 @@
+"""The schedule's seam for contact pairs: a region whose matrix couples two w blocks."""
+
+import numpy as np
+import pytest
+
+from dd_contact.solvers.schedule import Schedule, region_blocks
+
+SIZES = {"u:A": 30, "u:B": 30, "v:I": 12, "w:a": 6, "w:b": 9}
+LAYOUTS = {
+    "u:A": [("v:I", np.arange(6)), ("w:a", np.arange(6))],
+    "u:B": [("v:I", np.arange(6, 12)), ("w:b", np.arange(9))],
+}
+
+
+def _schedule(regions, order="v-w-u"):
+    return Schedule(order, SIZES, LAYOUTS, set(), regions)
+
+
+def test_two_obstacle_regions_are_eliminated_apart():
+    schedule = _schedule({"top": "w:a", "bottom": "w:b"})
+    assert [g.name for g in schedule.groups[0]] == ["w:a", "w:b"]
+    assert schedule.stale_groups(schedule.touched(*schedule.regions["top"])) == {"w:a", "v:I"}
+
+
+def test_a_pair_of_two_w_blocks_is_one_group_and_a_change_refactorises_it():
+    schedule = _schedule({"pair": ("w:a", "w:b")})
+    assert schedule.regions["pair"] == region_blocks(("w:a", "w:b"))
+    assert [g.name for g in schedule.groups[0]] == ["w:a+w:b"]
+    ops = schedule.change("pair")
+    factorised = [op.target for op in ops if op.kind == "dense_factor"]
+    assert factorised == ["w:a+w:b", "v:I"]
+    sizes = {op.target: op.size for op in ops if op.kind == "dense_factor"}
+    assert sizes == {"w:a+w:b": 15, "v:I": 12}
+
+
+def test_a_pair_in_the_last_level_solves_once_per_change_and_release():
+    schedule = _schedule({"pair": ("w:a", "w:b")}, order="w-v-u")
+    assert [g.name for g in schedule.groups[-1]] == ["w:a+w:b"]
+    release = schedule.release("pair")
+    assert [op.kind for op in release if op.target == "w:a+w:b"] == ["dense_solve"]
+    assert not [op for op in release if op.kind.endswith("factor")]
+
+
+def test_a_region_of_no_block_is_refused():
+    with pytest.raises(ValueError, match="at least one block"):
+        region_blocks(())
