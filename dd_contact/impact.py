@@ -65,7 +65,6 @@ __all__ = [
     "RELEASE_TOLERANCE",
     "BlockProducts",
     "StartForces",
-    "block_product",
     "massless_walls",
 ]
 
@@ -82,11 +81,6 @@ RELEASE_FLOOR = 1e-8
 #: not settled) theta only decreases: a kept force below the discrete gradient's dissipates,
 #: one above it would create energy.
 GEOMETRIC_STEPS = 8
-
-
-def block_product(system: BlockSystem, row: Block, x: Mapping[Block, np.ndarray]) -> np.ndarray:
-    """``(A x)_row``: :meth:`~dd_contact.assembly.BlockSystem.row_product`."""
-    return system.row_product(row, x)
 
 
 class BlockProducts:

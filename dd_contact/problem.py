@@ -24,7 +24,7 @@ from dd_contact.analysis import Analysis
 from dd_contact.checkpointing import RunState
 from dd_contact.errors import InputError
 from dd_contact.forms import MASS_KINDS
-from dd_contact.impact import BlockProducts, StartForces, block_product
+from dd_contact.impact import BlockProducts, StartForces
 from dd_contact.io import RunOutput
 from dd_contact.iteration import ContactSettings
 from dd_contact.monitors import (
@@ -287,7 +287,7 @@ class TransientProblem(AnalysisReadout):
             self.analysis.publish_surfaces(x0)
         residual = {}
         for sub in owned:
-            r = loads[sub.block] - block_product(system, sub.block, x0)
+            r = loads[sub.block] - system.row_product(sub.block, x0)
             residual[sub.block] = r * self.model.free(sub.block)
         for sub in owned:
             if not np.any(residual[sub.block]):
