@@ -1,7 +1,7 @@
 """The ``dd-contact`` command.
 
 * ``dd-contact verify``: run the verification cases and print a table.
-* ``dd-contact flops``: the paper's operation-count model (``dd_contact.flops``) for the bar
+* ``dd-contact flops``: the paper's operation-count model (``dd_contact.paper.flops``) for the bar
   (``flops parallelepiped``), the multi-pin joint (``flops pin-joint``) or a scene file
   (``flops --scene FILE``); ``--json`` writes the Table-2 numbers, ``--sweep DIR`` draws the
   paper's parameter studies. See ``docs/cost.md``.
@@ -22,9 +22,10 @@ from mpi4py import MPI
 
 from tqdm import tqdm
 
-from dd_contact import __version__, flops, timing
-from dd_contact.flops import PAPER_BAR
-from dd_contact.verify import CASES, run_cases
+from dd_contact import __version__, timing
+from dd_contact.paper import flops
+from dd_contact.paper.flops import PAPER_BAR
+from dd_contact.paper.verify import CASES, run_cases
 
 __all__ = ["main"]
 

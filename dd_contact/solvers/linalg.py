@@ -3,7 +3,7 @@
 Every factorisation and solve is appended to a :class:`~dd_contact.solvers.worklog.WorkLog`
 (kind, size, right-hand sides, wall time, flop count: MUMPS's own for sparse
 factorisations, LAPACK's operation count for dense ones), so a run can report what it did
-and compare it with the paper's counting (``dd_contact.flops``).
+and compare it with the paper's counting (``dd_contact.paper.flops``).
 
 MUMPS can be tuned through the PETSc options database under the prefix
 :data:`OPTIONS_PREFIX` (``dd_contact_``), e.g. ``-dd_contact_mat_mumps_icntl_14 50``; the

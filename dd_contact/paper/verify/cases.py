@@ -5,9 +5,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict
 
-from dd_contact.verify.drops import case_falling_block, case_sphere_drop
-from dd_contact.verify.extremes import extremes
-from dd_contact.verify.models import (
+from dd_contact.paper.verify.drops import case_falling_block, case_sphere_drop
+from dd_contact.paper.verify.extremes import extremes
+from dd_contact.paper.verify.models import (
     Record,
     bar_impact,
     bent_bar,

@@ -1,8 +1,8 @@
 """The JSON scene format of the operation-count model (schema: :func:`scene_from_dict`).
 
-:func:`scene_to_dict` writes a :class:`~dd_contact.flops.model.SceneSizes` as a JSON-ready dict,
-:func:`scene_from_dict` validates one and :func:`load_scene` reads a file; errors name the
-offending entry. ``docs/cost.md`` has an annotated example.
+:func:`scene_to_dict` writes a :class:`~dd_contact.paper.flops.model.SceneSizes` as a
+JSON-ready dict, :func:`scene_from_dict` validates one and :func:`load_scene` reads a file;
+errors name the offending entry. ``docs/cost.md`` has an annotated example.
 """
 
 from __future__ import annotations
@@ -14,7 +14,13 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from dd_contact.flops.model import ContactCounts, MeshCounts, SceneSizes, SubdomainCounts, is_int
+from dd_contact.paper.flops.model import (
+    ContactCounts,
+    MeshCounts,
+    SceneSizes,
+    SubdomainCounts,
+    is_int,
+)
 
 __all__ = ["load_scene", "scene_from_dict", "scene_to_dict"]
 

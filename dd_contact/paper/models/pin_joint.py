@@ -1,7 +1,7 @@
 """The paper's multi-pin joint (method.md 7.2) as a finite element model.
 
 Two steel plates lapped over each other, joined by a row of rigid pins. The dimensions are
-those of :class:`dd_contact.flops.PinJointLayout` (in mm there, in m here): 10 mm plates,
+those of :class:`dd_contact.paper.flops.PinJointLayout` (in mm there, in m here): 10 mm plates,
 300 mm wide, 20 mm holes at a 60 mm pitch, 270 mm grips. Each plate is cut into a hole
 block per hole (``pitch x pitch``, an O-grid of hexahedra made by gmsh) and a grip; the
 lower plate lies in 0 <= z <= t with its grip towards -y, the upper one on top of it with
@@ -32,9 +32,9 @@ import numpy as np
 
 from dd_contact import meshes
 from dd_contact.errors import InputError
-from dd_contact.flops.paper import PinJointLayout
-from dd_contact.models.common import FACE_TAGS, STEEL, block_tags
 from dd_contact.obstacles import Cylinder
+from dd_contact.paper.flops.paper import PinJointLayout
+from dd_contact.paper.models.common import FACE_TAGS, STEEL, block_tags
 from dd_contact.scene import ContactInterface, Interface, Scene, Subdomain
 
 __all__ = [
@@ -65,7 +65,7 @@ def pin_joint_layout(scale: str | PinJointLayout = "small") -> PinJointLayout:
     if scale not in PIN_JOINT_SCALES:
         raise InputError(
             f"pin_joint: scale {scale!r} is not one of {sorted(PIN_JOINT_SCALES)}; give a name "
-            "or a dd_contact.flops.PinJointLayout"
+            "or a dd_contact.paper.flops.PinJointLayout"
         )
     return dataclasses.replace(PinJointLayout(), **PIN_JOINT_SCALES[scale])
 

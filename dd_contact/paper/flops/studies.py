@@ -5,7 +5,7 @@ studies of the bar (:func:`parallelepiped_studies`), the two of the multi-pin jo
 (:func:`pin_joint_studies`) and the step and change studies of a user's scene
 (:func:`scene_studies`). :func:`plot_study` and :func:`write_studies` draw them (matplotlib is
 imported only when a chart is drawn); :func:`format_table` and :func:`to_json_dict` give the
-Table-2 reports of :func:`~dd_contact.flops.model.compare` as text and JSON.
+Table-2 reports of :func:`~dd_contact.paper.flops.model.compare` as text and JSON.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from dd_contact.flops.model import CostReport, SceneSizes, compare
-from dd_contact.flops.paper import (
+from dd_contact.paper.flops.model import CostReport, SceneSizes, compare
+from dd_contact.paper.flops.paper import (
     PAPER_BAR,
     PinJointLayout,
     parallelepiped_sizes,
