@@ -13,10 +13,10 @@ from dd_contact.paper.verify.models import (
     bent_bar,
     free_vibration,
     hertz,
-    orders_agreement,
     patch_test,
     record,
 )
+from dd_contact.paper.verify.orders import orders_agreement
 
 __all__ = ["CASES", "run_cases"]
 

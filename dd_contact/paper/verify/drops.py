@@ -16,7 +16,8 @@ import numpy as np
 
 from dd_contact import meshes
 from dd_contact.obstacles import Plane
-from dd_contact.paper.verify.models import Record, displacements, locator
+from dd_contact.paper.verify.models import Record, locator
+from dd_contact.paper.verify.orders import displacements
 from dd_contact.problem import TransientProblem
 from dd_contact.scene import (
     ContactBoundary,
