@@ -1,6 +1,6 @@
 """Condensing a subdomain: MUMPS's Schur complement against multi-RHS substitutions.
 
-For the first subdomain of the split parallelepiped (``dd_contact.examples``; it carries the
+For the first subdomain of the split parallelepiped (``dd_contact.paper.examples``; it carries the
 interface and the contact interface, so D_V + D_W coupling columns), forms
 ``Z = C^T K^-1 C`` both ways, with every BLAS pinned to one thread:
 
@@ -31,7 +31,7 @@ from mpi4py import MPI
 import numpy as np
 
 from dd_contact.assembly import assemble
-from dd_contact.examples import parallelepiped
+from dd_contact.paper.examples import parallelepiped
 from dd_contact.solvers import WorkLog
 from dd_contact.solvers.engine import SubdomainCondensation
 from dd_contact.timestepping import Newmark

@@ -1,6 +1,6 @@
 """Measured speed of every algorithm on the paper's rectangular parallelepiped (method.md 7.1).
 
-The bar (``dd_contact.examples.parallelepiped``) is pressed with one end against a tilted
+The bar (``dd_contact.paper.examples.parallelepiped``) is pressed with one end against a tilted
 rigid wall, so the contact area grows row by row and the contact state changes in most
 steps. Every algorithm runs the same problem: FULL on one mesh with contact on its own end
 face (the classical approach), v-w-u and w-v-u on two subdomains with an interface and a
@@ -82,7 +82,7 @@ def worker(args) -> dict:
     import numpy as np
 
     import dd_contact as dd
-    from dd_contact.examples import parallelepiped
+    from dd_contact.paper.examples import parallelepiped
 
     start = time.perf_counter()
     algorithm, *mode = args.worker.split()

@@ -18,7 +18,7 @@ import json
 import sys
 from pathlib import Path
 
-from dd_contact import flops
+from dd_contact.paper import flops
 
 RESULTS = Path(__file__).resolve().parent / "results"
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from mpi4py import MPI
 
-from dd_contact.verify import hertz
+from dd_contact.paper.verify import hertz
 
 HERE = Path(__file__).parent / "results"
 

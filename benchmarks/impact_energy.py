@@ -1,6 +1,6 @@
 """Impact: energy, rebound, duration and contact force of the bar, for each time-stepping option.
 
-Runs :func:`dd_contact.verify.bar_impact` (an elastic bar at 0.01 c onto a rigid wall, the
+Runs :func:`dd_contact.paper.verify.bar_impact` (an elastic bar at 0.01 c onto a rigid wall, the
 1-D wave solution: contact for 2L/c at the force rho c v0 A, rebound at -v0, energy kept)
 with the default contact penalty over CFL 0.1 ... 1 and 40 ... 160 elements, for
 
@@ -36,8 +36,8 @@ import numpy as np
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from dd_contact import verify
-from dd_contact.verify.models import BAR_IMPACT
+from dd_contact.paper import verify
+from dd_contact.paper.verify.models import BAR_IMPACT
 
 RESULTS = Path(__file__).parent / "results"
 CFLS = (0.1, 0.25, 0.5, 1.0)

@@ -73,7 +73,7 @@ GIB = 1024.0**3
 # ------------------------------------------------------------------------------ the worker
 def scene_for(model: str, scale: str, algorithm: str | None, comm):
     """The model's scene at ``scale`` for ``algorithm`` (FULL runs the orders' split scene)."""
-    from dd_contact import examples, models
+    from dd_contact.paper import examples, models
 
     if model == "bar":
         return examples.parallelepiped(algorithm, _bar_scale(scale), comm=comm)
@@ -100,7 +100,7 @@ def _joint_layout(scale: str):
     """Cell counts ``c,r,t,grip`` of the pin joint (as demos/demo_pin_joint.py)."""
     import dataclasses
 
-    from dd_contact import models
+    from dd_contact.paper import models
 
     names = list(models.PIN_JOINT_SCALES["small"])
     counts = dict(zip(names, map(int, scale.split(",")), strict=True))
@@ -310,7 +310,7 @@ def derived(run: dict) -> dict:
 def summary(data: dict) -> dict:
     """Per run key (model|scale|algorithm): derived values, and per order the ratios to FULL
     at the same scale (measured) or, at the paper's size, to FULL extrapolated."""
-    from dd_contact.flops.paper import PAPER_BAR
+    from dd_contact.paper.flops.paper import PAPER_BAR
 
     runs = {k.removesuffix("|run"): r for k, r in data["runs"].items() if k.endswith("|run")}
     out = {key: derived(run) for key, run in runs.items() if "steps" in run}
@@ -346,8 +346,8 @@ def summary(data: dict) -> dict:
 def cells(model: str, scale: str) -> int:
     """Hexahedra of a model at a scale of this script (bar: ``paper``, ``1/4``, ``nx,ny,nz``;
     joint: ``paper`` or ``c,r,t,grip``)."""
-    from dd_contact import models
-    from dd_contact.flops.paper import pin_joint_mesh_counts
+    from dd_contact.paper import models
+    from dd_contact.paper.flops.paper import pin_joint_mesh_counts
 
     scale = scale.removesuffix("+ooc")
     if model == "pin_joint":

@@ -1,6 +1,6 @@
 """Penalty extremes: every algorithm against the penalty-free reference, kappa = 1e0 ... 1e14.
 
-Runs :func:`dd_contact.verify.extremes` (every case, every algorithm that fits its scene,
+Runs :func:`dd_contact.paper.verify.extremes` (every case, every algorithm that fits its scene,
 every decade of the swept tie penalty) and writes
 
 * ``benchmarks/results/penalty_extremes_<label>.json``: one record per (case, algorithm,
@@ -29,7 +29,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
-from dd_contact import verify
+from dd_contact.paper import verify
 from dd_contact.solvers.schedule import ALGORITHMS
 
 RESULTS = Path(__file__).parent / "results"

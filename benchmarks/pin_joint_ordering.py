@@ -11,7 +11,7 @@ that fits (FULL, v-w-u, w-v-u; w-u needs a model without an interface) runs each
 per step without a contact change (median of those steps) and per contact change (the
 steps with changes, less that per-step time, per change); reported are the medians over
 the repeats, beside the operation-count model's GFLOPs per step and per change
-(dd_contact.flops, the same scene and changes).
+(dd_contact.paper.flops, the same scene and changes).
 
     python benchmarks/pin_joint_ordering.py                       # 6,4,2,12: 5-13 min here
     python benchmarks/pin_joint_ordering.py --scale small --repeats 1  # ~1 min
@@ -33,8 +33,8 @@ from mpi4py import MPI
 
 import numpy as np
 
-from dd_contact import compare, models
 from dd_contact.errors import ContactCycleWarning
+from dd_contact.paper import compare, models
 
 ALGORITHMS = ("FULL", "v-w-u", "w-v-u")
 DT, PERIOD, LOAD, CLEARANCE = 4e-5, 2e-3, 20e3, 0.05e-3  # as demos/demo_pin_joint.py

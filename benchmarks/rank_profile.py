@@ -27,8 +27,9 @@ from pathlib import Path
 from mpi4py import MPI
 
 import dd_contact as dc
-from dd_contact import analysis, examples, impact, iteration, parallel
+from dd_contact import analysis, impact, iteration, parallel
 from dd_contact import problem as problem_module
+from dd_contact.paper import examples
 from dd_contact.solvers import engine
 
 HERE = Path(__file__).parent / "results"

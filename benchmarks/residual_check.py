@@ -1,6 +1,6 @@
 """Cost of the residual check that follows every solve, against the cost of a time step.
 
-Runs the paper's parallelepiped (``dd_contact.examples.parallelepiped``) with every
+Runs the paper's parallelepiped (``dd_contact.paper.examples.parallelepiped``) with every
 algorithm given on the command line, times each step's solves, and times the check
 (:class:`dd_contact.solvers.residual.ResidualCheck.estimate`) on the same solution. The
 check's share of a step is the median check time over the median step time. Also records
@@ -23,7 +23,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from dd_contact import TransientProblem
-from dd_contact.examples import parallelepiped
+from dd_contact.paper.examples import parallelepiped
 from dd_contact.solvers.residual import exact_residual
 
 OUT = Path(__file__).parent / "results" / "residual_check.json"

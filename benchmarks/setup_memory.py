@@ -98,11 +98,12 @@ def worker(args) -> dict:
         tracemalloc.start(40)
 
     import dd_contact as dc
-    from dd_contact import analysis, assembly, models
+    from dd_contact import analysis, assembly
+    from dd_contact.paper import models
     from dd_contact.solvers import engine
     from dd_contact.solvers.linalg import release_freed_memory
 
-    pin_joint_module = sys.modules["dd_contact.models.pin_joint"]  # the name is a function
+    pin_joint_module = sys.modules["dd_contact.paper.models.pin_joint"]  # the name is a function
     phases = Phases(release_freed_memory)
     # Phase boundaries (measurement only: each wrapped call is unchanged).
     wrap_after(pin_joint_module, "pin_joint_meshes", phases, "meshes (gmsh, dolfinx)")
@@ -160,7 +161,7 @@ def _joint_layout(scale: str):
     """The pin joint at ``paper`` or cell counts ``c,r,t,grip`` (``8,8,4,36`` is 1/8)."""
     import dataclasses
 
-    from dd_contact import models
+    from dd_contact.paper import models
 
     if scale in models.PIN_JOINT_SCALES:
         return models.pin_joint_layout(scale)

@@ -87,10 +87,10 @@ def worker(args) -> dict:
     import numpy as np
 
     import dd_contact as dd
-    from dd_contact.examples import parallelepiped
+    from dd_contact.paper.examples import parallelepiped
 
     scene = parallelepiped(args.worker, tuple(args.elements), speed=args.speed, comm=MPI.COMM_SELF)
-    if args.body_force:  # a periodic body force, as the paper's bar (dd_contact.models)
+    if args.body_force:  # a periodic body force, as the paper's bar (dd_contact.paper.models)
         for sub in scene.subdomains:
             sub.set_body_force(lambda t: [-1e5 * np.sin(2e4 * np.pi * t), 0.0, 0.0])
     problem = dd.TransientProblem(

@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dd_contact import verify
+from dd_contact.paper import verify
 
 KAPPAS = [1e2, 1e4, 1e6, 1e8, 1e10, 1e12]
 

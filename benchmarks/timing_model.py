@@ -56,7 +56,7 @@ def plan_of(algorithm: str, elements: list[int], dt: float):
 
     import dd_contact as dd
     from dd_contact import timing
-    from dd_contact.examples import parallelepiped
+    from dd_contact.paper.examples import parallelepiped
     from dd_contact.solvers import analysed
 
     scene = parallelepiped(algorithm, tuple(elements), comm=MPI.COMM_SELF)
@@ -211,7 +211,7 @@ def main() -> None:
 
 def sweep_on_measured_bar(data: dict, case: str, directory: Path) -> None:
     """The paper's studies for the measured bar, with the measured points on the step study."""
-    from dd_contact import flops
+    from dd_contact.paper import flops
 
     points = measured_points(data["runs"])
     (directory / f"measured_points_{case}.json").write_text(json.dumps(points, indent=1))

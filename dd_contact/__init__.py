@@ -1,7 +1,19 @@
-"""dd_contact: fast 3-D contact analysis by domain/boundary decomposition in dolfinx."""
+"""dd_contact: fast 3-D contact analysis by domain/boundary decomposition in dolfinx.
+
+The public API is the list ``__all__`` below, and only it: the scene (``Scene``,
+``Subdomain``, ``Interface``, ``ContactInterface``, ``ContactBoundary``, ``Material``, the
+obstacles), the problems (``StaticProblem``, ``TransientProblem``), their settings, errors
+and warnings, and the four modules a user calls beside them (``meshes``: mesh builders;
+``io``: output files; ``post``: results derived from a solution; ``viz``: pictures), each
+with an ``__all__`` of its own. The other modules are the library these are built from.
+``dd_contact.paper`` is the paper's reproduction on top of the library (its operation-count
+model, its two examples, the verification cases against closed forms, the algorithm
+comparison); no module of the library imports it, only the ``dd-contact`` command (``cli``).
+"""
 
 from mpi4py import MPI as _MPI  # noqa: F401  (loads libmpi before petsc4py)
 
+from dd_contact import io, meshes, post, viz
 from dd_contact.errors import (
     CoarseTimeStepWarning,
     ContactCycleWarning,
@@ -59,4 +71,8 @@ __all__ = [
     "TransientProblem",
     "UserObstacle",
     "__version__",
+    "io",
+    "meshes",
+    "post",
+    "viz",
 ]

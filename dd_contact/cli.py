@@ -1,7 +1,7 @@
 """The ``dd-contact`` command.
 
 * ``dd-contact verify``: run the verification cases and print a table.
-* ``dd-contact flops``: the paper's operation-count model (``dd_contact.flops``) for the bar
+* ``dd-contact flops``: the paper's operation-count model (``dd_contact.paper.flops``) for the bar
   (``flops parallelepiped``), the multi-pin joint (``flops pin-joint``) or a scene file
   (``flops --scene FILE``); ``--json`` writes the Table-2 numbers, ``--sweep DIR`` draws the
   paper's parameter studies. See ``docs/cost.md``.
@@ -22,9 +22,10 @@ from mpi4py import MPI
 
 from tqdm import tqdm
 
-from dd_contact import __version__, flops, timing
-from dd_contact.flops import PAPER_BAR
-from dd_contact.verify import CASES, run_cases
+from dd_contact import __version__, timing
+from dd_contact.paper import flops
+from dd_contact.paper.flops import PAPER_BAR
+from dd_contact.paper.verify import CASES, run_cases
 
 __all__ = ["main"]
 
@@ -249,6 +250,7 @@ def _add_history_options(parser: argparse.ArgumentParser, alpha: str) -> None:
 
 
 def _add_flops(sub: Any) -> None:
+    """``flops``: a model's sub-command or ``--scene FILE``, and the output options."""
     flops = sub.add_parser(
         "flops",
         help="operation counts (FLOPs) of every algorithm, as in the paper's Table 2",
@@ -258,7 +260,13 @@ def _add_flops(sub: Any) -> None:
     flops.add_argument("--scene", metavar="FILE", help="a scene JSON file (schema: docs/cost.md)")
     _add_output_options(flops, suppress=False)
     models = flops.add_subparsers(dest="model", metavar="MODEL")
+    _add_parallelepiped(models)
+    _add_pin_joint(models)
+    flops.set_defaults(run=_flops, model=None)
 
+
+def _add_parallelepiped(models: Any) -> None:
+    """``flops parallelepiped``: the bar's options, the paper's by default."""
     bar = models.add_parser(
         "parallelepiped",
         help="the paper's bar (method.md 7.1)",
@@ -300,6 +308,9 @@ def _add_flops(sub: Any) -> None:
     _add_history_options(bar, "alpha = gamma")
     _add_output_options(bar, suppress=True)
 
+
+def _add_pin_joint(models: Any) -> None:
+    """``flops pin-joint``: the joint's options, the paper's by default."""
     pin = models.add_parser(
         "pin-joint",
         help="the multi-pin lap joint (method.md 7.2, dimensions in docs/cost.md)",
@@ -346,7 +357,6 @@ def _add_flops(sub: Any) -> None:
     )
     _add_history_options(pin, "each alpha = gamma")
     _add_output_options(pin, suppress=True)
-    flops.set_defaults(run=_flops, model=None)
 
 
 def _calibrate(args: argparse.Namespace) -> int:

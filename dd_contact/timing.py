@@ -1,6 +1,6 @@
 """Predicted wall time of the solvers as they really run, and ``algorithm="auto"``.
 
-:mod:`dd_contact.flops` counts flops with the paper's banded kernels (method.md section 6).
+:mod:`dd_contact.paper.flops` counts flops with the paper's banded kernels (method.md section 6).
 This module predicts *seconds* for what the solvers here actually do:
 
 * **The work.** MUMPS's symbolic analysis of every sparse matrix an algorithm factorises

@@ -30,7 +30,8 @@ from mpi4py import MPI
 
 import numpy as np
 
-from dd_contact import compare, models, post, viz
+from dd_contact import post, viz
+from dd_contact.paper import compare, models
 
 ALGORITHMS = ("FULL", "v-w-u", "w-v-u", "w-u", "v-u", "auto")
 parser = argparse.ArgumentParser(description=__doc__)
@@ -129,7 +130,7 @@ balance = np.abs(wall + clamp - applied).max() / np.abs(applied).max()
 #
 # Contact state changes, factorisations and substitutions (right-hand sides) summed over
 # the blocks, the wall time of the steps, the paper's operation-count model for this scene
-# and these changes (`dd_contact.flops`), and how each run compares with FULL on the same
+# and these changes (`dd_contact.paper.flops`), and how each run compares with FULL on the same
 # model: the largest displacement difference, relative to the largest displacement of the
 # run, after each of the first 2 steps (below 1e-8), the largest at steps 1, 2, 4, 8, ...
 # and the last ("worst"), the limit it must stay within (10x the round-off twin's, at least

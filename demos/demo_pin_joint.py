@@ -33,7 +33,8 @@ from mpi4py import MPI
 
 import numpy as np
 
-from dd_contact import compare, models, post, viz
+from dd_contact import post, viz
+from dd_contact.paper import compare, models
 
 ALGORITHMS = ("FULL", "v-w-u", "w-v-u", "auto")
 parser = argparse.ArgumentParser(description=__doc__)

@@ -2,13 +2,14 @@
 
     python meshes/generate.py [FOLDER]      # default: this folder
 
-``parallelepiped_small.xdmf``: the bar of ``dd_contact.models.parallelepiped("small")``:
+``parallelepiped_small.xdmf``: the bar of ``dd_contact.paper.models.parallelepiped("small")``:
 subdomains ``Omega1``, ``Omega2`` (facet tags ``<name>_facets``, values
-``dd_contact.models.FACE_TAGS``), the interface ``interface`` and the contact interface
-``end``. ``pin_joint_small.xdmf``: every mesh of ``dd_contact.models.pin_joint_meshes("small")``:
-the 12 plate blocks with their facet tags, the interface ``cuts`` and the hole walls
-``wall_<subdomain>``. Read them with :func:`read`; ``tests/test_models.py`` checks that the
-shipped files equal what this script makes.
+``dd_contact.paper.models.FACE_TAGS``), the interface ``interface`` and the contact interface
+``end``. ``pin_joint_small.xdmf``: every mesh of
+``dd_contact.paper.models.pin_joint_meshes("small")``: the 12 plate blocks with their facet
+tags, the interface ``cuts`` and the hole walls ``wall_<subdomain>``. Read them with
+:func:`read`; ``tests/test_models.py`` checks that the shipped files equal what this script
+makes.
 """
 
 from __future__ import annotations
@@ -21,7 +22,7 @@ from mpi4py import MPI
 import dolfinx.io
 import dolfinx.mesh
 
-from dd_contact import models
+from dd_contact.paper import models
 
 HERE = Path(__file__).resolve().parent
 FILES = ("parallelepiped_small", "pin_joint_small")

@@ -11,9 +11,9 @@ import pytest
 import scipy.sparse as sp
 
 import dd_contact as dd
-from dd_contact import verify
 from dd_contact.assembly import BlockSystem
 from dd_contact.blocks import Block, ContactRegion
+from dd_contact.paper import verify
 
 
 def test_a_block_is_its_key():

@@ -8,7 +8,8 @@ from pathlib import Path
 import pytest
 
 import dd_contact
-from dd_contact import calibration, cli, flops, timing, verify
+from dd_contact import calibration, cli, timing
+from dd_contact.paper import flops, verify
 
 FIELDS = {"case", "quantity", "value", "reference", "rel_error", "tolerance", "passed"}
 

@@ -9,7 +9,7 @@ from mpi4py import MPI
 import pytest
 
 import dd_contact as dd
-from dd_contact import verify
+from dd_contact.paper import verify
 from dd_contact.problem import MIN_CONTACT_STEPS
 
 
@@ -37,7 +37,7 @@ def test_a_load_that_presses_and_lets_go_is_quiet_at_any_step():
     # The paper's bar pushed onto its wall by a slow periodic body force (about 13 axial
     # periods per load period, nearly quasi-static): its contact episodes are short in steps
     # but follow the load, not an impact; the warning used to fire here on every demo run.
-    from dd_contact import models
+    from dd_contact.paper import models
 
     scene = models.parallelepiped("tiny", algorithm="FULL", comm=MPI.COMM_SELF)
     with warnings.catch_warnings():

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import dd_contact as dd
-from dd_contact import verify
+from dd_contact.paper import verify
 
 #: Every rank-local part of the public problem API (StaticProblem has ``iterations``,
 #: TransientProblem ``history``, ``step``, ``t`` and ``dt``).

@@ -1,9 +1,9 @@
-"""dd_contact.compare: the agreement rule, the table, and FULL against the orders over a run."""
+"""dd_contact.paper.compare: the agreement rule, the table, FULL against the orders over a run."""
 
 import numpy as np
 import pytest
 
-from dd_contact import compare, models
+from dd_contact.paper import compare, models
 
 
 def _run(algorithm, checkpoints, active=(0, 1, 1), chosen=None):

@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 import dd_contact as dd
-from dd_contact import meshes, verify
+from dd_contact import meshes
 from dd_contact.errors import ContactCycleWarning, ContactIterationError
 from dd_contact.iteration import ContactIteration, ContactSettings
+from dd_contact.paper import verify
 
 
 def _on(axis, value):

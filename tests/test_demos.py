@@ -86,7 +86,7 @@ def test_demo_hertz(tmp_path, ranks):
 
 # The paper's two examples: every algorithm run against FULL, the quasi-static force
 # balance, the contact state changes and the pictures (the demos write summary.json with
-# what they measured, dd_contact.compare.summary).
+# what they measured, dd_contact.paper.compare.summary).
 PAPER_DEMOS = {
     "parallelepiped": (
         ["--scale", "tiny"],  # 80 steps, all five algorithms and auto: ~5 s

@@ -1,4 +1,4 @@
-"""3-D bodies dropped on a rigid plane keep their energy (dd_contact.verify.drops)."""
+"""3-D bodies dropped on a rigid plane keep their energy (dd_contact.paper.verify.drops)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ from mpi4py import MPI
 import pytest
 
 import dd_contact as dd
-from dd_contact import verify
+from dd_contact.paper import verify
 from dd_contact.problem import MIN_CONTACT_STEPS
 
 

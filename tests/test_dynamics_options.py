@@ -11,9 +11,10 @@ import pytest
 import scipy.linalg
 
 import dd_contact as dd
-from dd_contact import forms, meshes, verify
+from dd_contact import forms, meshes
+from dd_contact.paper import verify
+from dd_contact.paper.verify.models import locator
 from dd_contact.timestepping import GeneralizedAlpha
-from dd_contact.verify.models import locator
 
 
 def _cantilever(cell: str = "hexahedron", degree: int = 1, n=(4, 1, 1)) -> dd.Subdomain:

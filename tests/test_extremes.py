@@ -7,7 +7,7 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 
-from dd_contact import verify
+from dd_contact.paper import verify
 from dd_contact.solvers.schedule import fitting_algorithms
 
 # Algorithms that fit each scene kind of verify.pressed_scene (exact, by hand).

@@ -1,4 +1,4 @@
-"""Tests of the operation-count model (dd_contact.flops, method.md section 6)."""
+"""Tests of the operation-count model (dd_contact.paper.flops, method.md section 6)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from dd_contact.flops import (
+from dd_contact.paper.flops import (
     ALGORITHMS,
     STEPS_SWEEP,
     ContactCounts,
@@ -42,8 +42,8 @@ from dd_contact.flops import (
     to_json_dict,
     write_studies,
 )
-from dd_contact.flops import paper as flops_paper
-from dd_contact.flops import studies as flops_studies
+from dd_contact.paper.flops import paper as flops_paper
+from dd_contact.paper.flops import studies as flops_studies
 
 DOCS = Path(__file__).resolve().parents[1] / "docs"
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

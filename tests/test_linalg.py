@@ -13,9 +13,10 @@ import pytest
 import scipy.sparse as sp
 
 import dd_contact as dd
-from dd_contact import analysis, verify
+from dd_contact import analysis
 from dd_contact.blocks import Block, ContactRegion
 from dd_contact.errors import InputError
+from dd_contact.paper import verify
 from dd_contact.solvers import linalg
 from dd_contact.solvers.linalg import (
     OPTIONS_PREFIX,

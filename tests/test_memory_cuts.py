@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import dd_contact as dc
-from dd_contact import examples, models
+from dd_contact.paper import examples, models
 from dd_contact.solvers import engine, mumps_schur
 from dd_contact.solvers.linalg import DenseCholesky
 

@@ -1,4 +1,4 @@
-"""The paper's two models (dd_contact.models) and the meshes shipped in meshes/.
+"""The paper's two models (dd_contact.paper.models) and the meshes shipped in meshes/.
 
 Every generated mesh is checked: no inverted cell, every boundary facet tagged, each
 subdomain where it belongs with its exact volume, contact surfaces on their walls with
@@ -22,7 +22,7 @@ import pytest
 import ufl
 
 import dd_contact as dd
-from dd_contact import compare, flops, models
+from dd_contact.paper import compare, flops, models
 
 ROOT = Path(__file__).resolve().parents[1]
 JOINT = models.pin_joint_layout("small")

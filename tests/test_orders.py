@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import dd_contact as dd
-from dd_contact import flops, verify
+from dd_contact.paper import flops, verify
 from dd_contact.solvers import analysed
 from dd_contact.solvers.worklog import WorkLog
 
@@ -169,7 +169,7 @@ def test_ranks_own_whole_subdomains_and_match_serial(kind, order):
 
 @pytest.mark.parametrize("algorithm", ["FULL", "v-w-u", "w-v-u", "w-u", "v-u"])
 def test_parallelepiped_scene_for_every_algorithm(algorithm):
-    from dd_contact.examples import parallelepiped
+    from dd_contact.paper.examples import parallelepiped
 
     nx, ny, nz = 12, 4, 2
     scene = parallelepiped(algorithm, (nx, ny, nz), comm=MPI.COMM_SELF)

@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 import dd_contact as dd
-from dd_contact import io, meshes, verify
+from dd_contact import io, meshes
+from dd_contact.paper import verify
 from dd_contact.post import output_fields
 
 

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 import dd_contact as dd
-from dd_contact import verify
+from dd_contact.paper import verify
 from dd_contact.solvers import MonolithicSolver
 
 

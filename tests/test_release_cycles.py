@@ -7,7 +7,7 @@ import warnings
 import pytest
 
 import dd_contact as dd
-from dd_contact import models
+from dd_contact.paper import models
 
 
 def _run(scene, dt, steps):

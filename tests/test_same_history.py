@@ -9,7 +9,7 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 
-from dd_contact.verify import drops
+from dd_contact.paper.verify import drops
 
 # The bar of verify.bar_impact (40 x 1 x 1 cells, nu = 0, CFL 0.58, 3 L/c) and the falling
 # block (4^3 cells, nu = 0.3, CFL 0.5, 6 / c), both flying at a plane along -x.

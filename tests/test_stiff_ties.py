@@ -7,8 +7,8 @@ from mpi4py import MPI
 import pytest
 
 import dd_contact as dd
-from dd_contact import verify
-from dd_contact.examples import parallelepiped
+from dd_contact.paper import verify
+from dd_contact.paper.examples import parallelepiped
 from dd_contact.scene import KAPPA_ASSEMBLED, KAPPA_SPLIT
 from dd_contact.solvers.stiff_ties import AugmentedTies
 

@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 import ufl
 
-from dd_contact import coupling, meshes, verify
+from dd_contact import coupling, meshes
+from dd_contact.paper import verify
 from dd_contact.post import cell_stress
 from dd_contact.problem import StaticProblem
 from dd_contact.scene import Interface, Material, Scene, Subdomain

@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 
 import dd_contact as dd
-from dd_contact import calibration, timing, verify
-from dd_contact.examples import parallelepiped, row_of_blocks
+from dd_contact import calibration, timing
+from dd_contact.paper import verify
+from dd_contact.paper.examples import parallelepiped, row_of_blocks
 from dd_contact.solvers import analysed
 from dd_contact.solvers.worklog import WorkLog, WorkRecord
 

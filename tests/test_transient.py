@@ -9,7 +9,8 @@ import pytest
 import ufl
 
 import dd_contact as dd
-from dd_contact import meshes, verify
+from dd_contact import meshes
+from dd_contact.paper import verify
 
 
 def _on(axis, value):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import dd_contact as dd
-from dd_contact import examples
+from dd_contact.paper import examples
 from dd_contact.parallel import ROOT, traffic
 from dd_contact.solvers import engine
 

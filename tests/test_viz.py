@@ -243,7 +243,7 @@ def test_headless_without_environment(tmp_path):
 @pytest.fixture(scope="module")
 def joint_walls():
     """The tiny pin joint's hole walls with a pressure set as a known function of angle."""
-    from dd_contact import models
+    from dd_contact.paper import models
 
     scene = models.pin_joint("tiny", comm=MPI.COMM_SELF)
     walls = [c for c in scene.contacts if c.name.startswith("hole_")]

@@ -3,7 +3,7 @@
 Every factorisation and solve is appended to a :class:`~dd_contact.solvers.worklog.WorkLog`
 (kind, size, right-hand sides, wall time, flop count: MUMPS's own for sparse
 factorisations, LAPACK's operation count for dense ones), so a run can report what it did
-and compare it with the paper's counting (``dd_contact.flops``).
+and compare it with the paper's counting (``dd_contact.paper.flops``).
 
 MUMPS can be tuned through the PETSc options database under a problem's options prefix
 (:data:`OPTIONS_PREFIX`, ``dd_contact_``, unless the problem names its own), e.g.

@@ -2,7 +2,7 @@
 
 This module is the one description of the algorithms (method.md section 5). The engine
 (:mod:`dd_contact.solvers.engine`) executes it, :mod:`dd_contact.timing` prices it with
-measured rates, and :mod:`dd_contact.flops` counts it with the paper's kernels. It knows
+measured rates, and :mod:`dd_contact.paper.flops` counts it with the paper's kernels. It knows
 sizes, blocks (:class:`~dd_contact.blocks.Block`) and couplings only: no PETSc, no dolfinx.
 """
 

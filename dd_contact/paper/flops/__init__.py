@@ -3,15 +3,16 @@
 The package re-exports the model's API (``__all__``); its modules, each importing only those
 listed before it:
 
-* :mod:`~dd_contact.flops.model`: the kernels f1-f4, the scene sizes, the per-algorithm counts
-  (Table 1) and the reports (Table 2);
-* :mod:`~dd_contact.flops.bandwidth`: half-bandwidths of structured meshes and sparse matrices;
-* :mod:`~dd_contact.flops.paper`: the paper's two examples, the parallelepiped and the multi-pin
-  joint, as scene-size generators;
-* :mod:`~dd_contact.flops.scene_files`: the JSON scene format;
-* :mod:`~dd_contact.flops.studies`: the paper's parameter studies, their charts, and the text
-  and JSON forms of the reports;
-* :mod:`~dd_contact.flops.bridge`: the sizes of a dolfinx :class:`~dd_contact.scene.Scene`
+* :mod:`~dd_contact.paper.flops.model`: the kernels f1-f4, the scene sizes, the per-algorithm
+  counts (Table 1) and the reports (Table 2);
+* :mod:`~dd_contact.paper.flops.bandwidth`: half-bandwidths of structured meshes and sparse
+  matrices;
+* :mod:`~dd_contact.paper.flops.paper`: the paper's two examples, the parallelepiped and the
+  multi-pin joint, as scene-size generators;
+* :mod:`~dd_contact.paper.flops.scene_files`: the JSON scene format;
+* :mod:`~dd_contact.paper.flops.studies`: the paper's parameter studies, their charts, and the
+  text and JSON forms of the reports;
+* :mod:`~dd_contact.paper.flops.bridge`: the sizes of a dolfinx :class:`~dd_contact.scene.Scene`
   (``sizes_from_scene``).
 
 The counts are the engine's own schedule (:mod:`dd_contact.solvers.schedule`) tallied on each
@@ -20,14 +21,14 @@ only when a chart is drawn. The model, its
 derivations and the scene schema are described in ``docs/cost.md``.
 """
 
-from dd_contact.flops.bandwidth import (
+from dd_contact.paper.flops.bandwidth import (
     half_bandwidth_box,
     half_bandwidth_structured_hex,
     matrix_half_bandwidth,
     rcm_half_bandwidth,
 )
-from dd_contact.flops.bridge import half_bandwidth_of, sizes_from_scene
-from dd_contact.flops.model import (
+from dd_contact.paper.flops.bridge import half_bandwidth_of, sizes_from_scene
+from dd_contact.paper.flops.model import (
     ALGORITHMS,
     ContactCounts,
     CostReport,
@@ -44,7 +45,7 @@ from dd_contact.flops.model import (
     operation_counts,
     schedule_counts,
 )
-from dd_contact.flops.paper import (
+from dd_contact.paper.flops.paper import (
     PAPER_BAR,
     PaperBar,
     PinJointLayout,
@@ -52,8 +53,8 @@ from dd_contact.flops.paper import (
     pin_joint_mesh_counts,
     pin_joint_sizes,
 )
-from dd_contact.flops.scene_files import load_scene, scene_from_dict, scene_to_dict
-from dd_contact.flops.studies import (
+from dd_contact.paper.flops.scene_files import load_scene, scene_from_dict, scene_to_dict
+from dd_contact.paper.flops.studies import (
     CHANGES_SWEEP,
     CONTACT_SCALES,
     STEPS_SWEEP,

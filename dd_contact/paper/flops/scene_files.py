@@ -1,8 +1,8 @@
 """The JSON scene format of the operation-count model (schema: :func:`scene_from_dict`).
 
-:func:`scene_to_dict` writes a :class:`~dd_contact.flops.model.SceneSizes` as a JSON-ready dict,
-:func:`scene_from_dict` validates one and :func:`load_scene` reads a file; errors name the
-offending entry. ``docs/cost.md`` has an annotated example.
+:func:`scene_to_dict` writes a :class:`~dd_contact.paper.flops.model.SceneSizes` as a
+JSON-ready dict, :func:`scene_from_dict` validates one and :func:`load_scene` reads a file;
+errors name the offending entry. ``docs/cost.md`` has an annotated example.
 """
 
 from __future__ import annotations
@@ -14,7 +14,13 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from dd_contact.flops.model import ContactCounts, MeshCounts, SceneSizes, SubdomainCounts, is_int
+from dd_contact.paper.flops.model import (
+    ContactCounts,
+    MeshCounts,
+    SceneSizes,
+    SubdomainCounts,
+    is_int,
+)
 
 __all__ = ["load_scene", "scene_from_dict", "scene_to_dict"]
 
@@ -104,6 +110,107 @@ def _name_field(obj: Mapping[str, Any], where: str, default: str) -> str:
     return name
 
 
+def _interface(top: Mapping[str, Any], source: str) -> tuple[int | None, str]:
+    """The interface's dofs (None: no interface) and name."""
+    if top.get("interface") is None:
+        return None, "Gamma_I"
+    where = f"{source}: interface"
+    iface = _fields(top["interface"], where, _INTERFACE_KEYS, ("dofs",))
+    return _int_field(iface, "dofs", where, 1), _name_field(iface, where, "Gamma_I")
+
+
+def _subdomains(
+    top: Mapping[str, Any], source: str, interface_dofs: int | None
+) -> list[SubdomainCounts]:
+    """The subdomains, checked against the interface and for unique names."""
+    raw_subs = top["subdomains"]
+    if not isinstance(raw_subs, list) or not raw_subs:
+        raise ValueError(f"{source}: subdomains must be a non-empty list")
+    subdomains = [
+        _subdomain(raw, f"{source}: subdomains[{k}]", f"Omega{k + 1}", interface_dofs)
+        for k, raw in enumerate(raw_subs)
+    ]
+    names = [sd.name for sd in subdomains]
+    if len(set(names)) != len(names):
+        raise ValueError(f"{source}: subdomain names are not unique: {names}")
+    return subdomains
+
+
+def _subdomain(
+    raw: Any, where: str, default_name: str, interface_dofs: int | None
+) -> SubdomainCounts:
+    """One subdomain; ``interface_dofs`` is the scene's interface (None: it has none)."""
+    sd = _fields(raw, where, _SUBDOMAIN_KEYS, ("dofs", "half_bandwidth"))
+    name = _name_field(sd, where, default_name)
+    dofs = _int_field(sd, "dofs", where, 1)
+    band = _int_field(sd, "half_bandwidth", where, 1)
+    if band > dofs:
+        raise ValueError(f"{where}: half_bandwidth {band} > dofs {dofs}")
+    tied = None
+    if sd.get("interface_dofs") is not None:
+        tied = _int_field(sd, "interface_dofs", where, 0)
+        if tied and interface_dofs is None:
+            raise ValueError(f"{where}: interface_dofs given but the scene has no interface")
+        if interface_dofs is not None and tied > interface_dofs:
+            raise ValueError(f"{where}: interface_dofs {tied} > interface dofs {interface_dofs}")
+    return SubdomainCounts(name, dofs, band, tied)
+
+
+def _contacts(top: Mapping[str, Any], source: str, names: list[str]) -> list[ContactCounts]:
+    """The contact interfaces, each with the index of its subdomain among ``names``."""
+    raw_contacts = top["contacts"]
+    if not isinstance(raw_contacts, list) or not raw_contacts:
+        raise ValueError(f"{source}: contacts must be a non-empty list")
+    contacts = []
+    for k, raw in enumerate(raw_contacts):
+        where = f"{source}: contacts[{k}]"
+        c = _fields(raw, where, _CONTACT_KEYS, ("dofs", "subdomain", "alpha"))
+        index = _owner_index(c["subdomain"], where, names)
+        contacts.append(
+            ContactCounts(
+                _name_field(c, where, f"Gamma_C{k + 1}"),
+                _int_field(c, "dofs", where, 1),
+                index,
+                _int_field(c, "alpha", where, 0),
+            )
+        )
+    return contacts
+
+
+def _owner_index(owner: Any, where: str, names: list[str]) -> int:
+    """The index of a contact interface's subdomain, given by name or by 0-based index."""
+    if isinstance(owner, str):
+        if owner not in names:
+            raise ValueError(
+                f"{where}.subdomain {owner!r} is not a subdomain (known: {', '.join(names)})"
+            )
+        return names.index(owner)
+    if is_int(owner):
+        if not 0 <= owner < len(names):
+            raise ValueError(
+                f"{where}.subdomain index {owner} is not a subdomain "
+                f"(0..{len(names) - 1}: {', '.join(names)})"
+            )
+        return int(owner)
+    raise ValueError(f"{where}.subdomain must be a name or an index, got {owner!r}")
+
+
+def _whole(top: Mapping[str, Any], source: str, subdomains: list[SubdomainCounts]) -> MeshCounts:
+    """The undecomposed model: as given, or merged from the subdomains."""
+    if top.get("whole") is None:
+        return MeshCounts(
+            "Omega (merged)",
+            sum(sd.dofs for sd in subdomains),
+            max(sd.half_bandwidth for sd in subdomains),
+        )
+    where = f"{source}: whole"
+    w = _fields(top["whole"], where, _WHOLE_KEYS, ("dofs", "half_bandwidth"))
+    dofs, band = _int_field(w, "dofs", where, 1), _int_field(w, "half_bandwidth", where, 1)
+    if band > dofs:
+        raise ValueError(f"{where}: half_bandwidth {band} > dofs {dofs}")
+    return MeshCounts(_name_field(w, where, "Omega"), dofs, band)
+
+
 def scene_from_dict(data: Any, source: str = "scene") -> SceneSizes:
     """Validate a scene description (parsed JSON) and build its :class:`SceneSizes`.
 
@@ -148,85 +255,10 @@ def scene_from_dict(data: Any, source: str = "scene") -> SceneSizes:
     top = _fields(data, source, _SCENE_KEYS, ("n_steps", "gamma", "subdomains", "contacts"))
     n_steps = _int_field(top, "n_steps", source, 0)
     gamma = _int_field(top, "gamma", source, 0)
-
-    interface_dofs, interface_name = None, "Gamma_I"
-    if top.get("interface") is not None:
-        where = f"{source}: interface"
-        iface = _fields(top["interface"], where, _INTERFACE_KEYS, ("dofs",))
-        interface_dofs = _int_field(iface, "dofs", where, 1)
-        interface_name = _name_field(iface, where, interface_name)
-
-    raw_subs = top["subdomains"]
-    if not isinstance(raw_subs, list) or not raw_subs:
-        raise ValueError(f"{source}: subdomains must be a non-empty list")
-    subdomains = []
-    for k, raw in enumerate(raw_subs):
-        where = f"{source}: subdomains[{k}]"
-        sd = _fields(raw, where, _SUBDOMAIN_KEYS, ("dofs", "half_bandwidth"))
-        name = _name_field(sd, where, f"Omega{k + 1}")
-        dofs = _int_field(sd, "dofs", where, 1)
-        band = _int_field(sd, "half_bandwidth", where, 1)
-        if band > dofs:
-            raise ValueError(f"{where}: half_bandwidth {band} > dofs {dofs}")
-        tied = None
-        if sd.get("interface_dofs") is not None:
-            tied = _int_field(sd, "interface_dofs", where, 0)
-            if tied and interface_dofs is None:
-                raise ValueError(f"{where}: interface_dofs given but the scene has no interface")
-            if interface_dofs is not None and tied > interface_dofs:
-                raise ValueError(
-                    f"{where}: interface_dofs {tied} > interface dofs {interface_dofs}"
-                )
-        subdomains.append(SubdomainCounts(name, dofs, band, tied))
-    names = [sd.name for sd in subdomains]
-    if len(set(names)) != len(names):
-        raise ValueError(f"{source}: subdomain names are not unique: {names}")
-
-    raw_contacts = top["contacts"]
-    if not isinstance(raw_contacts, list) or not raw_contacts:
-        raise ValueError(f"{source}: contacts must be a non-empty list")
-    contacts = []
-    for k, raw in enumerate(raw_contacts):
-        where = f"{source}: contacts[{k}]"
-        c = _fields(raw, where, _CONTACT_KEYS, ("dofs", "subdomain", "alpha"))
-        owner = c["subdomain"]
-        if isinstance(owner, str):
-            if owner not in names:
-                raise ValueError(
-                    f"{where}.subdomain {owner!r} is not a subdomain (known: {', '.join(names)})"
-                )
-            index = names.index(owner)
-        elif is_int(owner):
-            if not 0 <= owner < len(names):
-                raise ValueError(
-                    f"{where}.subdomain index {owner} is not a subdomain "
-                    f"(0..{len(names) - 1}: {', '.join(names)})"
-                )
-            index = int(owner)
-        else:
-            raise ValueError(f"{where}.subdomain must be a name or an index, got {owner!r}")
-        contacts.append(
-            ContactCounts(
-                _name_field(c, where, f"Gamma_C{k + 1}"),
-                _int_field(c, "dofs", where, 1),
-                index,
-                _int_field(c, "alpha", where, 0),
-            )
-        )
-
-    if top.get("whole") is not None:
-        where = f"{source}: whole"
-        w = _fields(top["whole"], where, _WHOLE_KEYS, ("dofs", "half_bandwidth"))
-        dofs, band = _int_field(w, "dofs", where, 1), _int_field(w, "half_bandwidth", where, 1)
-        if band > dofs:
-            raise ValueError(f"{where}: half_bandwidth {band} > dofs {dofs}")
-        whole = MeshCounts(_name_field(w, where, "Omega"), dofs, band)
-    else:
-        whole = MeshCounts(
-            "Omega (merged)",
-            sum(sd.dofs for sd in subdomains),
-            max(sd.half_bandwidth for sd in subdomains),
-        )
+    interface_dofs, interface_name = _interface(top, source)
+    subdomains = _subdomains(top, source, interface_dofs)
+    contacts = _contacts(top, source, [sd.name for sd in subdomains])
+    whole = _whole(top, source, subdomains)
     try:
         return SceneSizes(
             subdomains=tuple(subdomains),

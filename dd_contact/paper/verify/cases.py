@@ -5,18 +5,18 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict
 
-from dd_contact.verify.drops import case_falling_block, case_sphere_drop
-from dd_contact.verify.extremes import extremes
-from dd_contact.verify.models import (
+from dd_contact.paper.verify.drops import case_falling_block, case_sphere_drop
+from dd_contact.paper.verify.extremes import extremes
+from dd_contact.paper.verify.models import (
     Record,
     bar_impact,
     bent_bar,
     free_vibration,
     hertz,
-    orders_agreement,
     patch_test,
     record,
 )
+from dd_contact.paper.verify.orders import orders_agreement
 
 __all__ = ["CASES", "run_cases"]
 

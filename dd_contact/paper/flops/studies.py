@@ -5,7 +5,7 @@ studies of the bar (:func:`parallelepiped_studies`), the two of the multi-pin jo
 (:func:`pin_joint_studies`) and the step and change studies of a user's scene
 (:func:`scene_studies`). :func:`plot_study` and :func:`write_studies` draw them (matplotlib is
 imported only when a chart is drawn); :func:`format_table` and :func:`to_json_dict` give the
-Table-2 reports of :func:`~dd_contact.flops.model.compare` as text and JSON.
+Table-2 reports of :func:`~dd_contact.paper.flops.model.compare` as text and JSON.
 """
 
 from __future__ import annotations
@@ -14,13 +14,13 @@ import dataclasses
 import json
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from dd_contact.flops.model import CostReport, SceneSizes, compare
-from dd_contact.flops.paper import (
+from dd_contact.paper.flops.model import CostReport, SceneSizes, compare
+from dd_contact.paper.flops.paper import (
     PAPER_BAR,
     PinJointLayout,
     parallelepiped_sizes,
@@ -159,7 +159,7 @@ def parallelepiped_studies(
         return parallelepiped_sizes(**{**base, **over})
 
     label = f"{elements[0]} x {elements[1]} x {elements[2]} bar"
-    studies = [
+    return [
         _study(
             "bar_steps",
             f"{label}: FLOPs vs number of time steps (gamma = 2 N_TS)",
@@ -167,35 +167,8 @@ def parallelepiped_studies(
             STEPS_SWEEP,
             [sizes(steps=n, changes=2 * n) for n in STEPS_SWEEP],
             parameters=params,
-        )
-    ]
-    splits = []
-    for a in range(1, 10):
-        try:
-            split_layers(elements[0], (a, 10 - a))
-        except ValueError:
-            continue
-        splits.append((a, 10 - a))
-    split_scenes = [sizes(split=sp) for sp in splits]
-    studies.append(
-        _study(
-            "bar_split",
-            f"{label}: FLOPs vs split Omega1:Omega2 (contact on Omega1)",
-            "split Omega1:Omega2 (Omega1 holds the contact)",
-            [a / 10 for a, _ in splits],
-            split_scenes,
-            xscale="linear",
-            xticklabels=tuple(f"{a}:{b}" for a, b in splits),
-            extra={
-                "contact_subdomain_dofs": tuple(s.subdomains[0].dofs for s in split_scenes),
-                "contact_subdomain_half_bandwidth": tuple(
-                    s.subdomains[0].half_bandwidth for s in split_scenes
-                ),
-            },
-            parameters=params,
-        )
-    )
-    studies.append(
+        ),
+        _bar_split_study(sizes, label, _even_splits(elements[0]), params),
         _study(
             "bar_changes",
             f"{label}: FLOPs vs contact state changes (N_TS = {steps:,})",
@@ -203,27 +176,77 @@ def parallelepiped_studies(
             CHANGES_SWEEP,
             [sizes(changes=g) for g in CHANGES_SWEEP],
             parameters=params,
-        )
-    )
+        ),
+        _bar_contact_study(sizes, label, _scaled_meshes(contact), params),
+    ]
+
+
+def _even_splits(nx: int) -> list[tuple[int, int]]:
+    """The splits 1:9 ... 9:1 that cut ``nx`` layers of hexahedra evenly."""
+    splits = []
+    for a in range(1, 10):
+        try:
+            split_layers(nx, (a, 10 - a))
+        except ValueError:
+            continue
+        splits.append((a, 10 - a))
+    return splits
+
+
+def _scaled_meshes(contact: tuple[int, int]) -> list[tuple[int, int]]:
+    """The contact interface mesh scaled by :data:`CONTACT_SCALES`, each mesh once."""
     meshes = []
     for s in CONTACT_SCALES:
         m = (max(1, round(contact[0] * s)), max(1, round(contact[1] * s)))
         if m not in meshes:
             meshes.append(m)
-    contact_scenes = [sizes(contact=m) for m in meshes]
-    studies.append(
-        _study(
-            "bar_contact_elements",
-            f"{label}: FLOPs vs contact interface elements",
-            "contact interface elements (quadrilaterals, mesh in brackets)",
-            [m0 * m1 for m0, m1 in meshes],
-            contact_scenes,
-            xticklabels=tuple(f"{m0 * m1}\n({m0}x{m1})" for m0, m1 in meshes),
-            extra={"contact_dofs": tuple(s.contacts[0].dofs for s in contact_scenes)},
-            parameters=params,
-        )
+    return meshes
+
+
+def _bar_split_study(
+    sizes: Callable[..., SceneSizes],
+    label: str,
+    splits: list[tuple[int, int]],
+    params: Mapping[str, Any],
+) -> Study:
+    """``bar_split``: the bar at each split, with the contact subdomain's sizes in ``extra``."""
+    split_scenes = [sizes(split=sp) for sp in splits]
+    return _study(
+        "bar_split",
+        f"{label}: FLOPs vs split Omega1:Omega2 (contact on Omega1)",
+        "split Omega1:Omega2 (Omega1 holds the contact)",
+        [a / 10 for a, _ in splits],
+        split_scenes,
+        xscale="linear",
+        xticklabels=tuple(f"{a}:{b}" for a, b in splits),
+        extra={
+            "contact_subdomain_dofs": tuple(s.subdomains[0].dofs for s in split_scenes),
+            "contact_subdomain_half_bandwidth": tuple(
+                s.subdomains[0].half_bandwidth for s in split_scenes
+            ),
+        },
+        parameters=params,
     )
-    return studies
+
+
+def _bar_contact_study(
+    sizes: Callable[..., SceneSizes],
+    label: str,
+    meshes: list[tuple[int, int]],
+    params: Mapping[str, Any],
+) -> Study:
+    """``bar_contact_elements``: the bar with each contact interface mesh, ``D_W`` in ``extra``."""
+    contact_scenes = [sizes(contact=m) for m in meshes]
+    return _study(
+        "bar_contact_elements",
+        f"{label}: FLOPs vs contact interface elements",
+        "contact interface elements (quadrilaterals, mesh in brackets)",
+        [m0 * m1 for m0, m1 in meshes],
+        contact_scenes,
+        xticklabels=tuple(f"{m0 * m1}\n({m0}x{m1})" for m0, m1 in meshes),
+        extra={"contact_dofs": tuple(s.contacts[0].dofs for s in contact_scenes)},
+        parameters=params,
+    )
 
 
 def pin_joint_studies(

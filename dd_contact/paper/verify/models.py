@@ -1,6 +1,8 @@
-"""The verification models: closed-form cases and the scenes tests, demos and benchmarks share.
+"""The verification models: the cases with closed-form references.
 
 Each case returns records ``{case, quantity, value, reference, rel_error, tolerance, passed}``.
+The small block scenes that compare the elimination orders are in
+:mod:`~dd_contact.paper.verify.orders`.
 """
 
 from __future__ import annotations
@@ -31,19 +33,12 @@ __all__ = [
     "BAR",
     "BAR_IMPACT",
     "HERTZ",
-    "ORDER_SCENES",
     "Record",
     "bar_impact",
     "bent_bar",
-    "block_scene",
-    "blocks",
-    "displacements",
-    "distort_in_plane",
     "free_vibration",
     "hertz",
     "locator",
-    "order_scene",
-    "orders_agreement",
     "patch_test",
     "record",
     "stress_error",
@@ -305,31 +300,8 @@ def bar_impact(
     """
     L, a, v0 = BAR_IMPACT["length"], BAR_IMPACT["section"], BAR_IMPACT["v0"]
     material = Material(1.0, 0.0, 1.0)
-    cuts = [0.0, L / 2, L] if split else [0.0, L]
-    parts = [
-        Subdomain(
-            meshes.box(MPI.COMM_SELF, [x0, 0, 0], [x1, a, a], [round(n * (x1 - x0) / L), 1, 1]),
-            material,
-            f"bar{k}" if split else "bar",
-        )
-        for k, (x0, x1) in enumerate(itertools.pairwise(cuts))
-    ]
-    for part in parts:
-        part.velocity.interpolate(
-            lambda x: np.vstack([np.full(x.shape[1], -v0), 0 * x[0], 0 * x[0]])
-        )
-    bar = parts[0]
-    interface = (
-        Interface.from_boundary(bar, locator(0, L / 2), parts, resolution=(1, 1)) if split else None
-    )
-    wall = Plane([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
-    end = locator(0, 0.0)
-    if contact == "boundary":
-        zone = ContactBoundary(bar, end, wall, contact_kappa=contact_kappa, name="end")
-    else:
-        zone = ContactInterface.from_boundary(
-            bar, end, wall, resolution=(1, 1), contact_kappa=contact_kappa, name="end"
-        )
+    parts, interface = _impact_bar(n, split, material)
+    zone = _end_contact(parts[0], contact, contact_kappa)
     dt = cfl * L / n
     problem = TransientProblem(
         Scene(comm, parts, interface, contacts=[zone]),
@@ -340,30 +312,9 @@ def bar_impact(
         scheme=scheme,
         rho_infinity=rho_infinity,
     )
-    # The signed penetration of the end: positive in contact, negative once the bar has left.
-    penetration = []
-
-    def record(_):
-        local = None
-        if problem.zones:
-            op = problem.zones[0].operator
-            local = float(op.penetration(zone.w.x.array[: op.num_dofs]).mean())
-        penetration.append(next(p for p in comm.allgather(local) if p is not None))
-
-    problem.run(round(end_time / dt), callback=record, progress=False, summary=False)
-    g = np.array(penetration)
-    times = dt * np.arange(1, len(g) + 1)
-    k = int(np.argmax(g < 0))  # first step apart
-    duration = times[k - 1] + dt * g[k - 1] / (g[k - 1] - g[k])
-    momentum, total_mass = 0.0, 0.0
-    for part in parts:
-        M = problem.model.mass.get(part.block)
-        if M is not None:  # owned here
-            ones = np.zeros(part.num_dofs)
-            ones[0::3] = 1.0
-            momentum += float(ones @ (M @ part.velocity.x.array))
-            total_mass += float(ones @ (M @ ones))
-    momentum, total_mass = comm.allreduce(momentum), comm.allreduce(total_mass)
+    g = _run_tracking_penetration(problem, zone, round(end_time / dt), comm)
+    duration = _contact_duration(g, dt)
+    momentum, total_mass = _axial_momentum_and_mass(problem, parts, comm)
     work = problem.work_summary()  # collective: every rank's work, merged
     energy0 = 0.5 * total_mass * v0**2
     forces = np.array([np.linalg.norm(r["force"]["end"]) for r in problem.history])
@@ -383,6 +334,89 @@ def bar_impact(
         "history": [record["changes"] for record in problem.history],
         "substitutions": sum(work.get(part.block, {}).get("substitutions", 0) for part in parts),
     }
+
+
+def _impact_bar(
+    n: int, split: bool, material: Material
+) -> tuple[list[Subdomain], Interface | None]:
+    """The bar of :func:`bar_impact` flying at -v0 along x: whole, or halves and their tie."""
+    L, a, v0 = BAR_IMPACT["length"], BAR_IMPACT["section"], BAR_IMPACT["v0"]
+    cuts = [0.0, L / 2, L] if split else [0.0, L]
+    parts = [
+        Subdomain(
+            meshes.box(MPI.COMM_SELF, [x0, 0, 0], [x1, a, a], [round(n * (x1 - x0) / L), 1, 1]),
+            material,
+            f"bar{k}" if split else "bar",
+        )
+        for k, (x0, x1) in enumerate(itertools.pairwise(cuts))
+    ]
+    for part in parts:
+        part.velocity.interpolate(
+            lambda x: np.vstack([np.full(x.shape[1], -v0), 0 * x[0], 0 * x[0]])
+        )
+    bar = parts[0]
+    interface = (
+        Interface.from_boundary(bar, locator(0, L / 2), parts, resolution=(1, 1)) if split else None
+    )
+    return parts, interface
+
+
+def _end_contact(
+    bar: Subdomain, contact: str, contact_kappa: float | None
+) -> ContactBoundary | ContactInterface:
+    """Contact of the bar's end x = 0 with the rigid wall there: on its boundary or a 1x1 mesh."""
+    wall = Plane([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    end = locator(0, 0.0)
+    if contact == "boundary":
+        return ContactBoundary(bar, end, wall, contact_kappa=contact_kappa, name="end")
+    return ContactInterface.from_boundary(
+        bar, end, wall, resolution=(1, 1), contact_kappa=contact_kappa, name="end"
+    )
+
+
+def _run_tracking_penetration(
+    problem: TransientProblem,
+    zone: ContactBoundary | ContactInterface,
+    steps: int,
+    comm: MPI.Comm,
+) -> np.ndarray:
+    """Run ``steps`` steps; the end's mean signed penetration after each, on every rank.
+
+    Positive in contact, negative once the bar has left the wall.
+    """
+    penetration = []
+
+    def after_step(_):
+        local = None
+        if problem.zones:  # the contact's owner
+            op = problem.zones[0].operator
+            local = float(op.penetration(zone.w.x.array[: op.num_dofs]).mean())
+        penetration.append(next(p for p in comm.allgather(local) if p is not None))
+
+    problem.run(steps, callback=after_step, progress=False, summary=False)
+    return np.array(penetration)
+
+
+def _contact_duration(g: np.ndarray, dt: float) -> float:
+    """When the penetration ``g`` (one per step) first turns negative, linearly interpolated."""
+    times = dt * np.arange(1, len(g) + 1)
+    k = int(np.argmax(g < 0))  # first step apart
+    return times[k - 1] + dt * g[k - 1] / (g[k - 1] - g[k])
+
+
+def _axial_momentum_and_mass(
+    problem: TransientProblem, parts: list[Subdomain], comm: MPI.Comm
+) -> tuple[float, float]:
+    """The bar's momentum along x and its mass, from the mass matrices (summed over ranks)."""
+    momentum, total_mass = 0.0, 0.0
+    for part in parts:
+        M = problem.model.mass.get(part.block)
+        if M is not None:  # owned here
+            ones = np.zeros(part.num_dofs)
+            ones[0::3] = 1.0
+            momentum += float(ones @ (M @ part.velocity.x.array))
+            total_mass += float(ones @ (M @ ones))
+    return comm.allreduce(momentum), comm.allreduce(total_mass)
 
 
 # -- free vibration ------------------------------------------------------------------------
@@ -424,188 +458,3 @@ def free_vibration(
         "drift": float(np.max(np.abs(energies - e0)) / e0),
         "energies": energies.tolist(),
     }
-
-
-# -- every elimination order against FULL ----------------------------------------------------
-#: Scene kinds of :func:`order_scene` and the decomposition orders each one admits.
-ORDER_SCENES = {
-    "interface": ("v-w-u", "w-v-u"),  # two blocks, an interface, a contact interface
-    "boundary": ("v-u",),  # two blocks, an interface, contact on a block's own boundary
-    "single": ("w-u",),  # one block with a contact interface
-}
-
-
-def blocks(kind: str, volume_cell: str = "hexahedron") -> list[Subdomain]:
-    """The blocks of :func:`block_scene` (no loads, no supports).
-
-    A = [0,1]^3 (4x3x3 cells) and, unless ``kind`` is ``"single"``, the non-matching
-    B = [1,2]x[0,1]^2 (3x4x4 cells); E = 1000, nu = 0.3, rho = 1.
-    """
-    material = Material(1000.0, 0.3, 1.0)
-
-    def box(x0: float, n: list[int]) -> dolfinx.mesh.Mesh:
-        return meshes.box(MPI.COMM_SELF, [x0, 0, 0], [x0 + 1, 1, 1], n, volume_cell)
-
-    parts = [Subdomain(box(0.0, [4, 3, 3]), material, "A")]
-    if kind != "single":
-        parts.append(Subdomain(box(1.0, [3, 4, 4]), material, "B"))
-    return parts
-
-
-def block_scene(
-    kind: str,
-    parts: list[Subdomain],
-    wall: Plane,
-    comm: MPI.Comm,
-    kappa: float | None = None,
-    contact_tie_kappa: float | None = None,
-    contact_kappa: float = 1.0,
-    surface_cell: str = "quadrilateral",
-    resolution: tuple[int, int] = (3, 3),
-    distortion: float = 0.0,
-) -> Scene:
-    """The scene of :func:`blocks`: their surfaces and the rigid ``wall`` at A's end x = 0.
-
-    ``kind`` (:data:`ORDER_SCENES`) says which surfaces there are: ``"interface"`` an
-    interface on x = 1 and a contact interface on x = 0; ``"boundary"`` the interface and
-    contact on A's own boundary; ``"single"`` a contact interface only. The surface meshes
-    have ``resolution`` cells of ``surface_cell``; ``distortion`` moves their interior nodes
-    in-plane (:func:`distort_in_plane`).
-    """
-    a = parts[0]
-
-    def surface(x: float):
-        mesh = meshes.surface_from_boundary(
-            a.mesh, locator(0, x), resolution, surface_cell, comm=MPI.COMM_SELF
-        )
-        return distort_in_plane(mesh, distortion) if distortion else mesh
-
-    interface = None
-    if kind != "single":
-        interface = Interface(surface(1.0), parts, kappa=kappa)
-    if kind == "boundary":
-        zone = ContactBoundary(a, locator(0, 0.0), wall, contact_kappa=contact_kappa, name="end")
-    else:
-        zone = ContactInterface(
-            surface(0.0), a, wall, kappa=contact_tie_kappa, contact_kappa=contact_kappa, name="end"
-        )
-    return Scene(comm, parts, interface, contacts=[zone])
-
-
-def distort_in_plane(mesh: dolfinx.mesh.Mesh, amount: float) -> dolfinx.mesh.Mesh:
-    """Move the interior nodes of a planar surface mesh within its plane (in place).
-
-    Each interior node moves by up to ``amount`` times the shortest cell edge along each of
-    two in-plane directions, in a fixed pseudo-random pattern of its position (the same on
-    every rank); boundary nodes stay, so the mesh still covers the same region.
-    """
-    topology = mesh.topology
-    topology.create_entities(1)
-    topology.create_connectivity(1, 2)
-    x = mesh.geometry.x
-    edges = dolfinx.mesh.entities_to_geometry(
-        mesh, 1, np.arange(topology.index_map(1).size_local, dtype=np.int32)
-    )
-    h = float(np.linalg.norm(x[edges[:, 1]] - x[edges[:, 0]], axis=1).min())
-    outer = dolfinx.mesh.entities_to_geometry(
-        mesh, 1, dolfinx.mesh.exterior_facet_indices(topology)
-    )
-    interior = np.setdiff1d(np.arange(len(x)), outer)
-    _, _, axes = np.linalg.svd(x - x.mean(axis=0))
-    phase = x[interior] @ np.array([12.9898, 78.233, 37.719])
-    shift = np.sin(phase)[:, None] * axes[0] + np.cos(1.7 * phase + 0.5)[:, None] * axes[1]
-    x[interior] += amount * h * shift
-    return mesh
-
-
-def order_scene(
-    kind: str, dynamic: bool, kappa: float | None = None, comm: MPI.Comm = MPI.COMM_WORLD
-) -> Scene:
-    """A small scene whose contact state changes, for comparing elimination orders.
-
-    Non-matching blocks A = [0,1]^3 and B = [1,2]x[0,1]^2 (``"single"``: A only) against a
-    rigid wall at x = -0.002. Statically, the far end is pushed and tilted so part of the end
-    face A touches and part lifts off; dynamically, both blocks fly at the wall with a
-    velocity that varies across the section, so the contact area grows and shrinks.
-
-    Args:
-        kind: One of :data:`ORDER_SCENES`.
-        dynamic: Flying blocks (for TransientProblem) instead of a pushed, held bar.
-        kappa: Tie penalty of the interface and contact interface (default: the default).
-        comm: Communicator.
-    """
-    parts = blocks(kind)
-    far = parts[-1]
-    if dynamic:
-        for part in parts:
-            part.velocity.interpolate(
-                lambda x: np.vstack([-1.0 - 0.8 * (x[1] - 0.5), 0 * x[0], 0.2 + 0 * x[0]])
-            )
-    else:
-        end = float(len(parts))
-        far.fix(
-            locator(0, end),
-            value=lambda x: np.vstack([-0.004 - 0.02 * (x[1] - 0.5), 0 * x[0], 0 * x[0]]),
-        )
-    wall = Plane([-0.002, 0, 0], [1, 0, 0])
-    return block_scene(kind, parts, wall, comm, kappa=kappa, contact_tie_kappa=kappa)
-
-
-def displacements(scene: Scene) -> np.ndarray:
-    """Every displacement of a scene (subdomains, interface, contacts) in one vector."""
-    parts = [s.u.x.array for s in scene.subdomains]
-    if scene.interface is not None:
-        parts.append(scene.interface.v.x.array)
-    return np.concatenate(parts)
-
-
-def _run_order(kind, dynamic, kappa, order, comm, steps, dt):
-    scene = order_scene(kind, dynamic, kappa, comm)
-    if dynamic:
-        problem = TransientProblem(scene, dt, algorithm=order)
-        states = []
-        problem.run(
-            steps,
-            progress=False,
-            summary=False,
-            callback=lambda _: states.append(displacements(scene)),
-        )
-        path = [r["changes"] for r in problem.history]
-    else:
-        problem = StaticProblem(scene, algorithm=order)
-        problem.solve()
-        states, path = [displacements(scene)], [problem.changes["gamma"]]
-    return np.array(states), path, problem
-
-
-def orders_agreement(
-    kappa: float | None = 1e4,
-    steps: int = 40,
-    dt: float = 0.01,
-    comm: MPI.Comm = MPI.COMM_WORLD,
-) -> list[dict]:
-    """Every decomposition order against FULL on the same scenes (static and dynamic).
-
-    Returns:
-        One dict per scene kind, static/dynamic and order: ``difference`` (largest over the
-        steps of ||x - x_FULL|| / ||x_FULL||, x the subdomain and interface displacements),
-        ``same_path`` (the contact state changes at the same steps) and ``changes`` (gamma).
-    """
-    out = []
-    for kind, orders in ORDER_SCENES.items():
-        for dynamic in (False, True):
-            ref, ref_path, _ = _run_order(kind, dynamic, kappa, "FULL", comm, steps, dt)
-            for order in orders:
-                x, path, _ = _run_order(kind, dynamic, kappa, order, comm, steps, dt)
-                diff = np.linalg.norm(x - ref, axis=1) / np.linalg.norm(ref, axis=1)
-                out.append(
-                    {
-                        "scene": kind,
-                        "dynamic": dynamic,
-                        "order": order,
-                        "difference": float(diff.max()),
-                        "same_path": path == ref_path,
-                        "changes": int(sum(path)),
-                    }
-                )
-    return out

@@ -16,10 +16,11 @@ from mpi4py import MPI
 import numpy as np
 
 from dd_contact.obstacles import Plane
+from dd_contact.paper.verify.models import Record, locator, stress_error
+from dd_contact.paper.verify.orders import block_scene, blocks
 from dd_contact.problem import StaticProblem
 from dd_contact.scene import ContactInterface, Scene
 from dd_contact.solvers.schedule import fitting_algorithms
-from dd_contact.verify.models import Record, block_scene, blocks, locator, stress_error
 
 __all__ = [
     "DISTORTION",

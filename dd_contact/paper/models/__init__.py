@@ -8,8 +8,8 @@
 ``docs/models.md`` states their dimensions, loads and meshes.
 """
 
-from dd_contact.models.common import FACE_TAGS, STEEL, block_tags
-from dd_contact.models.parallelepiped import (
+from dd_contact.paper.models.common import FACE_TAGS, STEEL, block_tags
+from dd_contact.paper.models.parallelepiped import (
     BAR_SCALES,
     BAR_SIZE,
     LAYOUTS,
@@ -17,7 +17,7 @@ from dd_contact.models.parallelepiped import (
     bar_scene,
     parallelepiped,
 )
-from dd_contact.models.pin_joint import (
+from dd_contact.paper.models.pin_joint import (
     PIN_JOINT_SCALES,
     PinJointMeshes,
     pin_joint,

@@ -9,7 +9,7 @@ interface are not copies of the subdomains' faces unless asked.
 :func:`parallelepiped` is the model: the far end clamped, the bar shaken along its axis by a
 periodic body force, so that its free end closes on the wall and opens again every period.
 :func:`bar_scene` builds the bar's decomposition with any supports and loads; the benchmark
-scene :func:`dd_contact.examples.parallelepiped` uses it too.
+scene :func:`dd_contact.paper.examples.parallelepiped` uses it too.
 """
 
 from __future__ import annotations
@@ -23,9 +23,9 @@ import numpy as np
 
 from dd_contact import meshes
 from dd_contact.errors import InputError
-from dd_contact.flops.paper import PAPER_BAR
-from dd_contact.models.common import STEEL
 from dd_contact.obstacles import Plane
+from dd_contact.paper.flops.paper import PAPER_BAR
+from dd_contact.paper.models.common import STEEL
 from dd_contact.scene import (
     ContactBoundary,
     ContactInterface,

@@ -2,21 +2,22 @@
 
 Each case returns records ``{case, quantity, value, reference, rel_error, tolerance, passed}``.
 The scene builders are public so tests, demos and benchmarks use the same models:
-:mod:`~dd_contact.verify.models` (the closed-form cases and shared scenes),
-:mod:`~dd_contact.verify.extremes` (the penalty sweep), :mod:`~dd_contact.verify.drops`
-(3-D bodies dropped on a plane), :mod:`~dd_contact.verify.cases`
-(the registry of ``dd-contact verify``).
+:mod:`~dd_contact.paper.verify.models` (the closed-form cases),
+:mod:`~dd_contact.paper.verify.orders` (the block scenes shared by tests and every order
+against FULL), :mod:`~dd_contact.paper.verify.extremes` (the penalty sweep),
+:mod:`~dd_contact.paper.verify.drops` (3-D bodies dropped on a plane),
+:mod:`~dd_contact.paper.verify.cases` (the registry of ``dd-contact verify``).
 """
 
-from dd_contact.verify.cases import CASES, run_cases
-from dd_contact.verify.drops import (
+from dd_contact.paper.verify.cases import CASES, run_cases
+from dd_contact.paper.verify.drops import (
     box_drop_scene,
     drop,
     falling_block,
     hemisphere_drop_scene,
     sphere_drop,
 )
-from dd_contact.verify.extremes import (
+from dd_contact.paper.verify.extremes import (
     DISTORTION,
     EXTREME_CASES,
     EXTREME_CELLS,
@@ -30,17 +31,19 @@ from dd_contact.verify.extremes import (
     penalty_tolerance,
     pressed_scene,
 )
-from dd_contact.verify.models import (
-    ORDER_SCENES,
+from dd_contact.paper.verify.models import (
     Record,
     bar_impact,
     bent_bar,
-    displacements,
     free_vibration,
     hertz,
+    patch_test,
+)
+from dd_contact.paper.verify.orders import (
+    ORDER_SCENES,
+    displacements,
     order_scene,
     orders_agreement,
-    patch_test,
 )
 
 __all__ = [

@@ -1,7 +1,7 @@
 """Scenes for benchmarks, demos and tests.
 
 The paper's parallelepiped (method.md 7.1) pressed on a wall (the benchmark scene; the
-model itself is :mod:`dd_contact.models`), and a row of blocks with many contact
+model itself is :mod:`dd_contact.paper.models`), and a row of blocks with many contact
 interfaces. Benchmarks and demos build their models here, so that every algorithm
 runs the same problem.
 """
@@ -13,8 +13,8 @@ from mpi4py import MPI
 import numpy as np
 
 from dd_contact import meshes
-from dd_contact.models.parallelepiped import LAYOUTS, bar_scene
 from dd_contact.obstacles import Plane
+from dd_contact.paper.models.parallelepiped import LAYOUTS, bar_scene
 from dd_contact.scene import (
     ContactInterface,
     Interface,
@@ -25,7 +25,7 @@ from dd_contact.scene import (
 
 __all__ = ["PARALLELEPIPED_LAYOUTS", "parallelepiped", "row_of_blocks"]
 
-#: How the bar is modelled for each algorithm (:data:`dd_contact.models.LAYOUTS`).
+#: How the bar is modelled for each algorithm (:data:`dd_contact.paper.models.LAYOUTS`).
 PARALLELEPIPED_LAYOUTS = {a: layout for a, layout in LAYOUTS.items() if a is not None}
 
 
@@ -44,7 +44,7 @@ def parallelepiped(
     """The bar of method.md 7.1 pressed with one end on a rigid wall, for a given algorithm.
 
     The benchmark scene (``benchmarks/decomposition_speed.py``): the decomposition of
-    :func:`dd_contact.models.bar_scene` with matching surfaces, free of supports. A steel bar
+    :func:`dd_contact.paper.models.bar_scene` with matching surfaces, free of supports. A steel bar
     of ``elements`` 8-node hexahedra (size ``element_size``), long in x, moves at ``speed``
     towards a rigid plane through the origin whose normal is tilted by ``tilt`` (radians)
     about z: the bar's end touches it along the edge y = 0 first, and the contact area then

@@ -16,6 +16,8 @@ import numpy as np
 
 from dd_contact import meshes
 from dd_contact.obstacles import Plane
+from dd_contact.paper.verify.models import Record, locator
+from dd_contact.paper.verify.orders import displacements
 from dd_contact.problem import TransientProblem
 from dd_contact.scene import (
     ContactBoundary,
@@ -25,7 +27,6 @@ from dd_contact.scene import (
     Scene,
     Subdomain,
 )
-from dd_contact.verify.models import Record, displacements, locator
 
 __all__ = [
     "DROP",
@@ -65,7 +66,7 @@ def box_drop_scene(
     """A box ``[0, Lx] x [0, Ly] x [0, Lz]`` flying at ``-v0`` along x onto the plane x = 0.
 
     It touches the plane at t = 0 (its end face on it); nothing else holds it. The bar of
-    :func:`dd_contact.verify.bar_impact` is such a box, long and thin with nu = 0.
+    :func:`dd_contact.paper.verify.bar_impact` is such a box, long and thin with nu = 0.
 
     Args:
         size: Edge lengths.
@@ -151,7 +152,7 @@ def drop(
     the last one open if ``touching_at_end``, the points in contact after the last step),
     ``history`` (state changes per step), and with
     ``trace`` the ``active`` sets (per step, region -> points; this rank's regions) and the
-    ``states`` (:func:`dd_contact.verify.displacements` after each step).
+    ``states`` (:func:`dd_contact.paper.verify.displacements` after each step).
     """
     active, states = [], []
 

@@ -1,6 +1,6 @@
 """From a dolfinx :class:`~dd_contact.scene.Scene` to the sizes the operation-count model needs.
 
-The model (:mod:`dd_contact.flops.model`) works on sizes alone; this bridge reads them off a
+The model (:mod:`dd_contact.paper.flops.model`) works on sizes alone; this bridge reads them off a
 scene as built: dofs and half-bandwidths of the subdomains in their dolfinx numbering, the
 interface dofs each subdomain is tied to (the non-zero columns of its tie operator), the
 contact regions, and, from a run, the numbers of steps and contact state changes.
@@ -13,7 +13,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from dd_contact.coupling import tie_operators
-from dd_contact.flops.model import ContactCounts, MeshCounts, SceneSizes, SubdomainCounts
+from dd_contact.paper.flops.model import ContactCounts, MeshCounts, SceneSizes, SubdomainCounts
 from dd_contact.scene import ContactBoundary, Scene, Subdomain
 
 __all__ = ["half_bandwidth_of", "sizes_from_scene"]

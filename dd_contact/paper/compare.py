@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from dd_contact import flops
+from dd_contact.paper import flops
 from dd_contact.problem import TransientProblem
 from dd_contact.scene import Scene
 from dd_contact.viz import pyplot

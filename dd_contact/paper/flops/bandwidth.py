@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from dd_contact.flops.model import check_positive
+from dd_contact.paper.flops.model import check_positive
 
 __all__ = [
     "half_bandwidth_box",

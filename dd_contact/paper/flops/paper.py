@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from dd_contact.flops.bandwidth import half_bandwidth_box
-from dd_contact.flops.model import (
+from dd_contact.paper.flops.bandwidth import half_bandwidth_box
+from dd_contact.paper.flops.model import (
     ContactCounts,
     MeshCounts,
     SceneSizes,
@@ -45,8 +45,8 @@ class PaperBar:
     """The paper's rectangular parallelepiped and its efficiency study (method.md 7.1).
 
     The one place these numbers live: the operation-count model (:func:`parallelepiped_sizes`,
-    :func:`~dd_contact.flops.studies.parallelepiped_studies`) and the finite element model
-    (:func:`dd_contact.models.parallelepiped` at ``scale="paper"``) both read them.
+    :func:`~dd_contact.paper.flops.studies.parallelepiped_studies`) and the finite element model
+    (:func:`dd_contact.paper.models.parallelepiped` at ``scale="paper"``) both read them.
 
     Attributes:
         elements: Hexahedra along x (long, cut direction), y, z.

@@ -1,7 +1,7 @@
 """The paper's multi-pin joint (method.md 7.2) as a finite element model.
 
 Two steel plates lapped over each other, joined by a row of rigid pins. The dimensions are
-those of :class:`dd_contact.flops.PinJointLayout` (in mm there, in m here): 10 mm plates,
+those of :class:`dd_contact.paper.flops.PinJointLayout` (in mm there, in m here): 10 mm plates,
 300 mm wide, 20 mm holes at a 60 mm pitch, 270 mm grips. Each plate is cut into a hole
 block per hole (``pitch x pitch``, an O-grid of hexahedra made by gmsh) and a grip; the
 lower plate lies in 0 <= z <= t with its grip towards -y, the upper one on top of it with
@@ -32,9 +32,9 @@ import numpy as np
 
 from dd_contact import meshes
 from dd_contact.errors import InputError
-from dd_contact.flops.paper import PinJointLayout
-from dd_contact.models.common import FACE_TAGS, STEEL, block_tags
 from dd_contact.obstacles import Cylinder
+from dd_contact.paper.flops.paper import PinJointLayout
+from dd_contact.paper.models.common import FACE_TAGS, STEEL, block_tags
 from dd_contact.scene import ContactInterface, Interface, Scene, Subdomain
 
 __all__ = [
@@ -65,7 +65,7 @@ def pin_joint_layout(scale: str | PinJointLayout = "small") -> PinJointLayout:
     if scale not in PIN_JOINT_SCALES:
         raise InputError(
             f"pin_joint: scale {scale!r} is not one of {sorted(PIN_JOINT_SCALES)}; give a name "
-            "or a dd_contact.flops.PinJointLayout"
+            "or a dd_contact.paper.flops.PinJointLayout"
         )
     return dataclasses.replace(PinJointLayout(), **PIN_JOINT_SCALES[scale])
 
@@ -178,50 +178,16 @@ def pin_joint(
             are free.
         comm: Communicator.
     """
-    if lower not in LOWER_PLATE_SUPPORTS:
-        raise InputError(
-            f"pin_joint: lower={lower!r} is not a support of the lower plate; give one of "
-            f"{LOWER_PLATE_SUPPORTS}"
-        )
-    gaps = np.atleast_1d(np.asarray(clearance, float))
-    if not np.all(gaps >= 0.0):
-        raise InputError(f"pin_joint: clearance must be >= 0, got {clearance}")
-    if not period > 0.0:
-        raise InputError(f"pin_joint: period must be positive, got {period}")
+    _check_options(lower, clearance, period)
     model = pin_joint_meshes(scale, wall_cells)
     lay = model.layout
     radius, thick = lay.hole_diameter * MM / 2, lay.thickness * MM
-    if len(gaps) not in (1, lay.n_holes):
-        raise InputError(
-            f"pin_joint: clearance has {len(gaps)} values for {lay.n_holes} pins; give one "
-            "number, or one per pin"
-        )
-    if not np.all(gaps < radius):
-        raise InputError(f"pin_joint: clearance {clearance} m leaves no pin in a {radius} m hole")
-    gaps = np.broadcast_to(gaps, (lay.n_holes,))
-    pins = range(lay.n_holes) if contact_pins is None else sorted(set(contact_pins))
-    if not pins or not all(isinstance(k, int | np.integer) and 0 <= k < lay.n_holes for k in pins):
-        raise InputError(
-            f"pin_joint: contact_pins {contact_pins} must be pin numbers 0..{lay.n_holes - 1} "
-            "(at least one), the pins whose holes carry contact interfaces"
-        )
+    gaps = _pin_clearances(clearance, lay.n_holes, radius)
+    pins = _holes_in_contact(contact_pins, lay.n_holes)
     width = lay.n_holes * lay.pitch * MM
     parts = {name: Subdomain(mesh, STEEL, name) for name, (mesh, _) in model.subdomains.items()}
     tags = {name: t for name, (_, t) in model.subdomains.items()}
-    stress = load / (width * thick)
-
-    def pull(sign):
-        return lambda t: [0.0, sign * stress * np.sin(2 * np.pi * t / period), 0.0]
-
-    upper_end = (tags["upper_grip"], FACE_TAGS["y1"])
-    parts["upper_grip"].fix(upper_end, components=[0, 2])
-    parts["upper_grip"].add_traction(upper_end, pull(1.0))
-    lower_end = (tags["lower_grip"], FACE_TAGS["y0"])
-    if lower == "clamped":
-        parts["lower_grip"].fix(lower_end)
-    else:  # the support's reaction, which the pins pass to the upper plate
-        parts["lower_grip"].fix(lower_end, components=[0, 2])
-        parts["lower_grip"].add_traction(lower_end, pull(-1.0))
+    _load_grips(parts, tags, load / (width * thick), period, lower)
     interface = Interface(model.interface, list(parts.values()), name="cuts")
     # The wall's nodes lie on the circle, off the plate's facet chords by up to a sagitta.
     sagitta = radius * (1.0 - np.cos(np.pi / (4 * lay.n_circumferential)))
@@ -237,3 +203,63 @@ def pin_joint(
         if _pin(name, model.plates) in pins
     ]
     return Scene(comm, list(parts.values()), interface, contacts=contacts)
+
+
+def _check_options(lower: str, clearance: float | Sequence[float], period: float) -> None:
+    """The checks of :func:`pin_joint` that need no mesh, made before the meshes are built."""
+    if lower not in LOWER_PLATE_SUPPORTS:
+        raise InputError(
+            f"pin_joint: lower={lower!r} is not a support of the lower plate; give one of "
+            f"{LOWER_PLATE_SUPPORTS}"
+        )
+    if not np.all(np.atleast_1d(np.asarray(clearance, float)) >= 0.0):
+        raise InputError(f"pin_joint: clearance must be >= 0, got {clearance}")
+    if not period > 0.0:
+        raise InputError(f"pin_joint: period must be positive, got {period}")
+
+
+def _pin_clearances(clearance: float | Sequence[float], n_pins: int, radius: float) -> np.ndarray:
+    """Each pin's clearance [m], given as one number or one per pin; each below the radius."""
+    gaps = np.atleast_1d(np.asarray(clearance, float))
+    if len(gaps) not in (1, n_pins):
+        raise InputError(
+            f"pin_joint: clearance has {len(gaps)} values for {n_pins} pins; give one "
+            "number, or one per pin"
+        )
+    if not np.all(gaps < radius):
+        raise InputError(f"pin_joint: clearance {clearance} m leaves no pin in a {radius} m hole")
+    return np.broadcast_to(gaps, (n_pins,))
+
+
+def _holes_in_contact(contact_pins: Sequence[int] | None, n_pins: int) -> Sequence[int]:
+    """The pins whose holes carry contact interfaces (all if None), checked and sorted."""
+    pins = range(n_pins) if contact_pins is None else sorted(set(contact_pins))
+    if not pins or not all(isinstance(k, int | np.integer) and 0 <= k < n_pins for k in pins):
+        raise InputError(
+            f"pin_joint: contact_pins {contact_pins} must be pin numbers 0..{n_pins - 1} "
+            "(at least one), the pins whose holes carry contact interfaces"
+        )
+    return pins
+
+
+def _load_grips(
+    parts: dict[str, Subdomain],
+    tags: dict[str, dolfinx.mesh.MeshTags],
+    stress: float,
+    period: float,
+    lower: str,
+) -> None:
+    """The upper grip end pulled along +y; the lower one clamped or pulled back (along -y)."""
+
+    def pull(sign):
+        return lambda t: [0.0, sign * stress * np.sin(2 * np.pi * t / period), 0.0]
+
+    upper_end = (tags["upper_grip"], FACE_TAGS["y1"])
+    parts["upper_grip"].fix(upper_end, components=[0, 2])
+    parts["upper_grip"].add_traction(upper_end, pull(1.0))
+    lower_end = (tags["lower_grip"], FACE_TAGS["y0"])
+    if lower == "clamped":
+        parts["lower_grip"].fix(lower_end)
+    else:  # the support's reaction, which the pins pass to the upper plate
+        parts["lower_grip"].fix(lower_end, components=[0, 2])
+        parts["lower_grip"].add_traction(lower_end, pull(-1.0))
