@@ -37,7 +37,7 @@ import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
 from dd_contact.blocks import Block, ContactRegion
-from dd_contact.parallel import ROOT, bcast_array, gather_to_root, gathered
+from dd_contact.parallel import ROOT, allgathered, any_rank, bcast_array, gather_to_root, gathered
 from dd_contact.solvers.linalg import (
     DenseCholesky,
     PatternedMatrix,
@@ -113,7 +113,7 @@ def surface_structure(
     block each contact region acts on.
     """
     pairs = {(r, c) for r, c, _ in system.all_blocks() if r.kind != "u" != c.kind}
-    pairs = {p for part in comm.allgather(pairs) for p in part}
+    pairs = {p for part in allgathered(comm, pairs) for p in part}
     regions = gathered(comm, {region.name: region.block for region in contacts})
     return pairs, regions
 
@@ -559,7 +559,7 @@ class BlockEliminationSolver:
         pieces = gather_to_root(comm, pieces)
         self.surface: _Surface | None = None
         # a subdomain with contact on its own boundary is re-factorised: it sends a new Z
-        recondensed = comm.allreduce(any(r.block.kind == "u" for r in contacts), op=MPI.LOR)
+        recondensed = any_rank(comm, any(r.block.kind == "u" for r in contacts))
         if comm.rank == ROOT:
             self.surface = _Surface(self.schedule, log, recondensed)
             for part in pieces:

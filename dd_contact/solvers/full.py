@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from mpi4py import MPI
 from petsc4py import PETSc
 
 import numpy as np
@@ -17,6 +16,7 @@ import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
 from dd_contact.blocks import ContactRegion
+from dd_contact.parallel import any_rank
 from dd_contact.solvers.linalg import (
     PatternedMatrix,
     SparseCholesky,
@@ -75,7 +75,7 @@ class MonolithicSolver:
 
     def _refactorise(self) -> None:
         """Collective: push new values to PETSc and factorise (once per contact change)."""
-        if self._factor is not None and not self.comm.allreduce(self.matrix.dirty, op=MPI.LOR):
+        if self._factor is not None and not any_rank(self.comm, self.matrix.dirty):
             return
         self.matrix.push()
         if self._factor is None:
