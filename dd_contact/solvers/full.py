@@ -15,7 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
-from dd_contact.blocks import ContactRegion
+from dd_contact.blocks import ContactRegion, refuse_unsolvable
 from dd_contact.parallel import any_rank
 from dd_contact.solvers.linalg import (
     PatternedMatrix,
@@ -50,6 +50,7 @@ class MonolithicSolver:
         contacts: Sequence[ContactRegion],
         log: WorkLog,
     ):
+        refuse_unsolvable(contacts)
         self.comm, self.system, self.log = comm, system, log
         order = sorted(system.sizes, key=lambda b: system.owners[b])
         self.offsets, start = {}, 0
