@@ -27,7 +27,15 @@ from dd_contact.contact import check_contact_geometry
 from dd_contact.errors import InputError, SingularMatrixError
 from dd_contact.impact import massless_walls
 from dd_contact.iteration import ContactIteration, ContactSettings
-from dd_contact.parallel import allgather_blocks, collective, gathered
+from dd_contact.parallel import (
+    Traffic,
+    allgather_blocks,
+    allgathered,
+    collective,
+    counted,
+    gathered,
+    sum_over_ranks,
+)
 from dd_contact.post import Results
 from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene, Subdomain
 from dd_contact.solvers import MonolithicSolver, WorkLog
@@ -153,13 +161,15 @@ class Analysis:
         condensation = available_condensation(condensation)
         valid = check_algorithm(scene, algorithm, expected)
         self.scene, self.comm = scene, scene.comm
+        #: What this analysis's ranks exchanged (:mod:`dd_contact.parallel`).
+        self.traffic = Traffic()
         #: Every factorisation and solve of this analysis.
         self.work = WorkLog()
         #: This rank's subdomains, in scene order.
         self.owned: list[Subdomain] = [
             s for k, s in enumerate(scene.subdomains) if scene.owner(k) == self.comm.rank
         ]
-        with self.petsc_options():  # checked, and read by the factorisations built
+        with self.petsc_options(), counted(self.traffic):  # options read by the factorisations
             self.model: Model = collective(self.comm, lambda: assemble(scene))
             for z in self.model.zones:  # the pressure-swing check reads static pressure only
                 z.check_resolution = not mass_coefficient
@@ -194,8 +204,9 @@ class Analysis:
         self._closed = False
         self._load = {sub.block: forms.SubdomainLoad(sub) for sub in self.owned}
         self._free: dict[str, np.ndarray] = {}  # model.free(block), kept
-        #: The results of each solve, agreed on every rank (``agreed.latest``: the last).
-        self.agreed = Results(self.comm, scene, self.model, self.iteration.alpha)
+        with counted(self.traffic):
+            #: The results of each solve, agreed on every rank (``agreed.latest``: the last).
+            self.agreed = Results(self.comm, scene, self.model, self.iteration.alpha)
 
     # -- the solver -----------------------------------------------------------------------
     def _choose(self, valid, expected, rates):
@@ -237,7 +248,7 @@ class Analysis:
         #: The solver the contact iteration drives: ``solver``, or around it the iteration
         #: that carries ties stiffer than KAPPA_SPLIT.
         self.tie_solver = self.solver
-        if self.comm.allreduce(len(system.stiff_ties)):
+        if sum_over_ranks(self.comm, len(system.stiff_ties)):
             free = {tie.u: self.model.free(tie.u) for tie in system.stiff_ties}
             self.tie_solver = AugmentedTies(self.comm, self.solver, system.stiff_ties, free)
 
@@ -251,7 +262,7 @@ class Analysis:
         structure, rates, steps, changes = self._auto
         local = timing.misses(self.work.records, rates)
         observed = {}  # the worst miss of any rank, the same on every rank
-        for part in self.comm.allgather(local):
+        for part in allgathered(self.comm, local):
             for kind, ratio in part.items():
                 worst = observed.get(kind, 1.0)
                 observed[kind] = ratio if abs(np.log(ratio)) > abs(np.log(worst)) else worst
@@ -444,7 +455,7 @@ class Analysis:
         contacts = [z.region for z in self.zones]
         full = self.algorithm == "FULL"
         rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
-        with self.petsc_options():  # the analysis reads the factorisations' options
+        with self.petsc_options(), counted(self.traffic):  # the analysis reads the options
             structure = scene_structure(
                 self.comm,
                 self.solver.system,

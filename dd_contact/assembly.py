@@ -36,6 +36,7 @@ from dd_contact.contact import (
     patch_average,
 )
 from dd_contact.errors import InputError, PenaltyRangeWarning, SurfaceResolutionWarning
+from dd_contact.parallel import elementwise_max
 from dd_contact.scene import (
     KAPPA_ASSEMBLED,
     KAPPA_SPLIT,
@@ -331,9 +332,7 @@ def _check_covered(surface, what: str, coverage: np.ndarray, comm: MPI.Comm | No
     the ranks (each rank ties only its own subdomains).
     """
     if comm is not None:
-        total = np.empty_like(coverage)
-        comm.Allreduce(coverage, total, op=MPI.MAX)
-        coverage = total
+        coverage = elementwise_max(comm, coverage)
     loose = np.flatnonzero(coverage < 0.999)
     if loose.size:
         nodes = surface.mesh.geometry.x[surface.mesh.geometry.dofmaps[0][loose[0]]]

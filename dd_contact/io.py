@@ -23,7 +23,7 @@ import dolfinx.io
 import numpy as np
 
 from dd_contact.errors import InputError
-from dd_contact.parallel import ROOT, bcast_from_root
+from dd_contact.parallel import ROOT, allgathered, barrier, bcast_from_root, every_rank
 from dd_contact.post import MeshFields, output_fields
 from dd_contact.scene import Scene
 
@@ -70,7 +70,7 @@ def check_writable(comm: MPI.Comm, directory: str | Path, argument: str = "outpu
 
 def _gathered_paths(comm: MPI.Comm, paths: list[Path]) -> list[Path]:
     """Collective: the paths written by every rank, in rank order, on every rank."""
-    parts = [paths] if comm.size == 1 else comm.allgather(paths)
+    parts = allgathered(comm, paths)
     return [p for part in parts for p in part]
 
 
@@ -260,7 +260,7 @@ class Checkpoint:
 
     def exists(self) -> bool:
         """Collective: whether every rank finds its checkpoint file."""
-        return self.comm.allreduce(self.path.exists(), op=MPI.LAND)
+        return every_rank(self.comm, self.path.exists())
 
     def save(self, arrays: dict[str, np.ndarray]) -> None:
         """Collective: write this rank's arrays."""
@@ -268,7 +268,7 @@ class Checkpoint:
         tmp = self.path.with_name(self.path.name + ".tmp.npz")
         np.savez(tmp, **arrays)
         os.replace(tmp, self.path)
-        self.comm.Barrier()
+        barrier(self.comm)
 
     def load(self) -> dict[str, np.ndarray]:
         """This rank's arrays (rank-local)."""

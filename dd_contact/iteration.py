@@ -15,8 +15,6 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
-from mpi4py import MPI
-
 import numpy as np
 import scipy.sparse as sp
 
@@ -28,6 +26,7 @@ from dd_contact.errors import (
     InaccurateSolutionError,
     SingularMatrixError,
 )
+from dd_contact.parallel import allgathered, any_rank, sum_over_ranks
 from dd_contact.solvers.residual import (
     DEFAULT_RESIDUAL_TOLERANCE,
     FREE_ROW_TOLERANCE,
@@ -239,13 +238,13 @@ class ContactIteration:
                     released[name] |= let_go & ~held_in[name]
                     new[name] = (new[name] & ~released[name]) | held_in[name]
             changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
-            if not self.comm.allreduce(len(changed)):
+            if not sum_over_ranks(self.comm, len(changed)):
                 if releases < MAX_RELEASES and self._unsettled(x):
                     releases += 1  # the same contact state; its releasing forces still move
                     self._count_release(sets[0])
                     continue
                 changed = self._pressed_back(x, released, held_in, new)
-                if not self.comm.allreduce(len(changed)):
+                if not sum_over_ranks(self.comm, len(changed)):
                     x = self._shifted(self._checked(solver, solver.finish(), where))
                     return x, iteration, changes_this_solve
                 seen = {}  # the points pressed back stay in: no cycle through them
@@ -273,7 +272,7 @@ class ContactIteration:
                 self.cycles_resolved += 1
                 # The union is one more contact state (counted like any other change).
                 grown = [n for n in self.active if not np.array_equal(before[n], self.active[n])]
-                if self.comm.allreduce(len(grown)):
+                if sum_over_ranks(self.comm, len(grown)):
                     self._count_change(grown)
                     changes_this_solve += 1
                 self._solve_once(solver, rhs, where)
@@ -331,7 +330,7 @@ class ContactIteration:
                     active = self.active[z.contact.name]
                     r = (z.operator.points.x[active] - body.centre) / body.size
                     local.append(rigid_motion_rows(r, z.operator.normal[active]) @ body.free)
-            rows = [p for part in self.comm.allgather(local) for p in part]
+            rows = [p for part in allgathered(self.comm, local) for p in part]
             m = body.free.shape[1]
             rows = np.concatenate(rows) if rows else np.zeros((0, m))
             singular = np.linalg.svd(rows, compute_uv=False) if len(rows) else np.zeros(0)
@@ -369,7 +368,7 @@ class ContactIteration:
     def _unsettled(self, x: dict[str, np.ndarray]) -> bool:
         """Collective: whether the step correction of some rank has not settled on ``x``."""
         local = self._correction is not None and not self._correction.settled(self.active, x)
-        return bool(self.comm.allreduce(local, op=MPI.LOR))
+        return any_rank(self.comm, local)
 
     def _shifted(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """The solution of the blocks the last solve was shifted on (the others as solved)."""
@@ -416,7 +415,7 @@ class ContactIteration:
 
     def _global_digest(self) -> tuple:
         local = tuple(digest(self.active[z.contact.name]) for z in self.zones)
-        return tuple(self.comm.allgather(local))
+        return tuple(allgathered(self.comm, local))
 
     def _cycle_message(self, previous, new, first, iteration, where) -> str:
         lines = []
@@ -428,7 +427,7 @@ class ContactIteration:
                     f"contact {z.contact.name!r}: {flips.size} point(s) flip in/out of contact, "
                     f"e.g. at {x}"
                 )
-        lines = [line for part in self.comm.allgather(lines) for line in part]
+        lines = [line for part in allgathered(self.comm, lines) for line in part]
         return (
             f"contact iteration cycles at {where}: iteration {iteration} returns to the active "
             f"set of iteration {first}. " + "; ".join(lines)

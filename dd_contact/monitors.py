@@ -15,6 +15,7 @@ from mpi4py import MPI
 import numpy as np
 
 from dd_contact.errors import CoarseTimeStepWarning, EnergyGrowthWarning
+from dd_contact.parallel import any_rank, sum_over_ranks
 
 __all__ = ["ENERGY_GROWTH_TOLERANCE", "MIN_CONTACT_STEPS", "ContactEpisodes", "EnergyBalance"]
 
@@ -81,7 +82,7 @@ class EnergyBalance:
             du = after[block] - u
             moved = moved or bool(np.any(du[free_dofs == 0]))
             work += 0.5 * float((free_dofs * (previous[block] + external[block])) @ du)
-        return self.comm.allreduce(work), bool(self.comm.allreduce(moved, op=MPI.LOR))
+        return sum_over_ranks(self.comm, work), any_rank(self.comm, moved)
 
     def check(self, record: dict, work: Callable[[], tuple[float, bool]]) -> None:
         """Collective: hold the step of ``record`` (with its agreed ``energy``) to the balance.
@@ -114,7 +115,7 @@ class EnergyBalance:
                 f"loads' work, with {record['changes']} contact state change(s): the contact "
                 f"created energy; {fix}",
                 EnergyGrowthWarning,
-                stacklevel=3,
+                stacklevel=4,
             )
 
 
@@ -174,5 +175,5 @@ class ContactEpisodes:
             f"energy is kept; use a smaller time step, dt <= {duration:.3g} / "
             f"{MIN_CONTACT_STEPS} = {duration / MIN_CONTACT_STEPS:.3g} s",
             CoarseTimeStepWarning,
-            stacklevel=4,
+            stacklevel=5,
         )

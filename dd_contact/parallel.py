@@ -3,16 +3,19 @@
 Ranks own whole subdomains (subdomain k on rank ``k % size``); a contact region lives with
 its subdomain; small dense work (the condensed surface system) runs on :data:`ROOT`.
 
-Large arrays that cross ranks go through the buffer-based helpers (``bcast_array``,
-``allgather_blocks``: no pickling); the pickling ones carry small or rare objects. Every
-helper counts what it sends in :data:`traffic`.
+Every collective call of the package goes through the helpers here (a test checks that no
+other module calls one). Large arrays that cross ranks go through the buffer-based helpers
+(``bcast_array``, ``allgather_blocks``, ``elementwise_max``: no pickling); the pickling ones
+carry small or rare objects. Every helper counts what it sends in :data:`traffic`, the
+process's count, and in the count of the problem whose work is running (:func:`counted`).
 """
 
 from __future__ import annotations
 
+import contextvars
 import time
 from collections import Counter
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import Any
 
@@ -26,12 +29,20 @@ __all__ = [
     "ROOT",
     "Traffic",
     "allgather_blocks",
+    "allgathered",
+    "any_rank",
+    "barrier",
     "bcast_array",
     "bcast_from_root",
     "collective",
+    "counted",
+    "elementwise_max",
+    "every_rank",
     "gather_to_root",
     "gathered",
+    "max_over_ranks",
     "owner_of",
+    "sum_over_ranks",
     "traffic",
 ]
 
@@ -54,14 +65,20 @@ class Traffic:
 
     @contextmanager
     def call(self, helper: str, nbytes: int = 0):
-        """Count one call of ``helper`` sending ``nbytes``, and time it."""
+        """Count one call of ``helper`` sending ``nbytes``, and time it.
+
+        Counted here and in the count of the problem whose work is running, if any.
+        """
         start = time.perf_counter()
         try:
             yield
         finally:
-            self.seconds[helper] += time.perf_counter() - start
-            self.counts[helper] += 1
-            self.counts["bytes"] += nbytes
+            seconds = time.perf_counter() - start
+            scoped = _SCOPE.get()
+            for count in (self,) if scoped is None or scoped is self else (self, scoped):
+                count.seconds[helper] += seconds
+                count.counts[helper] += 1
+                count.counts["bytes"] += nbytes
 
     def reset(self) -> None:
         """Forget what was counted."""
@@ -73,8 +90,23 @@ class Traffic:
         return dict(self.counts)
 
 
-#: This process's :class:`Traffic`.
+#: This process's :class:`Traffic`: every call of every problem.
 traffic = Traffic()
+
+# The count of the problem whose work is running (counted), besides the process's.
+_SCOPE: contextvars.ContextVar[Traffic | None] = contextvars.ContextVar(
+    "dd_contact_traffic", default=None
+)
+
+
+@contextmanager
+def counted(scope: Traffic) -> Iterator[Traffic]:
+    """Count the calls made inside in ``scope`` too (a problem's own :class:`Traffic`)."""
+    token = _SCOPE.set(scope)
+    try:
+        yield scope
+    finally:
+        _SCOPE.reset(token)
 
 
 def owner_of(index: int, comm: MPI.Comm) -> int:
@@ -91,15 +123,73 @@ def gathered(comm: MPI.Comm, local: dict) -> dict:
     return {k: v for part in parts for k, v in part.items()}
 
 
-def gather_to_root[T](comm: MPI.Comm, obj: T, nbytes: int = 0) -> list[T] | None:
-    """Collective: every rank's ``obj`` in rank order on :data:`ROOT`, ``None`` elsewhere.
+def gather_to_root[T](comm: MPI.Comm, obj: T, nbytes: int = 0, root: int = ROOT) -> list[T] | None:
+    """Collective: every rank's ``obj`` in rank order on ``root``, ``None`` elsewhere.
 
     ``nbytes``: the bytes of the arrays in ``obj``, for :data:`traffic` (it is pickled).
     """
     if comm.size == 1:
         return [obj]
     with traffic.call("gather_to_root", nbytes):
-        return comm.gather(obj, root=ROOT)
+        return comm.gather(obj, root=root)
+
+
+def allgathered[T](comm: MPI.Comm, obj: T) -> list[T]:
+    """Collective: every rank's ``obj``, in rank order, on every rank (pickled)."""
+    if comm.size == 1:
+        return [obj]
+    with traffic.call("allgathered"):
+        return comm.allgather(obj)
+
+
+def sum_over_ranks[T](comm: MPI.Comm, value: T) -> T:
+    """Collective: the sum of every rank's ``value`` (a number or a float array)."""
+    if comm.size == 1:
+        return value
+    with traffic.call("sum_over_ranks"):
+        return comm.allreduce(value)
+
+
+def max_over_ranks[T](comm: MPI.Comm, value: T) -> T:
+    """Collective: the largest of every rank's number ``value``."""
+    if comm.size == 1:
+        return value
+    with traffic.call("max_over_ranks"):
+        return comm.allreduce(value, op=MPI.MAX)
+
+
+def any_rank(comm: MPI.Comm, flag: bool) -> bool:
+    """Collective: whether ``flag`` is true on some rank."""
+    if comm.size == 1:
+        return bool(flag)
+    with traffic.call("any_rank"):
+        return bool(comm.allreduce(bool(flag), op=MPI.LOR))
+
+
+def every_rank(comm: MPI.Comm, flag: bool) -> bool:
+    """Collective: whether ``flag`` is true on every rank."""
+    if comm.size == 1:
+        return bool(flag)
+    with traffic.call("every_rank"):
+        return bool(comm.allreduce(bool(flag), op=MPI.LAND))
+
+
+def elementwise_max(comm: MPI.Comm, array: np.ndarray) -> np.ndarray:
+    """Collective: the largest of every rank's float64 ``array``, entry by entry (a new array)."""
+    if comm.size == 1:
+        return array.copy()
+    out = np.empty_like(array)
+    with traffic.call("elementwise_max", array.nbytes):
+        comm.Allreduce(array, out, op=MPI.MAX)
+    return out
+
+
+def barrier(comm: MPI.Comm) -> None:
+    """Collective: wait until every rank is here."""
+    if comm.size == 1:
+        return
+    with traffic.call("barrier"):
+        comm.Barrier()
 
 
 def bcast_from_root[T](comm: MPI.Comm, obj: T) -> T:

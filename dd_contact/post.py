@@ -18,7 +18,7 @@ import ufl
 from dd_contact.assembly import ContactZone, Model
 from dd_contact.forms import stress
 from dd_contact.impact import BlockProducts
-from dd_contact.parallel import gathered
+from dd_contact.parallel import gather_to_root, gathered
 from dd_contact.scene import ContactBoundary, ContactInterface, Scene, Subdomain, Where
 
 __all__ = [
@@ -302,7 +302,7 @@ def gather_contact_fields(scene: Scene, root: int = 0) -> None:
         for c in scene.contacts
         if scene.contact_owner(c) == comm.rank
     }
-    everything = comm.gather(mine, root=root)
+    everything = gather_to_root(comm, mine, root=root)
     if comm.rank == root:
         fields = {name: pair for part in everything for name, pair in part.items()}
         for c in scene.contacts:

@@ -33,7 +33,7 @@ from dd_contact.monitors import (
     ContactEpisodes,
     EnergyBalance,
 )
-from dd_contact.parallel import collective, gathered
+from dd_contact.parallel import any_rank, collective, counted, gathered, sum_over_ranks
 from dd_contact.post import energy
 from dd_contact.readout import AnalysisReadout
 from dd_contact.scene import Scene
@@ -112,6 +112,10 @@ class StaticProblem(AnalysisReadout):
         :attr:`results`, :meth:`contact_forces`, :attr:`reactions` and :attr:`changes`
         then hold this solve's results on every rank.
         """
+        with counted(self.traffic):
+            return self._solve_at(t)
+
+    def _solve_at(self, t: float) -> list[fem.Function]:
         self._check_open()
         analysis = self.analysis
         self.iteration.start(t)
@@ -249,7 +253,8 @@ class TransientProblem(AnalysisReadout):
         with the initial displacement, and computes the initial acceleration.
         """
         if not self._started:
-            self._start()
+            with counted(self.traffic):
+                self._start()
 
     def _start(self) -> None:
         owned = self.analysis.owned
@@ -269,7 +274,7 @@ class TransientProblem(AnalysisReadout):
             sub.velocity.x.array[fixed] = 0.0
         self.iteration.start(self.t0)
         if self.inertia and self.track_energy:
-            self.energy_balance.start(self.energy()["total"])
+            self.energy_balance.start(self._energy()["total"])
         if self.inertia:
             with self.analysis.petsc_options():
                 self._initial_acceleration()
@@ -280,7 +285,7 @@ class TransientProblem(AnalysisReadout):
         owned, system = self.analysis.owned, self.model.system
         loads = self.analysis.loads(self.t0)
         u0 = {sub.block: sub.u.x.array[: sub.num_dofs].copy() for sub in owned}
-        moved = self.comm.allreduce(any(np.any(u != 0) for u in u0.values()))
+        moved = any_rank(self.comm, any(np.any(u != 0) for u in u0.values()))
         x0 = {s.block: s.u.x.array.copy() for s in self.scene.subdomains}
         if moved:
             x0.update(surfaces_in_equilibrium(self.comm, system, u0, self.work))
@@ -309,11 +314,17 @@ class TransientProblem(AnalysisReadout):
 
     def energy(self) -> dict[str, float]:
         """Collective: kinetic, elastic (with ties) and contact-penalty energy now [J]."""
+        with counted(self.traffic):
+            return self._energy()
+
+    def _energy(self) -> dict[str, float]:
         velocities = {sub.block: sub.velocity.x.array for sub in self.analysis.owned}
         state = self.analysis.state_now()
         local = energy(self.model, state, velocities, self.zones, self._products)
         parts = np.array(
-            self.comm.allreduce(np.array([local["kinetic"], local["elastic"], local["contact"]]))
+            sum_over_ranks(
+                self.comm, np.array([local["kinetic"], local["elastic"], local["contact"]])
+            )
         )
         return {
             "kinetic": parts[0],
@@ -359,6 +370,10 @@ class TransientProblem(AnalysisReadout):
         region ``force`` [N], ``active`` (points) and ``contact_area`` [m^2], per subdomain
         ``reaction`` [N] (its supports), and ``energy`` [J] (dynamics, ``track_energy``).
         """
+        with counted(self.traffic):
+            return self._advance()
+
+    def _advance(self) -> dict:
         self._check_open()
         if not self._started:
             self._start()
@@ -390,7 +405,7 @@ class TransientProblem(AnalysisReadout):
         record.update(analysis.agree(x, external, accelerations))
         if self.inertia and self.track_energy:
             energy_before = self.history[-1].get("energy") if self.history else None
-            record["energy"] = self.energy()
+            record["energy"] = self._energy()
             self.energy_balance.check(
                 record,
                 lambda: self.energy_balance.loads_work(
@@ -439,6 +454,14 @@ class TransientProblem(AnalysisReadout):
             The history: one record per step (time, iterations, contact state changes,
             active points, contact area and force per region, support reactions, energy).
         """
+        with counted(self.traffic):
+            return self._run(
+                n_steps, output, output_every, checkpoint_every, resume, progress, callback, summary
+            )
+
+    def _run(
+        self, n_steps, output, output_every, checkpoint_every, resume, progress, callback, summary
+    ) -> list[dict]:
         _check_count("n_steps", n_steps)
         _check_count("output_every", output_every)
         if checkpoint_every is not None:
@@ -459,7 +482,7 @@ class TransientProblem(AnalysisReadout):
             bar = tqdm(total=n_steps, initial=self.step, unit="step", file=sys.stderr)
         try:
             while self.step < n_steps:
-                record = self.advance()
+                record = self._advance()
                 if files is not None:
                     files.record(record, self.step % output_every == 0)
                 if checkpoint_every and self.step % checkpoint_every == 0:

@@ -15,6 +15,7 @@ import numpy as np
 
 from dd_contact import timing
 from dd_contact.analysis import Analysis
+from dd_contact.parallel import counted
 
 __all__ = ["AnalysisReadout"]
 
@@ -48,6 +49,7 @@ class AnalysisReadout:
     condensation = _FromAnalysis()
     settings = _FromAnalysis()
     choice = _FromAnalysis()
+    traffic = _FromAnalysis()
 
     @property
     def results(self) -> dict:
@@ -115,11 +117,13 @@ class AnalysisReadout:
         Matrix kind and size, decompositions, substitutions (right-hand sides, as the paper
         counts them), seconds and GFLOPs; see :meth:`dd_contact.solvers.WorkLog.per_block`.
         """
-        return self.work.merged(self.comm).per_block()
+        with counted(self.traffic):
+            return self.work.merged(self.comm).per_block()
 
     def work_table(self) -> str:
         """:meth:`work_summary` as a text table (collective)."""
-        return self.work.merged(self.comm).table()
+        with counted(self.traffic):
+            return self.work.merged(self.comm).table()
 
     def _check_open(self) -> None:
         """Refuse to solve after :meth:`close`."""

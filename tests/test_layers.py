@@ -117,3 +117,42 @@ def test_an_upward_import_and_a_module_without_a_floor_are_found():
         "scene (floor 1) imports solvers.engine (floor 2)",
         "stray: no floor in docs/architecture.md",
     ]
+
+
+# -- MPI in one place ------------------------------------------------------------------------
+#: mpi4py's collective calls (and a few point-to-point ones) by name.
+COLLECTIVES = {
+    "allreduce", "allgather", "gather", "bcast", "scatter", "alltoall", "reduce_scatter",
+    "Allreduce", "Allgather", "Allgatherv", "Gather", "Gatherv", "Bcast", "Scatter",
+    "Scatterv", "Reduce", "Barrier", "barrier", "Alltoall", "Alltoallv", "Exscan", "Scan",
+    "send", "recv", "Send", "Recv", "isend", "irecv", "Isend", "Irecv",
+}  # fmt: skip
+
+
+def direct_collectives(source: str) -> list[str]:
+    """The calls of an mpi4py communication method on something named ``*comm*``."""
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if (
+            isinstance(node, ast.Call)
+            and isinstance(node.func, ast.Attribute)
+            and node.func.attr in COLLECTIVES
+        ):
+            receiver = ast.unparse(node.func.value)
+            if "comm" in receiver.lower():
+                found.append(f"line {node.lineno}: {receiver}.{node.func.attr}")
+    return found
+
+
+def test_every_collective_call_goes_through_parallel():
+    calls = {
+        name: direct_collectives(path.read_text())
+        for name, path in module_names().items()
+        if name != "parallel"
+    }
+    assert {name: found for name, found in calls.items() if found} == {}
+
+
+def test_a_direct_collective_call_is_found():
+    source = "def f(self):\n    x = self.comm.allreduce(1)\n    factor.reduce(b)\n"
+    assert direct_collectives(source) == ["line 2: self.comm.allreduce"]

@@ -1,9 +1,17 @@
-"""The schedule's seam for contact pairs: a region whose matrix couples two w blocks."""
+"""The seams of contact pairs and friction: regions of two blocks, unsymmetric, with history."""
+
+from mpi4py import MPI
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
+from dd_contact.assembly import BlockSystem
+from dd_contact.blocks import Block, ContactRegion, refuse_unsolvable
+from dd_contact.solvers.engine import BlockEliminationSolver
+from dd_contact.solvers.full import MonolithicSolver
 from dd_contact.solvers.schedule import Schedule, region_blocks
+from dd_contact.solvers.worklog import WorkLog
 
 SIZES = {"u:A": 30, "u:B": 30, "v:I": 12, "w:a": 6, "w:b": 9}
 LAYOUTS = {
@@ -44,3 +52,26 @@ def test_a_pair_in_the_last_level_solves_once_per_change_and_release():
 def test_a_region_of_no_block_is_refused():
     with pytest.raises(ValueError, match="at least one block"):
         region_blocks(())
+
+
+@pytest.mark.parametrize(
+    ("seam", "what"),
+    [
+        ({"partner": Block("w", "b")}, "couples two blocks"),
+        ({"symmetric": False}, "unsymmetric"),
+        ({"history": True}, "carries history"),
+    ],
+)
+def test_both_solvers_refuse_a_region_they_cannot_solve_yet(seam, what):
+    region = ContactRegion("pad", Block("w", "a"), np.arange(3), sp.eye_array(3).tocsr(), **seam)
+    assert region.blocks == (Block("w", "a"), *([seam["partner"]] if "partner" in seam else []))
+    with pytest.raises(NotImplementedError, match=f"'pad' .*{what}"):
+        refuse_unsolvable([region])
+    system = BlockSystem({Block("w", "a"): 3}, {Block("w", "a"): 0})
+    system.add(Block("w", "a"), Block("w", "a"), sp.eye_array(3))
+    for build in (
+        lambda: MonolithicSolver(MPI.COMM_SELF, system, [region], WorkLog()),
+        lambda: BlockEliminationSolver(MPI.COMM_SELF, system, [region], WorkLog(), "w-u"),
+    ):
+        with pytest.raises(NotImplementedError, match="the solvers do not solve such a region"):
+            build()

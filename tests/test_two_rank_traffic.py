@@ -1,4 +1,4 @@
-"""What the ranks exchange in a time step of w-v-u, counted (dd_contact.parallel.traffic)."""
+"""What the ranks exchange in a time step of w-v-u, counted by the problem (its traffic)."""
 
 from mpi4py import MPI
 
@@ -7,7 +7,7 @@ import pytest
 
 import dd_contact as dd
 from dd_contact.paper import examples
-from dd_contact.parallel import ROOT, traffic
+from dd_contact.parallel import ROOT
 from dd_contact.solvers import engine
 
 STEPS = 8
@@ -30,10 +30,10 @@ def _run(comm, monkeypatch):
     problem = dd.TransientProblem(scene, 1e-6, algorithm="w-v-u", track_energy=False)
     steps = []
     for _ in range(STEPS):
-        traffic.reset()
+        problem.traffic.reset()
         sent.clear()
         record = problem.advance()
-        steps.append((record, traffic.snapshot(), sum(sent)))
+        steps.append((record, problem.traffic.snapshot(), sum(sent)))
     u = {s.name: s.u.x.array.copy() for s in scene.subdomains}
     return problem, steps, u
 
@@ -52,7 +52,10 @@ def test_a_step_sends_surface_vectors_and_each_subdomain_once(monkeypatch):
         # One solve: each rank's part of the surface right-hand side to rank 0, the surface
         # solution broadcast after the solve and after v's back-substitution (w-v-u solves w
         # last); each subdomain's u sent once, by its owner, to publish it; the results
-        # agreed (gathered) and the loads' and prescribed values' checks (collective).
+        # agreed (gathered) and the loads' and prescribed values' checks (collective). The
+        # contact iteration: the active sets' digest at its start (allgathered), whether a
+        # release is unsettled (any_rank), the changed regions counted after the solve and
+        # after the pressed-back check, and the residual check's probe sums (sum_over_ranks).
         root = comm.rank == ROOT
         assert counts == {
             "gather_to_root": 1,
@@ -60,6 +63,9 @@ def test_a_step_sends_surface_vectors_and_each_subdomain_once(monkeypatch):
             "allgather_blocks": 1,
             "gathered": 1,
             "collective": 2,
+            "allgathered": 1,
+            "any_rank": 1,
+            "sum_over_ranks": 3,
             "bytes": 8 * (m + 2 * m * root + own_u),
         }
     for record, counts, with_matrices in steps[1:]:
@@ -85,3 +91,29 @@ def test_two_ranks_give_the_serial_results(monkeypatch):
             assert np.linalg.norm(np.subtract(p["force"][name], force)) <= 1e-9 * scale
     for name, u in u_serial.items():
         assert np.linalg.norm(u_parallel[name] - u) <= 1e-9 * np.linalg.norm(u)
+
+
+@pytest.mark.mpi
+def test_each_problem_counts_only_its_own_traffic():
+    comm = MPI.COMM_WORLD
+    if comm.size != 2:
+        pytest.skip("counts for two ranks")
+    problems = [
+        dd.TransientProblem(
+            examples.parallelepiped("w-v-u", (12, 4, 2), comm=comm),
+            1e-6,
+            algorithm="w-v-u",
+            track_energy=False,
+        )
+        for _ in range(2)
+    ]
+    first, second = problems
+    first.advance()
+    second.traffic.reset()
+    before = first.traffic.snapshot()
+    second.advance()
+    assert first.traffic.snapshot() == before  # the second's step is not the first's
+    record = second.history[-1]
+    assert second.traffic.snapshot()["gather_to_root"] == record["iterations"]
+    for problem in problems:
+        problem.close()

@@ -29,6 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 from mpi4py import MPI
 
@@ -36,8 +37,8 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
-from dd_contact.blocks import Block, ContactRegion
-from dd_contact.parallel import ROOT, bcast_array, gather_to_root, gathered
+from dd_contact.blocks import Block, ContactRegion, refuse_unsolvable
+from dd_contact.parallel import ROOT, allgathered, any_rank, bcast_array, gather_to_root, gathered
 from dd_contact.solvers.linalg import (
     DenseCholesky,
     PatternedMatrix,
@@ -113,12 +114,50 @@ def surface_structure(
     block each contact region acts on.
     """
     pairs = {(r, c) for r, c, _ in system.all_blocks() if r.kind != "u" != c.kind}
-    pairs = {p for part in comm.allgather(pairs) for p in part}
-    regions = gathered(comm, {region.name: region.block for region in contacts})
+    pairs = {p for part in allgathered(comm, pairs) for p in part}
+    regions = gathered(comm, {region.name: region.blocks for region in contacts})
     return pairs, regions
 
 
 # -- the subdomain level ------------------------------------------------------------------
+class SubdomainSolver(Protocol):
+    """What the engine asks of a subdomain: the seam of reduced subdomains.
+
+    :class:`SubdomainCondensation` (a sparse factor, one substitution per step) is the one
+    kind today; a reduced model (constraint and normal modes, a small dense matrix) will be
+    another, built by :func:`owned_subdomains`, with the same surface-facing operations.
+    """
+
+    block: Block
+    layout: list
+    Z: np.ndarray | None
+
+    @property
+    def changing(self) -> bool:
+        """Whether it must be factorised (again) before the next solve."""
+        ...
+
+    def analyse(self) -> SparseStatistics:
+        """What its factorisation will cost (for the timing model)."""
+        ...
+
+    def factorise(self) -> None:
+        """(Re-)factorise and condense: Z = C^T K^-1 C."""
+        ...
+
+    def surface_rhs(self, b: np.ndarray) -> np.ndarray:
+        """Its part of the surface right-hand side, -C^T K^-1 b."""
+        ...
+
+    def back_substitute(self, surface: dict[str, np.ndarray]) -> np.ndarray:
+        """Its displacement given the surface solution (eq. 17)."""
+        ...
+
+    def destroy(self) -> None:
+        """Free what it holds."""
+        ...
+
+
 class SubdomainCondensation:
     """One owned subdomain: its factorisation, condensation, u_hat and back-substitution.
 
@@ -343,7 +382,9 @@ class _Surface:
         self.base: dict[tuple[str, str], np.ndarray] = {}
         self.condensed: dict[str, np.ndarray] = {}  # latest Z of each subdomain (if kept)
         self._sources_freed = False  # base pairs in S and every Z freed (not recondensed)
-        self.contact: dict[str, sp.csr_array] = {}
+        #: Contact matrices by the block pair they couple: ``(w, w)`` for an obstacle's
+        #: region; a contact pair's off-diagonal pieces will go in as ``(a, b)``.
+        self.contact: dict[tuple[str, str], sp.csr_array] = {}
         self.schur_pairs: dict[tuple[str, str], np.ndarray] = {}
         self.eliminated: dict[tuple[str, str], np.ndarray] = {}
         self.state = {g.name: _GroupState() for g in schedule.flat}
@@ -390,10 +431,10 @@ class _Surface:
                 self.base.pop(pair, None)
             self._sources_freed = True
 
-    def set_contact(self, block: str, matrix: sp.csr_array) -> None:
-        """A surface block's new contact matrix."""
-        self.contact[block] = matrix
-        self.changed.add(block)
+    def set_contact(self, pair: tuple[str, str], matrix: sp.csr_array) -> None:
+        """The new contact matrix of a block pair (``(w, w)``: a block's own)."""
+        self.contact[pair] = matrix
+        self.changed |= set(pair)
 
     def _schur_pair(self, pair) -> np.ndarray | None:
         """The pair's matrix in S (its base matrix if no subdomain touches it), or None."""
@@ -413,7 +454,7 @@ class _Surface:
                 state = self.state[g.name]
                 if g.name in self.stale:
                     state.factor = None  # freed before its successor is assembled: not two at once
-                    state.factor = DenseCholesky(self._assemble(g, level_pairs), self.log, g.name)
+                    state.factor = self._dense_factor(self._assemble(g, level_pairs), g)
                     if not g.last and g.neighbours:
                         self._couple(g, state, level_pairs)
                 if not g.last and g.neighbours:
@@ -439,6 +480,14 @@ class _Surface:
                 self.state[g.name].subtracted = None
         self.changed, self.new_pairs = set(), set()
 
+    def _dense_factor(self, A: np.ndarray, g: Group) -> DenseCholesky:
+        """The factor of a group's matrix: Cholesky, every contact block being symmetric.
+
+        The seam of friction: a group holding an unsymmetric contact block (slip) gets an LU
+        factor here; :func:`~dd_contact.blocks.refuse_unsolvable` refuses one until then.
+        """
+        return DenseCholesky(A, self.log, g.name)
+
     def _assemble(self, g: Group, level_pairs) -> np.ndarray:
         offsets = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
         A = np.zeros((offsets[-1], offsets[-1]))
@@ -447,8 +496,9 @@ class _Surface:
             for j, b in enumerate(g.blocks):
                 if level_pairs.get((a, b)) is not None:
                     A[rows, offsets[j] : offsets[j + 1]] = level_pairs[(a, b)]
-            if a in self.contact:
-                A[rows, rows] += self.contact[a].toarray()
+            for j, b in enumerate(g.blocks):  # the contact pieces of row a
+                if (a, b) in self.contact:
+                    A[rows, offsets[j] : offsets[j + 1]] += self.contact[(a, b)].toarray()
         return A
 
     def _couple(self, g: Group, state: _GroupState, level_pairs) -> None:
@@ -547,11 +597,12 @@ class BlockEliminationSolver:
         condensation: str = "schur",
         subdomains: dict[Block, SubdomainCondensation] | None = None,
     ):
+        refuse_unsolvable(contacts)
         self.comm, self.system, self.log, self.order = comm, system, log, order
         self._regions = {region.name: region for region in contacts}
         if subdomains is None:
             subdomains = owned_subdomains(comm, system, contacts, log, condensation)
-        self.subdomains: dict[Block, SubdomainCondensation] = subdomains
+        self.subdomains: dict[Block, SubdomainSolver] = subdomains
         layouts = {b: sub.layout for b, sub in self.subdomains.items()}
         self.schedule = order_schedule(comm, system, contacts, order, condensation, layouts)
         self._needed_u = set(self.schedule.needed_u) & set(self.subdomains)
@@ -559,7 +610,7 @@ class BlockEliminationSolver:
         pieces = gather_to_root(comm, pieces)
         self.surface: _Surface | None = None
         # a subdomain with contact on its own boundary is re-factorised: it sends a new Z
-        recondensed = comm.allreduce(any(r.block.kind == "u" for r in contacts), op=MPI.LOR)
+        recondensed = any_rank(comm, any(r.block.kind == "u" for r in contacts))
         if comm.rank == ROOT:
             self.surface = _Surface(self.schedule, log, recondensed)
             for part in pieces:
@@ -624,7 +675,7 @@ class BlockEliminationSolver:
                 for block, Z in part["Z"].items():
                     surface.set_condensed(block, Z)
                 for block, matrix in part["contact"].items():
-                    surface.set_contact(block, matrix)
+                    surface.set_contact((block, block), matrix)
             surface.factorise()
             solved = surface.solve({b: g[w].copy() for b, w in self._where.items()}, complete)
             x = self._packed(solved)

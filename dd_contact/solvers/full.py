@@ -9,14 +9,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from mpi4py import MPI
 from petsc4py import PETSc
 
 import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
-from dd_contact.blocks import ContactRegion
+from dd_contact.blocks import ContactRegion, refuse_unsolvable
+from dd_contact.parallel import any_rank
 from dd_contact.solvers.linalg import (
     PatternedMatrix,
     SparseCholesky,
@@ -50,6 +50,7 @@ class MonolithicSolver:
         contacts: Sequence[ContactRegion],
         log: WorkLog,
     ):
+        refuse_unsolvable(contacts)
         self.comm, self.system, self.log = comm, system, log
         order = sorted(system.sizes, key=lambda b: system.owners[b])
         self.offsets, start = {}, 0
@@ -75,7 +76,7 @@ class MonolithicSolver:
 
     def _refactorise(self) -> None:
         """Collective: push new values to PETSc and factorise (once per contact change)."""
-        if self._factor is not None and not self.comm.allreduce(self.matrix.dirty, op=MPI.LOR):
+        if self._factor is not None and not any_rank(self.comm, self.matrix.dirty):
             return
         self.matrix.push()
         if self._factor is None:

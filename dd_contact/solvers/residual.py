@@ -36,6 +36,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.assembly import BlockSystem
+from dd_contact.parallel import sum_over_ranks
 
 __all__ = [
     "DEFAULT_RESIDUAL_TOLERANCE",
@@ -137,7 +138,7 @@ class ResidualCheck:
             b: f.astype(float)[:, None] for b, f in free_rows(system, contact_dofs).items()
         }
         count = sum(int(f.sum()) for f in self._free.values())
-        self.has_free_rows = comm.allreduce(count) > 0
+        self.has_free_rows = sum_over_ranks(comm, count) > 0
         #: ``A z`` and ``A z_free`` restricted to each block, from this rank's pieces.
         self._az: dict[str, np.ndarray] = {}
         self._az_free: dict[str, np.ndarray] = {}
@@ -190,7 +191,7 @@ class ResidualCheck:
             for block, dofs, matrix in contact:  # free rows have no contact term
                 zr -= self.probe(block)[dofs].T @ (matrix @ x[block][dofs])
         local = np.concatenate([zb, zr, zr_free, [0.0 if finite else 1.0]])
-        sums = np.array(self.comm.allreduce(local))
+        sums = np.array(sum_over_ranks(self.comm, local))
         if sums[-1] > 0:
             return Residual(np.inf, np.inf)
         b2 = float(np.sum(sums[:k] ** 2))

@@ -30,6 +30,7 @@ import scipy.sparse as sp
 
 from dd_contact.assembly import StiffTie
 from dd_contact.errors import InaccurateSolutionError
+from dd_contact.parallel import sum_over_ranks
 
 __all__ = ["ANDERSON_DEPTH", "MAX_TIE_ITERATIONS", "TIE_TOLERANCE", "AugmentedTies"]
 
@@ -113,11 +114,11 @@ class AugmentedTies:
 
     def _dot(self, a: np.ndarray, b: np.ndarray):
         """Collective: the dot product(s) over all ranks' tie forces."""
-        return np.asarray(self.comm.allreduce(a.T @ b))
+        return np.asarray(sum_over_ranks(self.comm, a.T @ b))
 
     def solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Collective: every block of the solution with the full tie penalties."""
-        scale = max(self.comm.allreduce(sum(float(v @ v) for v in rhs.values())), 1e-300)
+        scale = max(sum_over_ranks(self.comm, sum(float(v @ v) for v in rhs.values())), 1e-300)
         y, best, stalled = self.forces, np.inf, 0
         steps_y: list[np.ndarray] = []
         steps_f: list[np.ndarray] = []

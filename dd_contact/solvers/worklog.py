@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 from mpi4py import MPI
 
+from dd_contact.parallel import allgathered
+
 __all__ = ["WorkLog", "WorkRecord"]
 
 
@@ -109,7 +111,7 @@ class WorkLog:
         """Collective: one log with the records of every rank."""
         if comm.size == 1:
             return self
-        return WorkLog([r for part in comm.allgather(self.records) for r in part])
+        return WorkLog([r for part in allgathered(comm, self.records) for r in part])
 
     def table(self) -> str:
         """The per-block summary as a text table."""
