@@ -30,6 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from dd_contact.paper import flops
+from dd_contact.parallel import barrier
 from dd_contact.problem import TransientProblem
 from dd_contact.scene import Scene
 from dd_contact.viz import pyplot
@@ -142,7 +143,7 @@ def run_algorithm(
     kept = set(checkpoint_steps(n_steps))
     seconds, checkpoints, largest = [], {}, 0.0
     for step in range(1, n_steps + 1):
-        scene.comm.Barrier()
+        barrier(scene.comm)
         start = time.perf_counter()
         problem.advance()
         seconds.append(time.perf_counter() - start)

@@ -18,6 +18,7 @@ import numpy as np
 
 from dd_contact import meshes
 from dd_contact.obstacles import Plane
+from dd_contact.parallel import allgathered, max_over_ranks, sum_over_ranks
 from dd_contact.post import boundary_average, cell_stress
 from dd_contact.problem import StaticProblem, TransientProblem
 from dd_contact.scene import (
@@ -247,7 +248,7 @@ def hertz(
             "profile_r": r[active][order].tolist(),
             "profile_p": p[active][order].tolist(),
         }
-    for part in comm.allgather(local):
+    for part in allgathered(comm, local):
         if part is not None:
             result.update(part)
     return result
@@ -329,7 +330,7 @@ def bar_impact(
         "rebound": momentum / total_mass / v0,
         "energy_ratio": problem.energy()["total"] / energy0,
         "changes": problem.changes["gamma"],
-        "factorisations": comm.allreduce(problem.work.count("sparse_factor", "FULL"), op=MPI.MAX),
+        "factorisations": max_over_ranks(comm, problem.work.count("sparse_factor", "FULL")),
         "steps": len(g),
         "history": [record["changes"] for record in problem.history],
         "substitutions": sum(work.get(part.block, {}).get("substitutions", 0) for part in parts),
@@ -391,7 +392,7 @@ def _run_tracking_penetration(
         if problem.zones:  # the contact's owner
             op = problem.zones[0].operator
             local = float(op.penetration(zone.w.x.array[: op.num_dofs]).mean())
-        penetration.append(next(p for p in comm.allgather(local) if p is not None))
+        penetration.append(next(p for p in allgathered(comm, local) if p is not None))
 
     problem.run(steps, callback=after_step, progress=False, summary=False)
     return np.array(penetration)
@@ -416,7 +417,7 @@ def _axial_momentum_and_mass(
             ones[0::3] = 1.0
             momentum += float(ones @ (M @ part.velocity.x.array))
             total_mass += float(ones @ (M @ ones))
-    return comm.allreduce(momentum), comm.allreduce(total_mass)
+    return sum_over_ranks(comm, momentum), sum_over_ranks(comm, total_mass)
 
 
 # -- free vibration ------------------------------------------------------------------------
