@@ -33,7 +33,7 @@ import numpy as np
 from dd_contact.assembly import assemble
 from dd_contact.paper.examples import parallelepiped
 from dd_contact.solvers import WorkLog
-from dd_contact.solvers.engine import SubdomainCondensation
+from dd_contact.solvers.subdomains import SubdomainCondensation
 from dd_contact.timestepping import Newmark
 
 HERE = Path(__file__).parent / "results"

@@ -30,7 +30,7 @@ import dd_contact as dc
 from dd_contact import analysis, impact, iteration, parallel
 from dd_contact import problem as problem_module
 from dd_contact.paper import examples
-from dd_contact.solvers import engine
+from dd_contact.solvers import engine, subdomains, surface
 
 HERE = Path(__file__).parent / "results"
 
@@ -43,12 +43,12 @@ PARTS = {
     "contact iteration": iteration.ContactIteration.solve,
     "  one solve": iteration.ContactIteration._solve_once,
     "    engine solve": engine.BlockEliminationSolver.solve,
-    "      subdomain reduction": engine.SubdomainCondensation.surface_rhs,
-    "      subdomain factorise": engine.SubdomainCondensation.factorise,
-    "      surface factorise": engine._Surface.factorise,
-    "      surface solve": engine._Surface.solve,
+    "      subdomain reduction": subdomains.SubdomainCondensation.surface_rhs,
+    "      subdomain factorise": subdomains.SubdomainCondensation.factorise,
+    "      surface factorise": surface.Surface.factorise,
+    "      surface solve": surface.Surface.solve,
     "  finish": engine.BlockEliminationSolver.finish,
-    "    subdomain expansion": engine.SubdomainCondensation.back_substitute,
+    "    subdomain expansion": subdomains.SubdomainCondensation.back_substitute,
     "  residual check": iteration.ContactIteration._checked,
     "publish": analysis.Analysis.publish,
     "agree results": analysis.Analysis.agree,

@@ -100,7 +100,7 @@ def worker(args) -> dict:
     import dd_contact as dc
     from dd_contact import analysis, assembly
     from dd_contact.paper import models
-    from dd_contact.solvers import engine
+    from dd_contact.solvers import engine, surface
     from dd_contact.solvers.linalg import release_freed_memory
 
     pin_joint_module = sys.modules["dd_contact.paper.models.pin_joint"]  # the name is a function
@@ -113,8 +113,8 @@ def worker(args) -> dict:
     wrap_before(analysis.Analysis, "_use", phases, "system (lifting, checks)")
     wrap_after(engine, "owned_subdomains", phases, "subdomain COO + MUMPS instances")
     wrap_after(analysis.Analysis, "_use", phases, "solver (surface base)")
-    wrap_first(engine._Surface, "set_condensed", phases, "factorisations (Schur)")
-    wrap_after(engine._Surface, "factorise", phases, "surface (R, dense groups)")
+    wrap_first(surface.Surface, "set_condensed", phases, "factorisations (Schur)")
+    wrap_after(surface.Surface, "factorise", phases, "surface (R, dense groups)")
     if args.model == "pin_joint":
         scene = models.pin_joint(_joint_layout(args.scale), comm=MPI.COMM_WORLD)
         dt = 4e-5

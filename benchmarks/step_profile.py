@@ -57,19 +57,19 @@ def _parts():
     """(part, owner, attribute) of every timed function."""
     from dd_contact import analysis, impact, iteration, problem
     from dd_contact.contact import ContactOperator
-    from dd_contact.solvers import engine, full
+    from dd_contact.solvers import engine, full, subdomains, surface
 
     return [
         ("loads", analysis.Analysis, "_loads"),
         ("rhs", analysis.Analysis, "rhs"),
         ("start_forces", impact.StartForces, "__init__"),
-        ("reduction", engine.SubdomainCondensation, "surface_rhs"),
+        ("reduction", subdomains.SubdomainCondensation, "surface_rhs"),
         ("reduction", full.MonolithicSolver, "solve"),
         ("gather_bcast", engine, "gather_to_root"),
         ("gather_bcast", engine, "bcast_array"),
-        ("surface", engine._Surface, "solve"),
-        ("surface", engine._Surface, "back_substitute"),
-        ("expansion", engine.SubdomainCondensation, "back_substitute"),
+        ("surface", surface.Surface, "solve"),
+        ("surface", surface.Surface, "back_substitute"),
+        ("expansion", subdomains.SubdomainCondensation, "back_substitute"),
         ("contact_check", ContactOperator, "active_set"),
         ("contact_rhs", iteration.ContactIteration, "_solve_once"),
         ("residual_check", iteration.ContactIteration, "_checked"),

@@ -13,8 +13,9 @@ import pytest
 
 import dd_contact as dc
 from dd_contact.paper import examples, models
-from dd_contact.solvers import engine, mumps_schur
+from dd_contact.solvers import mumps_schur
 from dd_contact.solvers.linalg import DenseCholesky
+from dd_contact.solvers.surface import Surface
 
 DT = 4e-5
 
@@ -147,7 +148,7 @@ def test_a_refactorised_group_frees_its_old_factor_before_assembling_the_new(ste
         alive.append(old() is not None)
         return DenseCholesky(A, log, block)
 
-    monkeypatch.setattr(engine, "DenseCholesky", spy)
+    monkeypatch.setattr("dd_contact.solvers.surface.DenseCholesky", spy)
     x = surface.state[last].factor.solve(np.ones(surface.state[last].factor.size))
     surface.stale.add(last)
     surface.factorise()
@@ -159,7 +160,7 @@ def test_the_surface_frees_each_condensation_once_its_pairs_hold_it(monkeypatch)
     """Unless a subdomain can be re-factorised (contact on its own boundary), bit for bit."""
     scene = examples.parallelepiped("w-v-u", elements=(8, 4, 2), comm=MPI.COMM_SELF)
     freed = dc.TransientProblem(scene, 1e-6, algorithm="w-v-u", track_energy=False)
-    monkeypatch.setattr(engine._Surface, "__init__", _keeping(engine._Surface.__init__))
+    monkeypatch.setattr(Surface, "__init__", _keeping(Surface.__init__))
     scene = examples.parallelepiped("w-v-u", elements=(8, 4, 2), comm=MPI.COMM_SELF)
     kept = dc.TransientProblem(scene, 1e-6, algorithm="w-v-u", track_energy=False)
     try:

@@ -16,10 +16,11 @@ from mpi4py import MPI
 
 from dd_contact.assembly import BlockSystem
 from dd_contact.blocks import ContactRegion
-from dd_contact.solvers.engine import owned_subdomains, subdomain_statistics, surface_structure
+from dd_contact.solvers.engine import surface_structure
 from dd_contact.solvers.full import MonolithicSolver, monolithic_statistics
 from dd_contact.solvers.linalg import SparseStatistics
 from dd_contact.solvers.schedule import FullSchedule, Schedule
+from dd_contact.solvers.subdomains import owned_subdomains, subdomain_statistics
 
 __all__ = ["Candidates", "SceneStructure", "scene_structure"]
 

@@ -1,0 +1,244 @@
+"""The surface level of the block elimination: the condensed dense system on rank 0.
+
+After every subdomain is condensed, the surface blocks (interface ``v`` and contact
+interfaces ``w``) hold a dense SPD system (A14-A18). :class:`Surface` eliminates it group
+by group as the order's :class:`~dd_contact.solvers.schedule.Schedule` says, re-factorising
+only the groups a change made stale.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from dd_contact.solvers.linalg import (
+    DenseCholesky,
+)
+from dd_contact.solvers.schedule import (
+    Group,
+    Schedule,
+)
+from dd_contact.solvers.worklog import WorkLog
+
+__all__ = ["Surface"]
+
+
+@dataclass
+class _GroupState:
+    """What was computed for one group of the schedule."""
+
+    factor: DenseCholesky | None = None
+    B: np.ndarray | None = None  # the non-zero coupling columns to the neighbours
+    subtracted: np.ndarray | None = None  # B^T A_GG^-1 B: what eliminating the group subtracts
+    columns: list[tuple[str, np.ndarray]] = field(default_factory=list)
+    offsets: np.ndarray | None = None
+    g_in: np.ndarray | None = None  # right-hand side when last eliminated
+    y: np.ndarray | None = None  # A_GG^-1 g_in
+
+
+class Surface:
+    """The condensed surface system on rank 0, eliminated group by group as scheduled.
+
+    Args:
+        schedule: The elimination schedule.
+        log: Where the dense work is recorded.
+        recondensed: Whether a subdomain can send a new Z (it has contact on its own boundary
+            and is re-factorised on a change). The Schur pairs are then rebuilt from the
+            base and every subdomain's Z, which are kept. Otherwise both are freed once every
+            subdomain's Z is in them (at 306k dofs 84 MB of dense copies; a new Z then raises).
+
+    Attributes:
+        base: The surface pairs' own matrices, dense (an off-diagonal one and its transpose
+            share their memory).
+        schur_pairs: The pairs of S = base - sum_k Z_k (A14-A18), each subdomain's
+            condensation Z_k subtracted where it touches.
+        eliminated: The pairs after the earlier levels' groups are eliminated.
+    """
+
+    def __init__(self, schedule: Schedule, log: WorkLog, recondensed: bool = True):
+        self.schedule, self.sizes, self.log = schedule, schedule.surface, log
+        self.recondensed = recondensed
+        self.base: dict[tuple[str, str], np.ndarray] = {}
+        self.condensed: dict[str, np.ndarray] = {}  # latest Z of each subdomain (if kept)
+        self._sources_freed = False  # base pairs in S and every Z freed (not recondensed)
+        #: Contact matrices by the block pair they couple: ``(w, w)`` for an obstacle's
+        #: region; a contact pair's off-diagonal pieces will go in as ``(a, b)``.
+        self.contact: dict[tuple[str, str], sp.csr_array] = {}
+        self.schur_pairs: dict[tuple[str, str], np.ndarray] = {}
+        self.eliminated: dict[tuple[str, str], np.ndarray] = {}
+        self.state = {g.name: _GroupState() for g in schedule.flat}
+        self.changed: set[str] = set()  # surface blocks changed since the last factorise
+        self.new_pairs: set[tuple[str, str]] = set()  # Schur pairs changed since then
+        self.stale: set[str] = {g.name for g in schedule.flat}  # nothing factorised yet
+
+    def add_base(self, row: str, col: str, A: sp.sparray) -> None:
+        """Add a stored piece of a surface pair's own matrix (``BlockSystem.matrices``).
+
+        The dense pair it stands for in both orientations: the transpose is a view.
+        """
+        dense = sp.csr_array(A).toarray()
+        self.base[(row, col)] = self.base.get((row, col), 0.0) + dense
+        if row != col:
+            self.base[(col, row)] = self.base[(row, col)].T
+
+    def set_condensed(self, block: str, Z: np.ndarray) -> None:
+        """A subdomain's new condensation: rebuild the surface pairs it touches."""
+        if self._sources_freed:
+            raise RuntimeError(
+                f"subdomain {block!r} sent a second condensation, but no subdomain has contact "
+                "on its own boundary, so the surface freed what its pairs were built from"
+            )
+        self.condensed[block] = Z
+        where = self.schedule.where
+        touched = {(a, b) for a in where[block] for b in where[block]}
+        for pair in sorted(touched):
+            if pair[::-1] in touched and pair[::-1] < pair:  # S is symmetric: a view, no copy
+                self.schur_pairs[pair] = self.schur_pairs[pair[::-1]].T
+                continue
+            matrix = self.base.get(pair, np.zeros((self.sizes[pair[0]], self.sizes[pair[1]])))
+            matrix = np.array(matrix)
+            for k, Zk in self.condensed.items():
+                if pair[0] in where[k] and pair[1] in where[k]:
+                    (o1, J1), (o2, J2) = where[k][pair[0]], where[k][pair[1]]
+                    matrix[np.ix_(J1, J2)] -= Zk[o1 : o1 + len(J1), o2 : o2 + len(J2)]
+            self.schur_pairs[pair] = matrix
+        self.new_pairs |= touched
+        self.changed |= self.schedule.touched(block)
+        if not self.recondensed and self.condensed.keys() == where.keys():
+            self.condensed.clear()  # every Z is in S now, and none will change
+            for pair in self.schur_pairs:
+                self.base.pop(pair, None)
+            self._sources_freed = True
+
+    def set_contact(self, pair: tuple[str, str], matrix: sp.csr_array) -> None:
+        """The new contact matrix of a block pair (``(w, w)``: a block's own)."""
+        self.contact[pair] = matrix
+        self.changed |= set(pair)
+
+    def _schur_pair(self, pair) -> np.ndarray | None:
+        """The pair's matrix in S (its base matrix if no subdomain touches it), or None."""
+        return self.schur_pairs[pair] if pair in self.schur_pairs else self.base.get(pair)
+
+    def factorise(self) -> None:
+        """Re-factorise the groups the schedule finds stale after what changed."""
+        if self.changed:  # a new condensation also marks the blocks it touches
+            self.stale |= self.schedule.stale_groups(self.changed)
+        if not self.stale:
+            return
+        # every pair's matrix as the current level sees it: S's, then each level's eliminated
+        level_pairs = {p: self._schur_pair(p) for p in self.schedule.pairs}
+        for level in self.schedule.groups:
+            updates: dict[tuple[str, str], list] = {}
+            for g in level:
+                state = self.state[g.name]
+                if g.name in self.stale:
+                    state.factor = None  # freed before its successor is assembled: not two at once
+                    state.factor = self._dense_factor(self._assemble(g, level_pairs), g)
+                    if not g.last and g.neighbours:
+                        self._couple(g, state, level_pairs)
+                if not g.last and g.neighbours:
+                    for i, (r1, _) in enumerate(state.columns):
+                        for j, (r2, _) in enumerate(state.columns):
+                            updates.setdefault((r1, r2), []).append((g, state, i, j))
+            for pair, parts in updates.items():
+                redo = pair in self.new_pairs or any(g.name in self.stale for g, *_ in parts)
+                if redo or pair not in self.eliminated:
+                    for g, state, *_ in parts:
+                        if state.subtracted is None:  # freed after its last use below
+                            self._couple(g, state, level_pairs)
+                    M = level_pairs.get(pair)
+                    M = np.zeros((self.sizes[pair[0]], self.sizes[pair[1]])) if M is None else M
+                    M = M.copy()
+                    for _, state, i, j in parts:
+                        (_, J1), (_, J2) = state.columns[i], state.columns[j]
+                        o1, o2 = state.offsets[i], state.offsets[j]
+                        M[np.ix_(J1, J2)] -= state.subtracted[o1 : o1 + len(J1), o2 : o2 + len(J2)]
+                    self.eliminated[pair] = M
+                level_pairs[pair] = self.eliminated[pair]
+            for g in level:  # B^T A_GG^-1 B is in the eliminated pairs now: as large as they
+                self.state[g.name].subtracted = None
+        self.changed, self.new_pairs = set(), set()
+
+    def _dense_factor(self, A: np.ndarray, g: Group) -> DenseCholesky:
+        """The factor of a group's matrix: Cholesky, every contact block being symmetric.
+
+        The seam of friction: a group holding an unsymmetric contact block (slip) gets an LU
+        factor here; :func:`~dd_contact.blocks.refuse_unsolvable` refuses one until then.
+        """
+        return DenseCholesky(A, self.log, g.name)
+
+    def _assemble(self, g: Group, level_pairs) -> np.ndarray:
+        offsets = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
+        A = np.zeros((offsets[-1], offsets[-1]))
+        for i, a in enumerate(g.blocks):
+            rows = slice(offsets[i], offsets[i + 1])
+            for j, b in enumerate(g.blocks):
+                if level_pairs.get((a, b)) is not None:
+                    A[rows, offsets[j] : offsets[j + 1]] = level_pairs[(a, b)]
+            for j, b in enumerate(g.blocks):  # the contact pieces of row a
+                if (a, b) in self.contact:
+                    A[rows, offsets[j] : offsets[j + 1]] += self.contact[(a, b)].toarray()
+        return A
+
+    def _couple(self, g: Group, state: _GroupState, level_pairs) -> None:
+        """X = A_GG^-1 B with B the non-zero coupling columns to the later blocks."""
+        rows = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
+        state.columns, parts = [], []
+        for r in g.neighbours:
+            B = np.zeros((rows[-1], self.sizes[r]))
+            for i, a in enumerate(g.blocks):
+                if level_pairs.get((a, r)) is not None:
+                    B[rows[i] : rows[i + 1]] = level_pairs[(a, r)]
+            J = np.flatnonzero(np.any(B != 0.0, axis=0))
+            state.columns.append((r, J))
+            parts.append(B[:, J])
+        state.B = np.hstack(parts)
+        state.offsets = np.cumsum([0] + [len(J) for _, J in state.columns])
+        state.subtracted = state.factor.congruence(state.B, "condense")
+
+    def solve(self, g: dict[str, np.ndarray], complete: bool) -> dict[str, np.ndarray]:
+        """Eliminate the right-hand side forward and solve the last level.
+
+        With ``complete``, back-substitute the earlier levels too.
+        """
+        g = {b: v.copy() for b, v in g.items()}
+        for level in self.schedule.groups:
+            for grp in level:
+                state = self.state[grp.name]
+                rhs = np.concatenate([g[b] for b in grp.blocks])
+                if grp.last:
+                    self._split(grp, state.factor.solve(rhs, "x"), g)
+                    continue
+                new_rhs = state.y is None or not np.array_equal(rhs, state.g_in)
+                if self.schedule.solves(grp, self.stale, new_rhs):
+                    state.y, state.g_in = state.factor.solve(rhs, "y"), rhs
+                if grp.neighbours:
+                    correction = state.B.T @ state.y
+                    for i, (r, J) in enumerate(state.columns):
+                        g[r][J] -= correction[state.offsets[i] : state.offsets[i + 1]]
+        self.stale = set()
+        x = {b: g[b] for grp in self.schedule.groups[-1] for b in grp.blocks}
+        if complete:
+            x.update(self.back_substitute(x))
+        return x
+
+    def back_substitute(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Solve the earlier levels, last first, given the later blocks in ``x``."""
+        x = dict(x)
+        for level in reversed(self.schedule.groups[:-1]):
+            for grp in level:
+                state = self.state[grp.name]
+                rhs = state.g_in.copy()
+                if grp.neighbours:
+                    coupled = np.concatenate([x[r][J] for r, J in state.columns])
+                    rhs -= state.B @ coupled
+                self._split(grp, state.factor.solve(rhs, "x"), x)
+        return x
+
+    def _split(self, grp: Group, values: np.ndarray, out: dict) -> None:
+        start = 0
+        for b in grp.blocks:
+            out[b] = values[start : start + self.sizes[b]]
+            start += self.sizes[b]
