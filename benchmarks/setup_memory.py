@@ -98,7 +98,7 @@ def worker(args) -> dict:
         tracemalloc.start(40)
 
     import dd_contact as dc
-    from dd_contact import analysis, assembly
+    from dd_contact import analysis, assembly, blocks
     from dd_contact.paper import models
     from dd_contact.solvers import engine, surface
     from dd_contact.solvers.linalg import release_freed_memory
@@ -108,7 +108,7 @@ def worker(args) -> dict:
     # Phase boundaries (measurement only: each wrapped call is unchanged).
     wrap_after(pin_joint_module, "pin_joint_meshes", phases, "meshes (gmsh, dolfinx)")
     wrap_after(analysis, "assemble", phases, "assembly (K, M, ties)")
-    wrap_first(assembly.BlockSystem, "constrain", phases, "effective K + cM (copy)")
+    wrap_first(blocks.BlockSystem, "constrain", phases, "effective K + cM (copy)")
     wrap_after(assembly.Model, "effective", phases, "constraints (mask A mask)")
     wrap_before(analysis.Analysis, "_use", phases, "system (lifting, checks)")
     wrap_after(engine, "owned_subdomains", phases, "subdomain COO + MUMPS instances")

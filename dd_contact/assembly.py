@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import warnings
-from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 
 from mpi4py import MPI
@@ -27,7 +26,7 @@ from scipy.sparse.linalg import splu
 from scipy.spatial import cKDTree
 
 from dd_contact import coupling, forms
-from dd_contact.blocks import Block, ContactRegion
+from dd_contact.blocks import Block, BlockSystem, ContactRegion, StiffTie
 from dd_contact.contact import (
     ContactOperator,
     contact_points,
@@ -46,200 +45,7 @@ from dd_contact.scene import (
     Scene,
 )
 
-__all__ = ["BlockSystem", "ContactZone", "Lifting", "Model", "StiffTie", "assemble"]
-
-
-@dataclass
-class StiffTie:
-    """The part of a stiff tie's penalty kept out of the matrices (kappa > KAPPA_SPLIT).
-
-    The tie's penalty 1/eps is split as ``rho + sigma``: ``rho`` (kappa = KAPPA_ASSEMBLED)
-    is assembled like any tie, ``sigma`` is carried by the augmented-Lagrangian iteration of
-    :mod:`dd_contact.solvers.stiff_ties` as a force on the right-hand side.
-
-    Attributes:
-        name: ``"<surface> on <subdomain>"``, for messages.
-        u: The subdomain's block.
-        s: The surface's block (``v`` or ``w``).
-        P1, P2, P4: The tie operators (9)-(11), blocked, without the 1/eps factor.
-        rho: The assembled part of 1/eps.
-        sigma: The remainder of 1/eps.
-    """
-
-    name: str
-    u: Block
-    s: Block
-    P1: sp.csr_array
-    P2: sp.csr_array
-    P4: sp.csr_array
-    rho: float
-    sigma: float
-
-    def jump(self, x: dict[str, np.ndarray]) -> dict[Block, np.ndarray]:
-        """``R x``: the tie's unscaled force on u and s, ``(P1 u - P2 s, P4 s - P2^T u)``."""
-        u, s = x[self.u], x[self.s]
-        return {self.u: self.P1 @ u - self.P2 @ s, self.s: self.P4 @ s - self.P2.T @ u}
-
-
-@dataclass
-class BlockSystem:
-    """The local pieces of a symmetric block system ``A x = b``.
-
-    Only one triangle of A is stored: an off-diagonal block is held once, as (row, col) or
-    as (col, row), and stands for its transpose too. That rule is applied here and nowhere
-    else: read A through :meth:`block`, :meth:`all_blocks`, :meth:`block_row`,
-    :meth:`coupled`, :meth:`row_product` and :meth:`triplets`. :attr:`matrices` is the
-    storage: for adding to it, changing it in place, or sending its pieces elsewhere.
-
-    Attributes:
-        sizes: Size of every block, in block order (same on all ranks).
-        owners: Rank that owns every block's rows.
-        matrices: ``(row_block, col_block) -> matrix`` contributions; an off-diagonal pair
-            is stored once and stands for its transpose too. Contributions with the same key
-            from different ranks are added.
-        rhs: ``block -> vector`` contributions, added like the matrices.
-        penalties: ``(subdomain, surface) -> eps`` of every penalty this rank assembled
-            (ties, and ``(subdomain, "contact:<name>")`` for contact).
-        kappas: ``(subdomain, surface) -> kappa = h / (E eps)`` of every tie this rank
-            assembled.
-        stiff_ties: The ties of this rank stiffer than KAPPA_SPLIT: their matrices hold
-            kappa = KAPPA_ASSEMBLED, the remainder is here.
-    """
-
-    sizes: dict[Block, int]
-    owners: dict[Block, int]
-    matrices: dict[tuple[Block, Block], sp.csr_array] = field(default_factory=dict)
-    rhs: dict[Block, np.ndarray] = field(default_factory=dict)
-    penalties: dict[tuple[str, str], float] = field(default_factory=dict)
-    kappas: dict[tuple[str, str], float] = field(default_factory=dict)
-    stiff_ties: list[StiffTie] = field(default_factory=list)
-
-    def copy(self) -> BlockSystem:
-        """A copy whose matrices and vectors can be changed independently."""
-        return BlockSystem(
-            dict(self.sizes),
-            dict(self.owners),
-            {k: m.copy() for k, m in self.matrices.items()},
-            {k: v.copy() for k, v in self.rhs.items()},
-            dict(self.penalties),
-            dict(self.kappas),
-            list(self.stiff_ties),
-        )
-
-    def add(self, row: Block, col: Block, matrix: sp.sparray) -> None:
-        """Add a matrix contribution to block (row, col)."""
-        matrix = sp.csr_array(matrix)
-        key = (row, col)
-        self.matrices[key] = self.matrices[key] + matrix if key in self.matrices else matrix
-
-    def add_rhs(self, row: Block, vector: np.ndarray) -> None:
-        """Add a right-hand-side contribution to block ``row``."""
-        self.rhs[row] = self.rhs[row] + vector if row in self.rhs else np.array(vector)
-
-    def constrain(self, block: Block, dofs: np.ndarray, values: np.ndarray) -> None:
-        """Eliminate prescribed dofs of ``block`` (symmetric: rows, columns and lifting).
-
-        The owner of ``block`` must hold every contribution that touches it.
-        """
-        if dofs.size == 0:
-            return
-        for row, columns in self.prescribed_columns(block, dofs):
-            self.add_rhs(row, -(columns @ values))
-        keep = np.ones(self.sizes[block])
-        keep[dofs] = 0.0
-        mask = sp.diags_array(keep)
-        for (row, col), A in list(self.matrices.items()):
-            if row == block and col == block:
-                A = mask @ A @ mask + sp.diags_array(1.0 - keep)
-            elif row == block:
-                A = mask @ A
-            elif col == block:
-                A = A @ mask
-            else:
-                continue
-            self.matrices[(row, col)] = sp.csr_array(A)
-        rhs = self.rhs.get(block, np.zeros(self.sizes[block])).copy()
-        rhs[dofs] = values
-        self.rhs[block] = rhs
-
-    def prescribed_columns(
-        self, block: Block, dofs: np.ndarray
-    ) -> list[tuple[Block, sp.csr_array]]:
-        """``A[r, D]``: the columns of ``block``'s dofs ``dofs`` in every block row r.
-
-        Prescribed values g put ``-A[r, D] g`` on the right-hand side of row block r.
-        """
-        return [
-            (row, sp.csr_array(sp.csc_array(A)[:, dofs]))
-            for row, col, A in self.all_blocks()
-            if col == block
-        ]
-
-    # -- A itself: the only code that knows a block is stored once for both triangles ----
-    def block(self, row: Block, col: Block) -> sp.sparray | None:
-        """``A[row, col]``, or ``None`` where the two blocks are not coupled.
-
-        The stored matrix, or the transpose of the stored ``(col, row)``: a view (CSC), no copy.
-        """
-        if (row, col) in self.matrices:
-            return self.matrices[(row, col)]
-        if (col, row) in self.matrices:
-            return self.matrices[(col, row)].T
-        return None
-
-    def all_blocks(self) -> Iterator[tuple[Block, Block, sp.sparray]]:
-        """``(row, col, A[row, col])`` of every non-zero block of A.
-
-        In storage order, each stored block followed by its transpose (a view) if it is off
-        the diagonal. Sums over these blocks depend on that order in their last bits; the
-        callers keep it.
-        """
-        for (row, col), A in self.matrices.items():
-            yield row, col, A
-            if row != col:
-                yield col, row, A.T
-
-    def block_row(self, row: Block) -> Iterator[tuple[Block, sp.sparray]]:
-        """``(col, A[row, col])`` of every non-zero block in block row ``row``.
-
-        The diagonal block included, in the order of :meth:`all_blocks`.
-        """
-        for r, col, A in self.all_blocks():
-            if r == row:
-                yield col, A
-
-    def coupled(self, block: Block) -> Iterator[tuple[Block, sp.sparray]]:
-        """``(other, A[block, other])`` of every other block coupled to ``block``."""
-        for other, A in self.block_row(block):
-            if other != block:
-                yield other, A
-
-    def row_product(self, row: Block, x: Mapping[Block, np.ndarray]) -> np.ndarray:
-        """``(A x)_row``, a new array; a block missing from ``x`` counts as zero."""
-        out = np.zeros(self.sizes[row])
-        for col, A in self.block_row(row):
-            if col in x:
-                out += A @ x[col]
-        return out
-
-    def triplets(self, offsets: Mapping[Block, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """A's entries, both triangles, as COO ``(rows, cols, values)`` in one numbering.
-
-        Each block starts at ``offsets[block]``. A transposed block is the stored one's
-        entries with rows and columns swapped: no arrays of its own before the concatenation.
-        """
-        rows, cols, values = [], [], []
-        for (row, col), A in self.matrices.items():
-            coo = sp.coo_array(A)
-            r, c = coo.row + offsets[row], coo.col + offsets[col]
-            rows.append(r), cols.append(c), values.append(coo.data)
-            if row != col:
-                rows.append(c), cols.append(r), values.append(coo.data)
-        return _joined(rows, np.int64), _joined(cols, np.int64), _joined(values, np.float64)
-
-
-def _joined(arrays: list[np.ndarray], dtype) -> np.ndarray:
-    return np.concatenate(arrays, dtype=dtype) if arrays else np.zeros(0, dtype)
+__all__ = ["ContactZone", "Lifting", "Model", "assemble"]
 
 
 def _tie_operators(surface, sub, what: str) -> coupling.TieOperators:

@@ -56,8 +56,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
-from dd_contact.assembly import BlockSystem, ContactZone
-from dd_contact.blocks import Block
+from dd_contact.assembly import ContactZone
+from dd_contact.blocks import Block, BlockSystem
 
 __all__ = [
     "GEOMETRIC_STEPS",

@@ -11,8 +11,7 @@ import pytest
 import scipy.sparse as sp
 
 import dd_contact as dd
-from dd_contact.assembly import BlockSystem
-from dd_contact.blocks import Block, ContactRegion
+from dd_contact.blocks import Block, BlockSystem, ContactRegion
 from dd_contact.paper import verify
 
 

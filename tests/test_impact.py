@@ -11,8 +11,7 @@ import pytest
 import scipy.sparse as sp
 
 import dd_contact as dd
-from dd_contact.assembly import BlockSystem
-from dd_contact.blocks import Block
+from dd_contact.blocks import Block, BlockSystem
 from dd_contact.impact import BlockProducts, massless_walls
 from dd_contact.paper import examples, verify
 

@@ -6,8 +6,7 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from dd_contact.assembly import BlockSystem
-from dd_contact.blocks import Block, ContactRegion, refuse_unsolvable
+from dd_contact.blocks import Block, BlockSystem, ContactRegion, refuse_unsolvable
 from dd_contact.solvers.engine import BlockEliminationSolver
 from dd_contact.solvers.full import MonolithicSolver
 from dd_contact.solvers.schedule import Schedule, region_blocks

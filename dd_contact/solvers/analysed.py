@@ -14,8 +14,7 @@ from dataclasses import dataclass
 
 from mpi4py import MPI
 
-from dd_contact.assembly import BlockSystem
-from dd_contact.blocks import ContactRegion
+from dd_contact.blocks import BlockSystem, ContactRegion
 from dd_contact.solvers.engine import surface_structure
 from dd_contact.solvers.full import MonolithicSolver, monolithic_statistics
 from dd_contact.solvers.linalg import SparseStatistics

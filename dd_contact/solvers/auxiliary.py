@@ -16,8 +16,7 @@ from mpi4py import MPI
 import numpy as np
 import scipy.sparse as sp
 
-from dd_contact.assembly import BlockSystem
-from dd_contact.blocks import Block
+from dd_contact.blocks import Block, BlockSystem
 from dd_contact.solvers.full import MonolithicSolver
 from dd_contact.solvers.linalg import SparseCholesky, coo_of, petsc_matrix
 from dd_contact.solvers.worklog import WorkLog

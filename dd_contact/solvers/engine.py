@@ -34,8 +34,7 @@ from mpi4py import MPI
 import numpy as np
 import scipy.sparse as sp
 
-from dd_contact.assembly import BlockSystem
-from dd_contact.blocks import Block, ContactRegion, refuse_unsolvable
+from dd_contact.blocks import Block, BlockSystem, ContactRegion, refuse_unsolvable
 from dd_contact.parallel import ROOT, allgathered, any_rank, bcast_array, gather_to_root, gathered
 from dd_contact.solvers.linalg import (
     coo_of,

@@ -14,8 +14,7 @@ from petsc4py import PETSc
 import numpy as np
 import scipy.sparse as sp
 
-from dd_contact.assembly import BlockSystem
-from dd_contact.blocks import ContactRegion, refuse_unsolvable
+from dd_contact.blocks import BlockSystem, ContactRegion, refuse_unsolvable
 from dd_contact.parallel import any_rank
 from dd_contact.solvers.linalg import (
     PatternedMatrix,

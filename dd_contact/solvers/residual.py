@@ -35,7 +35,7 @@ from mpi4py import MPI
 import numpy as np
 import scipy.sparse as sp
 
-from dd_contact.assembly import BlockSystem
+from dd_contact.blocks import BlockSystem
 from dd_contact.parallel import sum_over_ranks
 
 __all__ = [

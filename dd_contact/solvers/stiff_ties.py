@@ -28,7 +28,7 @@ from mpi4py import MPI
 import numpy as np
 import scipy.sparse as sp
 
-from dd_contact.assembly import StiffTie
+from dd_contact.blocks import StiffTie
 from dd_contact.errors import InaccurateSolutionError
 from dd_contact.parallel import sum_over_ranks
 

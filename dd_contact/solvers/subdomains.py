@@ -18,8 +18,7 @@ from mpi4py import MPI
 import numpy as np
 import scipy.sparse as sp
 
-from dd_contact.assembly import BlockSystem
-from dd_contact.blocks import Block, ContactRegion
+from dd_contact.blocks import Block, BlockSystem, ContactRegion
 from dd_contact.parallel import gathered
 from dd_contact.solvers.linalg import (
     PatternedMatrix,
