@@ -227,12 +227,12 @@ class Schedule:
         #: Contact region -> the blocks its contact matrix couples.
         self.regions = {key: region_blocks(b) for key, b in regions.items()}
         #: Per subdomain: surface block -> (offset in the condensed operator Z, tied dofs).
-        self.where: dict[str, dict[str, tuple[int, np.ndarray]]] = {}
+        self.tied_at: dict[str, dict[str, tuple[int, np.ndarray]]] = {}
         pairs = {(a, b) for a, b in base_pairs} | {(b, a) for a, b in base_pairs}
         self.base_pairs = frozenset(pairs)
         for block, layout in self.layouts.items():
             offsets = np.cumsum([0] + [len(J) for _, J in layout])
-            self.where[block] = {s: (int(offsets[i]), J) for i, (s, J) in enumerate(layout)}
+            self.tied_at[block] = {s: (int(offsets[i]), J) for i, (s, J) in enumerate(layout)}
             pairs |= {(a, b) for a, _ in layout for b, _ in layout}
         for blocks in self.regions.values():  # a contact pair's blocks are one group
             pairs |= {(a, b) for a in blocks for b in blocks if a != b}
@@ -261,7 +261,7 @@ class Schedule:
         """
         out: set[str] = set()
         for block in map(Block.parse, blocks):
-            out |= set(self.where.get(block, {})) if block.kind == "u" else {block}
+            out |= set(self.tied_at.get(block, {})) if block.kind == "u" else {block}
         return out
 
     def stale_groups(self, changed: set[str]) -> set[str]:
@@ -295,7 +295,7 @@ class Schedule:
                 total += self.surface[r]
                 continue
             tied = [
-                w[r][1] for w in self.where.values() if r in w and any(a in w for a in g.blocks)
+                w[r][1] for w in self.tied_at.values() if r in w and any(a in w for a in g.blocks)
             ]
             total += len(np.unique(np.concatenate(tied))) if tied else 0
         return total

@@ -91,7 +91,7 @@ class Surface:
                 "on its own boundary, so the surface freed what its pairs were built from"
             )
         self.condensed[block] = Z
-        where = self.schedule.where
+        where = self.schedule.tied_at
         touched = {(a, b) for a in where[block] for b in where[block]}
         for pair in sorted(touched):
             if pair[::-1] in touched and pair[::-1] < pair:  # S is symmetric: a view, no copy
