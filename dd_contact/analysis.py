@@ -29,7 +29,7 @@ from dd_contact.impact import massless_walls
 from dd_contact.iteration import ContactIteration, ContactSettings
 from dd_contact.parallel import allgather_blocks, collective, gathered
 from dd_contact.post import Results
-from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene, Subdomain
+from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.analysed import Candidates, scene_structure
 from dd_contact.solvers.engine import BlockEliminationSolver
@@ -39,6 +39,7 @@ from dd_contact.solvers.petsc_options import OPTIONS_PREFIX, check_options_prefi
 from dd_contact.solvers.residual import ResidualCheck
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
 from dd_contact.solvers.stiff_ties import AugmentedTies
+from dd_contact.subdomains import Subdomain
 
 __all__ = ["Analysis"]
 

@@ -11,7 +11,8 @@ import ufl
 from dd_contact import coupling, meshes, verify
 from dd_contact.post import cell_stress
 from dd_contact.problem import StaticProblem
-from dd_contact.scene import Interface, Material, Scene, Subdomain
+from dd_contact.scene import Interface, Scene
+from dd_contact.subdomains import Material, Subdomain
 
 
 def _spaces(volume_cell="hexahedron", surface_cell="quadrilateral"):

@@ -21,10 +21,9 @@ from dd_contact.scene import (
     ContactBoundary,
     ContactInterface,
     Interface,
-    Material,
     Scene,
-    Subdomain,
 )
+from dd_contact.subdomains import Material, Subdomain
 from dd_contact.verify.models import Record, displacements, locator
 
 __all__ = [
