@@ -34,12 +34,11 @@ from dd_contact.scene import (
     ContactBoundary,
     ContactInterface,
     Interface,
-    Material,
     Penalty,
     Scene,
-    Subdomain,
 )
 from dd_contact.solvers.schedule import ALGORITHMS
+from dd_contact.subdomains import Material, Subdomain
 
 __version__ = "0.1.0"
 

@@ -37,20 +37,17 @@ from dd_contact.parallel import (
     sum_over_ranks,
 )
 from dd_contact.post import Results
-from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene, Subdomain
+from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.analysed import Candidates, scene_structure
 from dd_contact.solvers.engine import BlockEliminationSolver
-from dd_contact.solvers.linalg import (
-    OPTIONS_PREFIX,
-    check_options_prefix,
-    petsc_options,
-    release_freed_memory,
-)
+from dd_contact.solvers.linalg import release_freed_memory
 from dd_contact.solvers.mumps_schur import layout_known, mumps_version
+from dd_contact.solvers.petsc_options import OPTIONS_PREFIX, check_options_prefix, petsc_options
 from dd_contact.solvers.residual import ResidualCheck
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
 from dd_contact.solvers.stiff_ties import AugmentedTies
+from dd_contact.subdomains import Subdomain
 
 __all__ = ["Analysis"]
 

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
-    from dd_contact.scene import Subdomain
+    from dd_contact.subdomains import Subdomain
 
 __all__ = ["RIGID_MOTIONS", "Body", "rigid_motion_rows"]
 

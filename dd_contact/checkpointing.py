@@ -15,7 +15,7 @@ import numpy as np
 from dd_contact.assembly import ContactZone
 from dd_contact.errors import InputError
 from dd_contact.iteration import ContactIteration
-from dd_contact.scene import Subdomain
+from dd_contact.subdomains import Subdomain
 
 __all__ = ["RunState"]
 

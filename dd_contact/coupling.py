@@ -363,6 +363,21 @@ class _Rules:
         return tuple(np.concatenate(out) for out in done)
 
 
+@dataclass
+class _Polygons:
+    """First-order cells as polygons: cyclic vertices ``(n, k, 3)``, centres, unit normals."""
+
+    vertices: npt.NDArray[np.float64]
+    centre: npt.NDArray[np.float64]
+    normal: npt.NDArray[np.float64]
+
+
+def _polygons(x: npt.NDArray[np.float64], nodes: npt.NDArray[np.int32]) -> _Polygons:
+    """The polygons of cells given by their geometry nodes ``nodes`` into coordinates ``x``."""
+    poly = x[cyclic_vertices(nodes)]
+    return _Polygons(poly, poly.mean(axis=1), newell_normal(poly))
+
+
 def tie_operators(
     V: dolfinx.fem.FunctionSpace,
     S: dolfinx.fem.FunctionSpace,
@@ -387,35 +402,99 @@ def tie_operators(
     f2c = vol.topology.connectivity(tdim - 1, tdim)
     facet_cell = f2c.array[f2c.offsets[facets]]
 
-    # Surface cells: first-order polygons, planes and sizes.
-    s_nodes_geo = surf.geometry.dofmaps[0]
-    s_poly = surf.geometry.x[cyclic_vertices(s_nodes_geo)]
-    s_centre = s_poly.mean(axis=1)
-    s_normal = newell_normal(s_poly)
+    s_nodes = surf.geometry.dofmaps[0]
+    surface = _polygons(surf.geometry.x, s_nodes)
+    s_poly = surface.vertices
     s_diam = np.linalg.norm(s_poly.max(axis=1) - s_poly.min(axis=1), axis=1)
     tol = 0.05 * s_diam if tolerance is None else np.full(len(s_poly), float(tolerance))
-
-    # Volume boundary facets.
     f_nodes = dolfinx.mesh.entities_to_geometry(vol, tdim - 1, facets)
-    f_poly = vol.geometry.x[cyclic_vertices(f_nodes)]
-    f_centre = f_poly.mean(axis=1)
-    f_normal = newell_normal(f_poly)
+    boundary = _polygons(vol.geometry.x, f_nodes)
 
+    si, fj = _facing_pairs(surface, boundary, tol)
+    e1, e2 = _in_plane_basis(s_poly, surface.normal)
+    cell_area, covered, (fans, fan_s, fan_f) = _intersections(
+        surface, e1, e2, boundary.vertices, si, fj
+    )
+
+    n_v = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
+    n_s = S.dofmap.index_map.size_local + S.dofmap.index_map.num_ghosts
+    if not fans:
+        return _untied(n_v, n_s, covered, cell_area)
+    # A Gauss rule on each triangle, of the degree its distortion needs.
+    s_centre, f_centre, f_normal = surface.centre, boundary.centre, boundary.normal
+    rules = _Rules(surf, s_nodes, s_centre, e1, e2, vol, f_nodes, f_centre, f_normal)
+    tri, tri_s, tri_f, degree = rules.pick(
+        np.concatenate(fans), np.concatenate(fan_s), np.concatenate(fan_f)
+    )
+    x, w, q_s, q_f = _gauss_points(tri, tri_s, tri_f, degree, s_centre, e1, e2)
+
+    # The volume basis is pulled back into the cell behind the facet: on a curved wall the
+    # point lies a little off the facet's plane, and u is extended from the cell, so u and
+    # the surface field are compared where they are (a uniform strain is then tied exactly;
+    # moving the point onto the facet first was not).
+    phi_s, dofs_s = _basis_at(S, q_s, x)
+    phi_v, dofs_v = _basis_at(V, facet_cell[q_f], x)
+
+    # Points of one triangle share their cells: sum each run of them before assembling.
+    run = np.flatnonzero(np.r_[True, (q_s[1:] != q_s[:-1]) | (q_f[1:] != q_f[:-1])])
+    tied = np.unique(q_f)
+    return TieOperators(
+        P1=_mass(w, run, phi_v, dofs_v, phi_v, dofs_v, (n_v, n_v)),
+        P2=_mass(w, run, phi_v, dofs_v, phi_s, dofs_s, (n_v, n_s)),
+        P4=_mass(w, run, phi_s, dofs_s, phi_s, dofs_s, (n_s, n_s)),
+        covered_area=covered,
+        cell_area=cell_area,
+        height=_mean_height(vol, facet_cell[tied], f_centre[tied], f_normal[tied]),
+        facets=facets[tied],
+    )
+
+
+def _untied(n_v: int, n_s: int, covered, cell_area) -> TieOperators:
+    """The operators of a surface that touches no facet: empty."""
+    empty = sp.csr_array((n_v, n_v))
+    return TieOperators(
+        empty,
+        sp.csr_array((n_v, n_s)),
+        sp.csr_array((n_s, n_s)),
+        covered,
+        cell_area,
+        0.0,
+        np.zeros(0, np.int32),
+    )
+
+
+def _facing_pairs(
+    surface: _Polygons, boundary: _Polygons, tol: npt.NDArray[np.float64]
+) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs (surface cell, facet) that may touch.
+
+    Their boxes overlap (the cell's padded by its ``tol``), and the facet is nearly parallel
+    to the cell's plane and within ``tol`` of it.
+    """
+    s_poly, f_poly = surface.vertices, boundary.vertices
     pad = tol[:, None]
     si, fj = _boxes_overlap(
-        s_poly.min(axis=1) - pad,
-        s_poly.max(axis=1) + pad,
-        f_poly.min(axis=1),
-        f_poly.max(axis=1),
+        s_poly.min(axis=1) - pad, s_poly.max(axis=1) + pad, f_poly.min(axis=1), f_poly.max(axis=1)
     )
-    # Keep facets nearly parallel to and close to the surface cell's plane.
-    cosine = np.abs(np.einsum("nd,nd->n", s_normal[si], f_normal[fj]))
-    distance = np.abs(np.einsum("nd,nd->n", f_centre[fj] - s_centre[si], s_normal[si]))
+    s_normal, s_centre = surface.normal[si], surface.centre[si]
+    cosine = np.abs(np.einsum("nd,nd->n", s_normal, boundary.normal[fj]))
+    distance = np.abs(np.einsum("nd,nd->n", boundary.centre[fj] - s_centre, s_normal))
     keep = (cosine > 0.7) & (distance <= tol[si])
-    si, fj = si[keep], fj[keep]
+    return si[keep], fj[keep]
 
-    # In-plane basis of each surface cell.
-    e1, e2 = _in_plane_basis(s_poly, s_normal)
+
+def _intersections(surface: _Polygons, e1, e2, f_poly, si, fj) -> tuple:
+    """The surface cells' areas, the area of each the facets cover, and the triangles.
+
+    Each pair (si, fj) is intersected in the surface cell's plane (in-plane basis e1, e2);
+    the convex intersection is cut into a fan of triangles.
+
+    Returns:
+        ``cell_area``, ``covered`` (per surface cell) and ``(triangles, cells, facets)``: lists
+        of the fans' triangles ``(n, 3, 2)`` in their cells' planes, and each triangle's
+        surface cell and facet.
+    """
+    s_poly, s_centre = surface.vertices, surface.centre
 
     def to_plane(points: np.ndarray, s: int) -> np.ndarray:
         d = points - s_centre[s]
@@ -438,87 +517,59 @@ def tie_operators(
         if area <= 1e-14 * cell_area[s]:
             continue
         covered[s] += area
-        # Fan triangulation of the convex intersection (in the surface cell's plane).
         n = len(poly) - 2
         fans.append(np.stack([np.broadcast_to(poly[0], (n, 2)), poly[1:-1], poly[2:]], axis=1))
         fan_s.append(np.full(n, s))
         fan_f.append(np.full(n, f))
+    return cell_area, covered, (fans, fan_s, fan_f)
 
-    # A Gauss rule on each triangle, of the degree its distortion needs.
+
+def _gauss_points(tri, tri_s, tri_f, degree, s_centre, e1, e2) -> tuple[np.ndarray, ...]:
+    """Gauss points in 3-D, their weights, surface cells and facets, triangle after triangle.
+
+    Args:
+        tri: Triangles in their surface cells' planes, shape ``(m, 3, 2)``.
+        tri_s: Surface cell of each triangle.
+        tri_f: Facet of each triangle.
+        degree: Gauss degree of each triangle (:meth:`_Rules.pick`).
+        s_centre: Origin of each surface cell's plane.
+        e1: First in-plane unit vector of each surface cell.
+        e2: Second in-plane unit vector of each surface cell.
+    """
     qx, qw, q_s, q_f = [], [], [], []
-    if fans:
-        rules = _Rules(surf, s_nodes_geo, s_centre, e1, e2, vol, f_nodes, f_centre, f_normal)
-        tri, tri_s, tri_f, degree = rules.pick(
-            np.concatenate(fans), np.concatenate(fan_s), np.concatenate(fan_f)
+    for deg in np.unique(degree):
+        sel = degree == deg
+        points, weights = _triangle_rule(int(deg))
+        a, b, c = (tri[sel, k, None, :] for k in range(3))
+        u, v = b - a, c - a
+        tri_area = 0.5 * np.abs(u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0])
+        p2 = a + points[None, :, :1] * u + points[None, :, 1:] * v  # (m, q, 2)
+        s_sel = tri_s[sel, None]
+        qx.append(
+            (s_centre[s_sel] + p2[..., :1] * e1[s_sel] + p2[..., 1:] * e2[s_sel]).reshape(-1, 3)
         )
-        for deg in np.unique(degree):
-            sel = degree == deg
-            points, weights = _triangle_rule(int(deg))
-            a, b, c = (tri[sel, k, None, :] for k in range(3))
-            u, v = b - a, c - a
-            tri_area = 0.5 * np.abs(u[..., 0] * v[..., 1] - u[..., 1] * v[..., 0])
-            p2 = a + points[None, :, :1] * u + points[None, :, 1:] * v  # (m, q, 2)
-            s_sel = tri_s[sel, None]
-            qx.append(
-                (s_centre[s_sel] + p2[..., :1] * e1[s_sel] + p2[..., 1:] * e2[s_sel]).reshape(-1, 3)
-            )
-            qw.append((2.0 * tri_area * weights[None, :]).ravel())
-            q_s.append(np.repeat(tri_s[sel], len(weights)))
-            q_f.append(np.repeat(tri_f[sel], len(weights)))
+        qw.append((2.0 * tri_area * weights[None, :]).ravel())
+        q_s.append(np.repeat(tri_s[sel], len(weights)))
+        q_f.append(np.repeat(tri_f[sel], len(weights)))
+    return tuple(np.concatenate(parts) for parts in (qx, qw, q_s, q_f))
 
-    n_v = V.dofmap.index_map.size_local + V.dofmap.index_map.num_ghosts
-    n_s = S.dofmap.index_map.size_local + S.dofmap.index_map.num_ghosts
-    if not qx:
-        empty = sp.csr_array((n_v, n_v))
-        return TieOperators(
-            empty,
-            sp.csr_array((n_v, n_s)),
-            sp.csr_array((n_s, n_s)),
-            covered,
-            cell_area,
-            0.0,
-            np.zeros(0, np.int32),
-        )
-    x = np.concatenate(qx)
-    w = np.concatenate(qw)
-    q_s = np.concatenate(q_s)
-    q_f = np.concatenate(q_f)
 
-    # Surface basis at the points.
-    s_elem = _coordinate_element(surf)
-    X_s = pull_back(s_elem, surf.geometry.x[s_nodes_geo[q_s]], x)
-    phi_s = S.element.basix_element.tabulate(0, X_s)[0, :, :, 0]
-    dofs_s = S.dofmap.list[q_s]
+def _basis_at(
+    space: dolfinx.fem.FunctionSpace, cells: np.ndarray, x: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Scalar basis values ``(n, dofs)`` and dofs of ``space`` at points ``x``, each in its cell."""
+    mesh = space.mesh
+    nodes = mesh.geometry.x[mesh.geometry.dofmaps[0][cells]]
+    X = pull_back(_coordinate_element(mesh), nodes, x)
+    return space.element.basix_element.tabulate(0, X)[0, :, :, 0], space.dofmap.list[cells]
 
-    # Volume basis at the same point, pulled back into the cell behind the facet: on a
-    # curved wall the point lies a little off the facet's plane, and u is extended from the
-    # cell, so u and the surface field are compared where they are (a uniform strain is then
-    # tied exactly; moving the point onto the facet first was not).
-    cells = facet_cell[q_f]
-    v_elem = _coordinate_element(vol)
-    X_v = pull_back(v_elem, vol.geometry.x[vol.geometry.dofmaps[0][cells]], x)
-    phi_v = V.element.basix_element.tabulate(0, X_v)[0, :, :, 0]
-    dofs_v = V.dofmap.list[cells]
 
-    # Points of one triangle share their cells: sum each run of them before assembling.
-    run = np.flatnonzero(np.r_[True, (q_s[1:] != q_s[:-1]) | (q_f[1:] != q_f[:-1])])
-
-    def mass(phi_a, dofs_a, phi_b, dofs_b, shape):
-        vals = np.add.reduceat(np.einsum("n,ni,nj->nij", w, phi_a, phi_b), run, axis=0)
-        rows = np.broadcast_to(dofs_a[run, :, None], vals.shape)
-        cols = np.broadcast_to(dofs_b[run, None, :], vals.shape)
-        return sp.csr_array(sp.coo_array((vals.ravel(), (rows.ravel(), cols.ravel())), shape=shape))
-
-    tied = np.unique(q_f)
-    return TieOperators(
-        P1=mass(phi_v, dofs_v, phi_v, dofs_v, (n_v, n_v)),
-        P2=mass(phi_v, dofs_v, phi_s, dofs_s, (n_v, n_s)),
-        P4=mass(phi_s, dofs_s, phi_s, dofs_s, (n_s, n_s)),
-        covered_area=covered,
-        cell_area=cell_area,
-        height=_mean_height(vol, facet_cell[tied], f_centre[tied], f_normal[tied]),
-        facets=facets[tied],
-    )
+def _mass(w, run, phi_a, dofs_a, phi_b, dofs_b, shape) -> sp.csr_array:
+    """``sum w phi_a phi_b^T`` assembled, the points of each ``run`` summed first."""
+    vals = np.add.reduceat(np.einsum("n,ni,nj->nij", w, phi_a, phi_b), run, axis=0)
+    rows = np.broadcast_to(dofs_a[run, :, None], vals.shape)
+    cols = np.broadcast_to(dofs_b[run, None, :], vals.shape)
+    return sp.csr_array(sp.coo_array((vals.ravel(), (rows.ravel(), cols.ravel())), shape=shape))
 
 
 def facet_height(volume: dolfinx.mesh.Mesh, facets: npt.NDArray[np.int32]) -> float:
@@ -526,11 +577,9 @@ def facet_height(volume: dolfinx.mesh.Mesh, facets: npt.NDArray[np.int32]) -> fl
     tdim = volume.topology.dim
     volume.topology.create_connectivity(tdim - 1, tdim)
     f2c = volume.topology.connectivity(tdim - 1, tdim)
-    poly = volume.geometry.x[
-        cyclic_vertices(dolfinx.mesh.entities_to_geometry(volume, tdim - 1, facets))
-    ]
+    poly = _polygons(volume.geometry.x, dolfinx.mesh.entities_to_geometry(volume, tdim - 1, facets))
     cells = f2c.array[f2c.offsets[facets]]
-    return _mean_height(volume, cells, poly.mean(axis=1), newell_normal(poly))
+    return _mean_height(volume, cells, poly.centre, poly.normal)
 
 
 def _mean_height(vol, cells, centres, normals) -> float:

@@ -14,7 +14,7 @@ import scipy.sparse as sp
 import ufl
 
 if TYPE_CHECKING:
-    from dd_contact.scene import Material, Subdomain
+    from dd_contact.subdomains import Material, Subdomain
 
 __all__ = [
     "MASS_KINDS",

@@ -232,11 +232,8 @@ class ContactIteration:
         for iteration in range(1, self.settings.max_iterations + 1):
             x = self._solve_once(solver, rhs, where)
             new = {z.contact.name: z.operator.active_set(x[z.block][z.dofs]) for z in self.zones}
-            if correction is not None:  # a point let go stays out: the correction carries it
-                for name in new:
-                    let_go = sets[0][name] & self.active[name] & ~new[name]
-                    released[name] |= let_go & ~held_in[name]
-                    new[name] = (new[name] & ~released[name]) | held_in[name]
+            if correction is not None:
+                self._keep_released_out(new, sets[0], released, held_in)
             changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
             if not sum_over_ranks(self.comm, len(changed)):
                 if releases < MAX_RELEASES and self._unsettled(x):
@@ -255,26 +252,7 @@ class ContactIteration:
             key = self._global_digest()
             if key in seen:
                 message = self._cycle_message(previous, new, seen[key], iteration, where)
-                if self.settings.on_cycle == "raise":
-                    raise ContactIterationError(
-                        message + ". Remedies: a smaller time step or load increment, a softer "
-                        "contact penalty (contact_kappa), or ContactSettings(on_cycle='union')"
-                    )
-                warnings.warn(
-                    message + "; resolved by making every point of the cycle active",
-                    ContactCycleWarning,
-                    stacklevel=2,
-                )
-                before = dict(self.active)
-                for j in range(seen[key], len(sets)):
-                    for name in self.active:
-                        self.active[name] = self.active[name] | sets[j][name]
-                self.cycles_resolved += 1
-                # The union is one more contact state (counted like any other change).
-                grown = [n for n in self.active if not np.array_equal(before[n], self.active[n])]
-                if sum_over_ranks(self.comm, len(grown)):
-                    self._count_change(grown)
-                    changes_this_solve += 1
+                changes_this_solve += self._union_of_cycle(sets[seen[key] :], message)
                 self._solve_once(solver, rhs, where)
                 x = self._shifted(self._checked(solver, solver.finish(), where))
                 return x, iteration + 1, changes_this_solve
@@ -285,6 +263,43 @@ class ContactIteration:
             f"{where}; raise ContactSettings(max_iterations=...), or take a smaller time step or "
             "load increment"
         )
+
+    def _keep_released_out(self, new: dict, start: dict, released: dict, held_in: dict) -> None:
+        """A point let go since ``start`` stays out of ``new``: the correction carries it.
+
+        Points pressed back in (``held_in``) stay in; ``released`` gathers the others.
+        """
+        for name in new:
+            let_go = start[name] & self.active[name] & ~new[name]
+            released[name] |= let_go & ~held_in[name]
+            new[name] = (new[name] & ~released[name]) | held_in[name]
+
+    def _union_of_cycle(self, cycle: list[dict], message: str) -> int:
+        """Collective: make every point active in some set of ``cycle`` active.
+
+        Raises :class:`ContactIterationError` instead with ``on_cycle="raise"``. Returns the
+        contact state changes this made (0 or 1: the union is one more contact state).
+        """
+        if self.settings.on_cycle == "raise":
+            raise ContactIterationError(
+                message + ". Remedies: a smaller time step or load increment, a softer "
+                "contact penalty (contact_kappa), or ContactSettings(on_cycle='union')"
+            )
+        warnings.warn(
+            message + "; resolved by making every point of the cycle active",
+            ContactCycleWarning,
+            stacklevel=3,
+        )
+        before = dict(self.active)
+        for active in cycle:
+            for name in self.active:
+                self.active[name] = self.active[name] | active[name]
+        self.cycles_resolved += 1
+        grown = [n for n in self.active if not np.array_equal(before[n], self.active[n])]
+        if not sum_over_ranks(self.comm, len(grown)):
+            return 0
+        self._count_change(grown)
+        return 1
 
     def _pressed_back(self, x, released: dict, held_in: dict, new: dict) -> list[str]:
         """The zones whose let-go points ``x`` shows deeper than at t_n: back in ``new``.

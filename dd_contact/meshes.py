@@ -6,7 +6,8 @@ here default to ``MPI.COMM_SELF``.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import contextlib
+from collections.abc import Callable, Iterator, Sequence
 from types import ModuleType
 
 from mpi4py import MPI
@@ -244,23 +245,39 @@ def _outward(volume: dolfinx.mesh.Mesh, facet: int, normal: np.ndarray) -> np.nd
     return normal if (on_facet - inside) @ normal > 0 else -normal
 
 
-def _gmsh(what: str):
-    """The Gmsh module (an optional dependency), or an error that names the extra to install."""
+@contextlib.contextmanager
+def _gmsh_model(what: str, options: dict[str, float]) -> Iterator[ModuleType]:
+    """Gmsh, with a new current model for ``what`` and ``options`` set; then Gmsh as it was.
+
+    Gmsh is an optional dependency: without it, an error names the extra to install. It is
+    initialised and finalised here unless the caller has initialised it; then the model is
+    removed, the caller's current model restored, and the options too.
+    """
     try:
         import gmsh
     except ModuleNotFoundError as err:
         raise ModuleNotFoundError(
             f"{what} needs the Gmsh Python module: pip install dd_contact[mesh]", name="gmsh"
         ) from err
-    return gmsh
-
-
-def _start_gmsh(gmsh) -> bool:
-    """Initialise Gmsh unless the caller has; whether this call owns (must finalise) it."""
-    owner = not gmsh.isInitialized()
+    owner = not gmsh.isInitialized()  # then this call must finalise it
     if owner:
         gmsh.initialize(readConfigFiles=False, interruptible=False)
-    return owner
+    saved = {option: gmsh.option.getNumber(option) for option in options}
+    previous_model = None if owner else gmsh.model.getCurrent()
+    try:
+        for option, value in options.items():
+            gmsh.option.setNumber(option, value)
+        gmsh.model.add(f"dd_contact_{what}")
+        yield gmsh
+    finally:
+        if owner:
+            gmsh.finalize()
+        else:
+            gmsh.model.remove()
+            if previous_model:
+                gmsh.model.setCurrent(previous_model)
+            for option, value in saved.items():
+                gmsh.option.setNumber(option, value)
 
 
 def hemisphere(
@@ -322,9 +339,6 @@ def hemisphere(
         data = dolfinx.io.gmsh.model_to_mesh(None, comm, rank, gdim=3)
         return data.mesh, data.facet_tags
 
-    gmsh = _gmsh("hemisphere")
-
-    owner = _start_gmsh(gmsh)
     options = {
         "General.Terminal": 0,
         "Mesh.MeshSizeExtendFromBoundary": 0,
@@ -333,25 +347,20 @@ def hemisphere(
         "Mesh.MeshSizeMin": min(h_contact, h_far),
         "Mesh.MeshSizeMax": max(h_contact, h_far),
     }
-    saved = {name: gmsh.option.getNumber(name) for name in options}
-    previous_model = None if owner else gmsh.model.getCurrent()
-    try:
-        for name, value in options.items():
-            gmsh.option.setNumber(name, value)
-        gmsh.model.add("dd_contact_hemisphere")
+    with _gmsh_model("hemisphere", options) as gmsh:
         _hemisphere_model(gmsh, radius, contact_radius, h_contact, h_far, quarter, order, grading)
         data = dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, rank, gdim=3)
-    finally:
-        if owner:
-            gmsh.finalize()
-        else:
-            gmsh.model.remove()
-            if previous_model:
-                gmsh.model.setCurrent(previous_model)
-            for name, value in saved.items():
-                gmsh.option.setNumber(name, value)
     data.facet_tags.name = "hemisphere_facets"
     return data.mesh, data.facet_tags
+
+
+#: Names of the physical groups of :func:`hemisphere`'s facet tags.
+_HEMISPHERE_NAMES = {
+    HEMISPHERE_CURVED: "curved",
+    HEMISPHERE_TOP: "top",
+    HEMISPHERE_SYMMETRY_X: "symmetry_x",
+    HEMISPHERE_SYMMETRY_Y: "symmetry_y",
+}
 
 
 def _hemisphere_model(
@@ -365,68 +374,12 @@ def _hemisphere_model(
     grading: float,
 ) -> None:
     """Build and mesh the Gmsh model of :func:`hemisphere` in the current model."""
-    occ = gmsh.model.occ
-    sphere = occ.addSphere(0.0, 0.0, radius, radius)
-    # OCC's sphere has its parametric poles on its z axis and its seam in the half-plane
-    # y = 0, x > 0. Turn the poles to (-1, 1, 0)/sqrt(2) and (1, -1, 0)/sqrt(2) about the
-    # centre: poles and seam then lie on the rim z = radius, outside the quarter, and the
-    # contact zone is meshed where the parametrisation is regular.
-    occ.rotate([(3, sphere)], 0.0, 0.0, radius, 1.0, 0.0, 0.0, np.pi / 2)
-    occ.rotate([(3, sphere)], 0.0, 0.0, radius, 0.0, 0.0, 1.0, np.pi / 4)
-    lo = 0.0 if quarter else -1.1 * radius
-    cut = occ.addBox(lo, lo, -0.1 * radius, 1.1 * radius - lo, 1.1 * radius - lo, 1.1 * radius)
-    (volume_dimtag,), _ = occ.intersect([(3, sphere)], [(3, cut)])
-    occ.synchronize()
-
-    # Faces are classified by their exact geometry, not by ``getBoundingBox``: OCC pads
-    # bounding boxes by its absolute shape tolerance (1e-7), so a flat face of a small
-    # hemisphere is not thinner than a tolerance relative to ``radius``. The tolerances here
-    # are relative: ``eps`` to the radius, ``cos_tol`` to unit normals.
-    eps = 1e-6 * radius
-    cos_tol = 1e-6
-    planes = {HEMISPHERE_TOP: (2, radius)}  # tag: (axis of the normal, coordinate on it)
-    groups: dict[int, list[int]] = {HEMISPHERE_CURVED: [], HEMISPHERE_TOP: []}
-    if quarter:
-        planes |= {HEMISPHERE_SYMMETRY_X: (0, 0.0), HEMISPHERE_SYMMETRY_Y: (1, 0.0)}
-        groups |= {HEMISPHERE_SYMMETRY_X: [], HEMISPHERE_SYMMETRY_Y: []}
-    for _, surface in gmsh.model.getBoundary([volume_dimtag], oriented=False):
-        group = HEMISPHERE_CURVED
-        if gmsh.model.getType(2, surface) == "Plane":
-            lower, upper = gmsh.model.getParametrizationBounds(2, surface)
-            uv = 0.5 * (np.asarray(lower) + np.asarray(upper))
-            normal = gmsh.model.getNormal(surface, uv)
-            point = gmsh.model.getValue(2, surface, uv)  # On the face's plane.
-            for tag, (axis, value) in planes.items():
-                if abs(abs(normal[axis]) - 1.0) < cos_tol and abs(point[axis] - value) < eps:
-                    group = tag
-                    break
-        groups[group].append(surface)
-    names = {
-        HEMISPHERE_CURVED: "curved",
-        HEMISPHERE_TOP: "top",
-        HEMISPHERE_SYMMETRY_X: "symmetry_x",
-        HEMISPHERE_SYMMETRY_Y: "symmetry_y",
-    }
-    if any(not surfaces for surfaces in groups.values()):  # pragma: no cover
-        raise RuntimeError(f"hemisphere: unexpected faces in the Gmsh model: {groups}")
-
-    # The pole is a vertex of the quarter; in the full hemisphere it is embedded in the curved
-    # face, so that it is always a mesh node. It is found from the exact vertex coordinates.
-    vertices = gmsh.model.getBoundary([volume_dimtag], combined=False, recursive=True)
-    poles = [
-        tag
-        for dim, tag in vertices
-        if dim == 0 and np.linalg.norm(gmsh.model.getValue(0, tag, [])) < eps
-    ]
-    if poles:
-        pole = poles[0]
-    else:
-        pole = occ.addPoint(0.0, 0.0, 0.0)
-        occ.synchronize()
-        gmsh.model.mesh.embed(0, [pole], 2, groups[HEMISPHERE_CURVED][0])
-
+    volume_dimtag = _hemisphere_volume(gmsh.model.occ, radius, quarter)
+    eps = 1e-6 * radius  # faces and the pole are found by their exact geometry, within eps
+    groups = _hemisphere_faces(gmsh, volume_dimtag, radius, quarter, eps)
+    pole = _hemisphere_pole(gmsh, volume_dimtag, groups[HEMISPHERE_CURVED][0], eps)
     for tag, surfaces in groups.items():
-        gmsh.model.addPhysicalGroup(2, surfaces, tag, names[tag])
+        gmsh.model.addPhysicalGroup(2, surfaces, tag, _HEMISPHERE_NAMES[tag])
     gmsh.model.addPhysicalGroup(3, [volume_dimtag[1]], 1, "hemisphere")
 
     fields = gmsh.model.mesh.field
@@ -444,6 +397,76 @@ def _hemisphere_model(
     gmsh.model.mesh.generate(3)
     if order > 1:
         gmsh.model.mesh.setOrder(order)
+
+
+def _hemisphere_volume(occ: ModuleType, radius: float, quarter: bool) -> tuple[int, int]:
+    """The OCC volume of the hemisphere (or its quarter), synchronised: its (dim, tag)."""
+    sphere = occ.addSphere(0.0, 0.0, radius, radius)
+    # OCC's sphere has its parametric poles on its z axis and its seam in the half-plane
+    # y = 0, x > 0. Turn the poles to (-1, 1, 0)/sqrt(2) and (1, -1, 0)/sqrt(2) about the
+    # centre: poles and seam then lie on the rim z = radius, outside the quarter, and the
+    # contact zone is meshed where the parametrisation is regular.
+    occ.rotate([(3, sphere)], 0.0, 0.0, radius, 1.0, 0.0, 0.0, np.pi / 2)
+    occ.rotate([(3, sphere)], 0.0, 0.0, radius, 0.0, 0.0, 1.0, np.pi / 4)
+    lo = 0.0 if quarter else -1.1 * radius
+    cut = occ.addBox(lo, lo, -0.1 * radius, 1.1 * radius - lo, 1.1 * radius - lo, 1.1 * radius)
+    (volume_dimtag,), _ = occ.intersect([(3, sphere)], [(3, cut)])
+    occ.synchronize()
+    return volume_dimtag
+
+
+def _hemisphere_faces(
+    gmsh: ModuleType, volume_dimtag: tuple[int, int], radius: float, quarter: bool, eps: float
+) -> dict[int, list[int]]:
+    """The hemisphere's boundary surfaces by facet tag (:data:`HEMISPHERE_CURVED`, ...).
+
+    Faces are classified by their exact geometry, not by ``getBoundingBox``: OCC pads
+    bounding boxes by its absolute shape tolerance (1e-7), so a flat face of a small
+    hemisphere is not thinner than a tolerance relative to ``radius``.
+    """
+    cos_tol = 1e-6  # of unit normals
+    planes = {HEMISPHERE_TOP: (2, radius)}  # tag: (axis of the normal, coordinate on it)
+    groups: dict[int, list[int]] = {HEMISPHERE_CURVED: [], HEMISPHERE_TOP: []}
+    if quarter:
+        planes |= {HEMISPHERE_SYMMETRY_X: (0, 0.0), HEMISPHERE_SYMMETRY_Y: (1, 0.0)}
+        groups |= {HEMISPHERE_SYMMETRY_X: [], HEMISPHERE_SYMMETRY_Y: []}
+    for _, surface in gmsh.model.getBoundary([volume_dimtag], oriented=False):
+        group = HEMISPHERE_CURVED
+        if gmsh.model.getType(2, surface) == "Plane":
+            lower, upper = gmsh.model.getParametrizationBounds(2, surface)
+            uv = 0.5 * (np.asarray(lower) + np.asarray(upper))
+            normal = gmsh.model.getNormal(surface, uv)
+            point = gmsh.model.getValue(2, surface, uv)  # On the face's plane.
+            for tag, (axis, value) in planes.items():
+                if abs(abs(normal[axis]) - 1.0) < cos_tol and abs(point[axis] - value) < eps:
+                    group = tag
+                    break
+        groups[group].append(surface)
+    if any(not surfaces for surfaces in groups.values()):  # pragma: no cover
+        raise RuntimeError(f"hemisphere: unexpected faces in the Gmsh model: {groups}")
+    return groups
+
+
+def _hemisphere_pole(
+    gmsh: ModuleType, volume_dimtag: tuple[int, int], curved: int, eps: float
+) -> int:
+    """The Gmsh point at the pole (the origin), so that it is always a mesh node.
+
+    The pole is a vertex of the quarter, found from the exact vertex coordinates; in the
+    full hemisphere it is added and embedded in the ``curved`` surface.
+    """
+    vertices = gmsh.model.getBoundary([volume_dimtag], combined=False, recursive=True)
+    poles = [
+        tag
+        for dim, tag in vertices
+        if dim == 0 and np.linalg.norm(gmsh.model.getValue(0, tag, [])) < eps
+    ]
+    if poles:
+        return poles[0]
+    pole = gmsh.model.occ.addPoint(0.0, 0.0, 0.0)
+    gmsh.model.occ.synchronize()
+    gmsh.model.mesh.embed(0, [pole], 2, curved)
+    return pole
 
 
 def face_tags(
@@ -527,23 +550,9 @@ def hole_block(
             f"hole_block: cell counts must be positive, got {cells_side=}, {cells_radial=}, "
             f"{layers=}"
         )
-    gmsh = _gmsh("hole_block")
-    owner = _start_gmsh(gmsh)
-    previous_model = None if owner else gmsh.model.getCurrent()
-    saved = gmsh.option.getNumber("General.Terminal")
-    try:
-        gmsh.option.setNumber("General.Terminal", 0)
-        gmsh.model.add("dd_contact_hole_block")
+    with _gmsh_model("hole_block", {"General.Terminal": 0}) as gmsh:
         _hole_block_model(gmsh, lower, side, radius, thickness, cells_side, cells_radial, layers)
         mesh = dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, 0, gdim=3).mesh
-    finally:
-        gmsh.option.setNumber("General.Terminal", saved)
-        if owner:
-            gmsh.finalize()
-        else:
-            gmsh.model.remove()
-            if previous_model:
-                gmsh.model.setCurrent(previous_model)
     return mesh
 
 

@@ -19,7 +19,8 @@ from dd_contact.assembly import ContactZone, Model
 from dd_contact.forms import stress
 from dd_contact.impact import BlockProducts
 from dd_contact.parallel import gather_to_root, gathered
-from dd_contact.scene import ContactBoundary, ContactInterface, Scene, Subdomain, Where
+from dd_contact.scene import ContactBoundary, ContactInterface, Scene, Where
+from dd_contact.subdomains import Subdomain
 
 __all__ = [
     "MeshFields",

@@ -38,7 +38,7 @@ from dd_contact.post import energy
 from dd_contact.readout import AnalysisReadout
 from dd_contact.scene import Scene
 from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
-from dd_contact.solvers.linalg import OPTIONS_PREFIX
+from dd_contact.solvers.petsc_options import OPTIONS_PREFIX
 from dd_contact.timestepping import time_scheme
 
 __all__ = ["ENERGY_GROWTH_TOLERANCE", "MIN_CONTACT_STEPS", "StaticProblem", "TransientProblem"]

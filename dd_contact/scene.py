@@ -1,14 +1,15 @@
-"""What is modelled: materials, subdomains, the interface and the scene that holds them.
+"""What is modelled: penalties, the interface, the contacts and the scene that holds them.
 
-Each subdomain is an independent dolfinx mesh on a communicator of size one (one rank owns a
-whole subdomain); the interface is an independent surface mesh with its own displacement v,
-tied to its subdomains by penalties (eqs. 6, 9, 10).
+Each subdomain (:mod:`dd_contact.subdomains`) is an independent dolfinx mesh on a
+communicator of size one (one rank owns a whole subdomain); the interface is an independent
+surface mesh with its own displacement v, tied to its subdomains by penalties (eqs. 6, 9,
+10).
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -16,7 +17,6 @@ from mpi4py import MPI
 import dolfinx.fem as fem
 import dolfinx.mesh
 import numpy as np
-import ufl
 from scipy.spatial import cKDTree
 
 from dd_contact import arguments, meshes
@@ -26,7 +26,7 @@ from dd_contact.bodies import Body
 from dd_contact.errors import InputError
 from dd_contact.obstacles import Obstacle
 from dd_contact.parallel import owner_of
-from dd_contact.prescribed import Prescribed, Value
+from dd_contact.subdomains import Subdomain
 
 __all__ = [
     "CONTACT_POINTS",
@@ -34,10 +34,8 @@ __all__ = [
     "ContactBoundary",
     "ContactInterface",
     "Interface",
-    "Material",
     "Penalty",
     "Scene",
-    "Subdomain",
 ]
 
 #: Where a contact's penalty is evaluated: at the surface nodes (lumped weights) or at
@@ -61,41 +59,6 @@ KAPPA_VERIFIED: tuple[float, float] = (1.0e0, 1.0e14)
 
 #: A boundary region (:data:`dd_contact.arguments.Region`), under the name post.py uses.
 Where = Region
-
-
-@dataclass(frozen=True)
-class Material:
-    """Linear isotropic elastic material.
-
-    Attributes:
-        E: Young's modulus.
-        nu: Poisson's ratio.
-        rho: Density (only needed for dynamics).
-    """
-
-    E: float
-    nu: float
-    rho: float = 0.0
-
-    def __post_init__(self):
-        for name in ("E", "nu", "rho"):  # frozen: the checked floats replace what was given
-            object.__setattr__(self, name, arguments.real(getattr(self, name), f"Material {name}"))
-        if not self.E > 0:
-            raise InputError(f"Material: Young's modulus E must be positive, got {self.E}")
-        if not (-1.0 < self.nu < 0.5):
-            raise InputError(f"Material: Poisson's ratio must lie in (-1, 0.5), got {self.nu}")
-        if not self.rho >= 0:
-            raise InputError(f"Material: density must be >= 0, got {self.rho}")
-
-    @property
-    def mu(self) -> float:
-        """Shear modulus."""
-        return self.E / (2.0 * (1.0 + self.nu))
-
-    @property
-    def lmbda(self) -> float:
-        """First Lame parameter."""
-        return self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
 
 
 @dataclass(frozen=True)
@@ -135,190 +98,6 @@ class Penalty:
             return self.epsilon
         kappa = DEFAULT_KAPPA if self.kappa is None else self.kappa
         return h / (E * kappa)
-
-
-class Subdomain:
-    """An independently meshed part of the body, Omega^(k).
-
-    Args:
-        mesh: A 3-D dolfinx mesh on a communicator of size one.
-        material: Its material.
-        name: A name used in messages and output.
-        degree: Lagrange degree of the displacement (1 or 2).
-    """
-
-    def __init__(self, mesh: dolfinx.mesh.Mesh, material: Material, name: str, degree: int = 1):
-        arguments.name(name, "Subdomain")
-        arguments.one_rank_mesh(
-            mesh,
-            3,
-            f"subdomain {name!r}",
-            "surface meshes belong in an Interface or ContactInterface; create subdomain "
-            "meshes with e.g. dd_contact.meshes.box(MPI.COMM_SELF, ...)",
-        )
-        arguments.instance(material, Material, f"subdomain {name!r}: material")
-        if isinstance(degree, bool) or degree not in (1, 2):
-            raise InputError(f"subdomain {name!r}: degree must be 1 or 2, got {degree!r}")
-        self.mesh = mesh
-        self.material = material
-        self.name = name
-        self.V = fem.functionspace(mesh, ("Lagrange", int(degree), (3,)))
-        self.u = fem.Function(self.V, name=f"u_{name}")
-        #: Velocity: set it (e.g. ``interpolate``) for the initial velocity of a dynamic run.
-        self.velocity = fem.Function(self.V, name=f"velocity_{name}")
-        self.acceleration = fem.Function(self.V, name=f"acceleration_{name}")
-        #: Time t, updated by the solvers before loads are assembled: use it in UFL loads.
-        self.time = fem.Constant(mesh, 0.0)
-        self.body_force: ufl.core.expr.Expr | None = None
-        self.tractions: list[tuple[dolfinx.mesh.MeshTags, ufl.core.expr.Expr]] = []
-        self._timed: list[tuple[fem.Constant, Callable[[float], Sequence[float]], str]] = []
-        self._amplitudes: list[tuple[fem.Constant, Callable[[float], float], str]] = []
-        #: The Dirichlet conditions (:meth:`fix`): dofs, and values at any time.
-        self.prescribed = Prescribed(self.V, f"subdomain {name!r}")
-
-    # -- boundary conditions -------------------------------------------------------------
-    def locate_facets(self, where: Region, argument: str = "where") -> np.ndarray:
-        """Boundary facets of a region (:data:`dd_contact.arguments.Region`), sorted."""
-        return arguments.boundary_facets(self.mesh, where, f"subdomain {self.name!r}: {argument}")
-
-    def fix(
-        self,
-        where: Region | fem.DirichletBC | Sequence[fem.DirichletBC],
-        components: Sequence[int] | None = None,
-        value: Value | None = None,
-    ) -> Subdomain:
-        """Prescribe displacement on a boundary region (a Dirichlet condition).
-
-        Args:
-            where: The region: a locator ``x -> bool``, facet indices, a facet MeshTags, or
-                ``(meshtags, value)``. Or dolfinx ``DirichletBC`` objects built on :attr:`V` or
-                its sub-spaces ``V.sub(i)`` (``components`` and ``value`` then come from
-                the conditions; their values are read at every solve, so a ``Constant`` or
-                ``Function`` updated between solves takes effect).
-            components: Which components (default all three).
-            value: A 3-vector (default zero), a callable ``x -> (3, n)`` array, or a
-                callable ``(x, t)`` returning a ``(3, n)`` array or a 3-vector, evaluated at
-                every solve time (``lambda x, t: (0.0, 0.0, -d(t))`` presses down by d(t)).
-                A changing value is a new right-hand side, never a new factorisation.
-
-        Returns:
-            The subdomain, so calls can be chained.
-        """
-        if isinstance(where, fem.DirichletBC) or (
-            isinstance(where, Sequence) and where and isinstance(where[0], fem.DirichletBC)
-        ):
-            bcs = [where] if isinstance(where, fem.DirichletBC) else where
-            self.prescribed.add_dirichletbcs(bcs)
-            return self
-        picked = arguments.components(components, f"subdomain {self.name!r} fix(components=...)")
-        facets = self.locate_facets(where)
-        nodes = fem.locate_dofs_topological(self.V, self.mesh.topology.dim - 1, facets)
-        nodes = nodes[nodes < self.V.dofmap.index_map.size_local]
-        self.prescribed.add_nodes(nodes, picked, value, float(self.time.value))
-        return self
-
-    def add_traction(
-        self,
-        where: Region,
-        traction: ufl.core.expr.Expr | Sequence[float] | Callable[[float], Sequence[float]],
-        amplitude: Callable[[float], float] | None = None,
-    ):
-        """Apply a surface traction (force per area) on a boundary region.
-
-        Args:
-            where: The region: a locator ``x -> bool``, facet indices, a facet MeshTags, or
-                ``(meshtags, value)``.
-            traction: A UFL vector expression on this mesh (it may use :attr:`time` or any
-                ``fem.Constant``), a 3-vector, or a callable ``t -> 3-vector`` evaluated by
-                the solver at every time.
-            amplitude: A callable ``t -> number``: the traction is ``amplitude(t) *
-                traction``. A traction field that does not change with time is then
-                assembled once and scaled at every time (``docs/solvers.md``, "Loads").
-
-        Returns:
-            The subdomain, so calls can be chained.
-        """
-        facets = self.locate_facets(where)
-        tags = dolfinx.mesh.meshtags(
-            self.mesh, self.mesh.topology.dim - 1, facets, np.ones_like(facets)
-        )
-        self.tractions.append((tags, self._load_expression(traction, "traction", amplitude)))
-        return self
-
-    def set_body_force(
-        self,
-        force: ufl.core.expr.Expr | Sequence[float] | Callable[[float], Sequence[float]],
-        amplitude: Callable[[float], float] | None = None,
-    ) -> Subdomain:
-        """Body force per volume: a UFL expression, a 3-vector or a callable ``t -> 3-vector``.
-
-        ``amplitude`` (a callable ``t -> number``) makes it ``amplitude(t) * force``, as in
-        :meth:`add_traction`.
-        """
-        self.body_force = self._load_expression(force, "body force", amplitude)
-        return self
-
-    def _load_expression(self, value, what: str, amplitude=None) -> ufl.core.expr.Expr:
-        argument = f"subdomain {self.name!r} {what}"
-        if isinstance(value, ufl.core.expr.Expr):
-            expr = arguments.ufl_vector(value, argument)
-        elif callable(value):
-            expr = fem.Constant(self.mesh, np.zeros(3))
-            self._timed.append((expr, value, argument))
-        else:
-            expr = fem.Constant(self.mesh, arguments.vector(value, argument))
-        if amplitude is None:
-            self.set_time(float(self.time.value))
-            return expr
-        if not callable(amplitude):
-            raise InputError(
-                f"{argument}: amplitude must be a callable t -> number (the load is then "
-                f"amplitude(t) * {what}), got {amplitude!r}; e.g. amplitude=lambda t: min(t, 1)"
-            )
-        scale = fem.Constant(self.mesh, 0.0)
-        self._amplitudes.append((scale, amplitude, f"{argument} amplitude"))
-        self.set_time(float(self.time.value))
-        return scale * expr
-
-    def set_time(self, t: float) -> None:
-        """Set :attr:`time` and evaluate the callable loads and amplitudes at ``t``."""
-        self.time.value = t
-        for constant, load, argument in self._timed:
-            values = load(t)
-            what = f"{argument} (its load callable returned {values!r} at t = {t})"
-            constant.value[:] = arguments.vector(values, what)
-        for scale, amplitude, argument in self._amplitudes:
-            value = amplitude(t)
-            what = f"{argument} (its callable returned {value!r} at t = {t})"
-            scale.value = arguments.real(value, what)
-
-    @property
-    def time_constants(self) -> tuple[fem.Constant, ...]:
-        """The Constants :meth:`set_time` sets.
-
-        :attr:`time`, the load callables' values and the amplitudes: a load that uses none
-        of them does not change with time.
-        """
-        return (self.time, *(c for c, _, _ in self._timed), *(c for c, _, _ in self._amplitudes))
-
-    @property
-    def dirichlet(self) -> tuple[np.ndarray, np.ndarray]:
-        """Constrained dofs (unrolled, 3 per node) and their values at :attr:`time`.
-
-        Where conditions overlap, the latest wins; ``prescribed.values(t)`` gives the
-        values at another time.
-        """
-        return self.prescribed.dofs, self.prescribed.values(float(self.time.value))
-
-    @property
-    def num_dofs(self) -> int:
-        """Number of displacement dofs (3 per node)."""
-        return self.V.dofmap.index_map.size_local * 3
-
-    @property
-    def block(self) -> Block:
-        """This subdomain's block of unknowns u in system (14)."""
-        return Block("u", self.name)
 
 
 def _surface(

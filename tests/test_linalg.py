@@ -19,12 +19,12 @@ from dd_contact.errors import InputError
 from dd_contact.paper import verify
 from dd_contact.solvers import linalg
 from dd_contact.solvers.linalg import (
-    OPTIONS_PREFIX,
     SparseCholesky,
     petsc_matrix,
     sparse_statistics,
 )
 from dd_contact.solvers.mumps_schur import SchurFactorisation
+from dd_contact.solvers.petsc_options import OPTIONS_PREFIX
 from dd_contact.solvers.worklog import WorkLog
 
 N = 8  # the 7-point Laplacian on an N x N x N grid: N^3 rows

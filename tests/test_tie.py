@@ -12,7 +12,8 @@ from dd_contact import coupling, meshes
 from dd_contact.paper import verify
 from dd_contact.post import cell_stress
 from dd_contact.problem import StaticProblem
-from dd_contact.scene import Interface, Material, Scene, Subdomain
+from dd_contact.scene import Interface, Scene
+from dd_contact.subdomains import Material, Subdomain
 
 
 def _spaces(volume_cell="hexahedron", surface_cell="quadrilateral"):

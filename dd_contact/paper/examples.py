@@ -18,10 +18,9 @@ from dd_contact.paper.models.parallelepiped import LAYOUTS, bar_scene
 from dd_contact.scene import (
     ContactInterface,
     Interface,
-    Material,
     Scene,
-    Subdomain,
 )
+from dd_contact.subdomains import Material, Subdomain
 
 __all__ = ["PARALLELEPIPED_LAYOUTS", "parallelepiped", "row_of_blocks"]
 

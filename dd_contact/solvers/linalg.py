@@ -5,21 +5,16 @@ Every factorisation and solve is appended to a :class:`~dd_contact.solvers.workl
 factorisations, LAPACK's operation count for dense ones), so a run can report what it did
 and compare it with the paper's counting (``dd_contact.paper.flops``).
 
-MUMPS can be tuned through the PETSc options database under a problem's options prefix
-(:data:`OPTIONS_PREFIX`, ``dd_contact_``, unless the problem names its own), e.g.
-``-dd_contact_mat_mumps_icntl_14 50``; the settings the package relies on
-(:data:`REQUIRED_ICNTL`) cannot be changed that way.
+The factorisations read the PETSc options under the active problem's prefix
+(:mod:`dd_contact.solvers.petsc_options`).
 """
 
 from __future__ import annotations
 
-import contextlib
-import contextvars
 import ctypes
 import functools
-import re
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -31,54 +26,23 @@ import scipy.sparse as sp
 from dolfinx.fem.petsc import get_petsc_lib
 
 from dd_contact.blocks import ContactRegion
-from dd_contact.errors import InputError, SingularMatrixError
+from dd_contact.errors import SingularMatrixError
+from dd_contact.solvers.petsc_options import REQUIRED_ICNTL, _check_required_options, options_prefix
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
-    "OPTIONS_PREFIX",
-    "REQUIRED_ICNTL",
     "DenseCholesky",
     "PatternedMatrix",
     "SingularMatrixError",
     "SparseCholesky",
     "SparseStatistics",
-    "options_prefix",
     "petsc_matrix",
-    "petsc_options",
     "release_freed_memory",
     "sparse_statistics",
 ]
 
-#: The default PETSc options prefix of the package's MUMPS factorisations (the KSP, its PC
-#: and the factor matrix): ``-dd_contact_mat_mumps_icntl_14 50`` on the command line, or
-#: ``PETSc.Options()["dd_contact_mat_mumps_icntl_14"] = 50`` before the solver is built. A
-#: problem given ``petsc_options_prefix`` reads its own instead.
-OPTIONS_PREFIX = "dd_contact_"
-
-# The prefix of the problem whose factorisations are being built or solved (petsc_options).
-_ACTIVE_PREFIX = contextvars.ContextVar("dd_contact_options_prefix", default=OPTIONS_PREFIX)
-
-
-def options_prefix() -> str:
-    """The options prefix the factorisations built now read (:func:`petsc_options`)."""
-    return _ACTIVE_PREFIX.get()
-
-
-def check_options_prefix(prefix: object) -> str:
-    """``prefix`` if it can be a PETSc options prefix, else an :class:`InputError`."""
-    if not isinstance(prefix, str) or not re.fullmatch(r"[A-Za-z][A-Za-z0-9_]*", prefix):
-        raise InputError(
-            f"petsc_options_prefix: {prefix!r} is not a PETSc options prefix; give letters, "
-            "digits and underscores starting with a letter, ending in '_' by convention "
-            "(e.g. 'bracket_')"
-        )
-    return prefix
-
-
 # MUMPS control parameters and statistics (MUMPS 5.8 Users' guide, sections 6.1 "Integer
 # control parameters" and 7 "Information parameters"; ICNTL(k) is ``id.ICNTL(k)``).
-ICNTL_NULL_PIVOT_DETECTION = 24  # ICNTL(24): detection of null pivot rows (0: off, 1: on)
-NULL_PIVOTS_DETECTED = 1  # ... on: null pivot rows are detected and counted in INFOG(28)
 ICNTL_SCHUR_SOLUTION = 26  # ICNTL(26): solution phase when a Schur complement was computed
 SCHUR_SOLVE_INTERNAL = 0  # ... 0: solve the internal problem only (Schur variables ignored)
 INFOG_STATUS = 1  # INFOG(1): 0 success, < 0 error (-10: numerically singular matrix)
@@ -87,11 +51,6 @@ INFOG_NULL_PIVOTS = 28  # INFOG(28): null pivots found (with ICNTL(24) = 1)
 INFOG_FACTOR_ENTRIES = 29  # INFOG(29): entries of the factor, after the factorisation
 RINFOG_FLOPS_ESTIMATED = 1  # RINFOG(1): operations of the factorisation, from the analysis
 RINFOG_FLOPS = 3  # RINFOG(3): operations of the factorisation, as done
-
-#: The MUMPS settings the package relies on, ICNTL index -> value: null pivots detected, so
-#: a singular block fails with :class:`SingularMatrixError` (INFOG(28) > 0). An option under
-#: :data:`OPTIONS_PREFIX` that changes one of them is refused.
-REQUIRED_ICNTL = {ICNTL_NULL_PIVOT_DETECTION: NULL_PIVOTS_DETECTED}
 
 # PETSc's MatFactorType (petsc4py has no enum for it): MAT_FACTOR_CHOLESKY.
 MAT_FACTOR_CHOLESKY = 2
@@ -158,69 +117,6 @@ def release_freed_memory() -> None:
     trim = _malloc_trim()
     if trim is not None:
         trim(0)
-
-
-@contextlib.contextmanager
-def petsc_options(
-    options: Mapping[str, object] | None, prefix: str = OPTIONS_PREFIX
-) -> Iterator[None]:
-    """Put ``options`` under ``prefix`` in the PETSc database, then restore it.
-
-    As dolfinx's ``LinearProblem(petsc_options=..., petsc_options_prefix=...)``: keys without
-    the prefix or dash (``{"mat_mumps_icntl_14": 50}``), values a number, string, bool or
-    ``None`` (a flag). The factorisations built or solved inside read options under
-    ``prefix`` (:func:`options_prefix`); what was in the database before is put back after.
-    """
-    token = _ACTIVE_PREFIX.set(prefix)
-    try:
-        if not options:
-            yield
-            return
-        with _options_under(prefix, options):
-            yield
-    finally:
-        _ACTIVE_PREFIX.reset(token)
-
-
-@contextlib.contextmanager
-def _options_under(prefix: str, options: Mapping[str, object]) -> Iterator[None]:
-    database = PETSc.Options(prefix)
-    for key, value in options.items():
-        if not isinstance(key, str) or key.startswith("-") or key.startswith(prefix):
-            raise InputError(
-                f"petsc_options: key {key!r} must be an option name without the dash and the "
-                f"prefix, e.g. 'mat_mumps_icntl_14' (it is read as -{prefix}<key>)"
-            )
-        if value is not None and not isinstance(value, str | int | float | bool):
-            raise InputError(
-                f"petsc_options[{key!r}]: give a number, string, bool or None, got "
-                f"{type(value).__name__}"
-            )
-    saved = {k: database.getString(k) if database.hasName(k) else None for k in options}
-    present = {k for k in options if database.hasName(k)}
-    try:
-        for key, value in options.items():
-            database[key] = value
-        yield
-    finally:
-        for key in options:
-            if key in present:
-                database[key] = saved[key]
-            else:
-                database.delValue(key)
-
-
-def _check_required_options() -> None:
-    """Refuse options under the active prefix that change :data:`REQUIRED_ICNTL`."""
-    prefix = options_prefix()
-    options = PETSc.Options(prefix)
-    for icntl, value in REQUIRED_ICNTL.items():
-        name = f"mat_mumps_icntl_{icntl}"
-        if options.getInt(name, value) != value:
-            raise InputError(
-                f"-{prefix}{name} must be {value} (MUMPS ICNTL({icntl})): dd_contact "
-                "relies on it to report singular blocks; remove the option"
-            )
 
 
 class SparseCholesky:

@@ -33,15 +33,13 @@ from dd_contact.solvers.linalg import (
     INFOG_FACTOR_ENTRIES_ESTIMATED,
     INFOG_NULL_PIVOTS,
     INFOG_STATUS,
-    REQUIRED_ICNTL,
     RINFOG_FLOPS,
     RINFOG_FLOPS_ESTIMATED,
     SparseStatistics,
-    _check_required_options,
     _libpetsc,
     _mumps_count,
-    options_prefix,
 )
+from dd_contact.solvers.petsc_options import REQUIRED_ICNTL, _check_required_options, options_prefix
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = ["ICNTL_COMPACT", "MUMPS_LAYOUT_VERSION", "PACKAGE_ICNTL", "SchurFactorisation"]

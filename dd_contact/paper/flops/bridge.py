@@ -14,7 +14,8 @@ import numpy as np
 
 from dd_contact.coupling import tie_operators
 from dd_contact.paper.flops.model import ContactCounts, MeshCounts, SceneSizes, SubdomainCounts
-from dd_contact.scene import ContactBoundary, Scene, Subdomain
+from dd_contact.scene import ContactBoundary, Scene
+from dd_contact.subdomains import Subdomain
 
 __all__ = ["half_bandwidth_of", "sizes_from_scene"]
 

@@ -8,7 +8,7 @@ import dolfinx.mesh
 import numpy as np
 
 from dd_contact import meshes
-from dd_contact.scene import Material
+from dd_contact.subdomains import Material
 
 __all__ = ["FACE_TAGS", "STEEL", "block_tags"]
 

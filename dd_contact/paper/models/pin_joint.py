@@ -35,7 +35,8 @@ from dd_contact.errors import InputError
 from dd_contact.obstacles import Cylinder
 from dd_contact.paper.flops.paper import PinJointLayout
 from dd_contact.paper.models.common import FACE_TAGS, STEEL, block_tags
-from dd_contact.scene import ContactInterface, Interface, Scene, Subdomain
+from dd_contact.scene import ContactInterface, Interface, Scene
+from dd_contact.subdomains import Subdomain
 
 __all__ = [
     "LOWER_PLATE_SUPPORTS",

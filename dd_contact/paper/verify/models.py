@@ -25,10 +25,9 @@ from dd_contact.scene import (
     ContactBoundary,
     ContactInterface,
     Interface,
-    Material,
     Scene,
-    Subdomain,
 )
+from dd_contact.subdomains import Material, Subdomain
 
 __all__ = [
     "BAR",
