@@ -16,14 +16,8 @@ from dd_contact import meshes
 from dd_contact.obstacles import Plane
 from dd_contact.paper.verify.models import locator
 from dd_contact.problem import StaticProblem, TransientProblem
-from dd_contact.scene import (
-    ContactBoundary,
-    ContactInterface,
-    Interface,
-    Material,
-    Scene,
-    Subdomain,
-)
+from dd_contact.scene import ContactBoundary, ContactInterface, Interface, Scene
+from dd_contact.subdomains import Material, Subdomain
 
 __all__ = [
     "ORDER_SCENES",
