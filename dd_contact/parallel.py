@@ -38,6 +38,7 @@ __all__ = [
     "counted",
     "elementwise_max",
     "every_rank",
+    "exchanged",
     "gather_to_root",
     "gathered",
     "max_over_ranks",
@@ -140,6 +141,17 @@ def allgathered[T](comm: MPI.Comm, obj: T) -> list[T]:
         return [obj]
     with traffic.call("allgathered"):
         return comm.allgather(obj)
+
+
+def exchanged[T](comm: MPI.Comm, outgoing: list[T], nbytes: int = 0) -> list[T]:
+    """Collective: ``outgoing[r]`` sent to rank r; returns what each rank sent to this one.
+
+    ``nbytes``: the bytes of the arrays sent, for :data:`traffic` (they are pickled).
+    """
+    if comm.size == 1:
+        return list(outgoing)
+    with traffic.call("exchanged", nbytes):
+        return comm.alltoall(outgoing)
 
 
 def sum_over_ranks[T](comm: MPI.Comm, value: T) -> T:

@@ -27,6 +27,7 @@ from dolfinx.fem.petsc import get_petsc_lib
 
 from dd_contact.blocks import ContactRegion
 from dd_contact.errors import SingularMatrixError
+from dd_contact.parallel import allgathered, exchanged
 from dd_contact.solvers.petsc_options import REQUIRED_ICNTL, _check_required_options, options_prefix
 from dd_contact.solvers.worklog import WorkLog
 
@@ -509,11 +510,12 @@ def _aij_from_coo(
     """
     rows, cols, values = entries
     entries.clear()
-    starts = np.concatenate([[0], np.cumsum(comm.allgather(local_rows))])
+    starts = np.concatenate([[0], np.cumsum(allgathered(comm, local_rows))])
     if comm.size > 1:
         owner = np.searchsorted(starts, rows, side="right") - 1
         sent = [tuple(a[owner == rank] for a in (rows, cols, values)) for rank in range(comm.size)]
-        received = comm.alltoall(sent)
+        nbytes = sum(a.nbytes for part in sent for a in part)
+        received = exchanged(comm, sent, nbytes)
         rows, cols, values = (np.concatenate([part[i] for part in received]) for i in range(3))
     start = starts[comm.rank]
     local = sp.csr_array((values, (rows - start, cols)), shape=(local_rows, size))
