@@ -1,7 +1,7 @@
 """The package's layout: the library below, the paper's reproduction (dd_contact.paper) on top.
 
-Read from the source (no import): which modules import which, and the length of functions
-and modules in the paper's sub-package and the command.
+Read from the source (no import): which modules import which, and the length of every
+function and module of the package.
 """
 
 import ast
@@ -44,9 +44,9 @@ def test_the_paper_modules_live_only_in_paper():
 
 
 @pytest.mark.parametrize(
-    "path", [*sorted(PAPER.rglob("*.py")), COMMAND], ids=lambda p: p.relative_to(PACKAGE).as_posix()
+    "path", sorted(PACKAGE.rglob("*.py")), ids=lambda p: p.relative_to(PACKAGE).as_posix()
 )
-def test_paper_functions_and_modules_are_short(path):
+def test_functions_and_modules_are_short(path):
     text = path.read_text()
     assert len(text.splitlines()) <= MAX_MODULE_LINES
     for node in ast.walk(ast.parse(text)):
