@@ -151,16 +151,14 @@ def _check_covered(surface, what: str, coverage: np.ndarray, comm: MPI.Comm | No
 
 
 #: Node-to-node swing of the recovered pressure (fraction of its peak, ContactZone._swing)
-#: above which a contact surface is reported as unresolved by its wall. Measured on a plate
-#: pulled onto a pin and a block pressed on one (docs/contact.md): 0.006-0.073 where the peak
-#: is within 7.5 % of the facet copy's, 0.082-0.17 where it is 5-170 % high (surfaces finer
-#: than the wall along the curvature).
+#: above which a contact surface is reported as unresolved by its wall: it separates the
+#: accurate surfaces from those finer than their wall (docs/contact.md, "Modelling
+#: contact", has the measurements).
 OSCILLATION_LIMIT = 0.075
 
 #: Cell size of a curved wall along its curvature over its contact surface's above which the
-#: surface counts as finer than its wall (resolution_warning): the pressures measured with
-#: 10-12 surface cells per quarter hole on a wall of 8 (ratio 1.25-1.5) and 48 on 24 (2.0)
-#: were 5-170 % high; 3, 7 or 8 on 8 (ratio 0.375-1.0) within 2.5 % of the facet copy.
+#: surface counts as finer than its wall (resolution_warning; the ratios measured accurate
+#: and inaccurate are in docs/contact.md).
 FINER_LIMIT = 1.1
 #: Turn between neighbouring wall facets [rad] below which a wall counts as flat: its
 #: facets then lie within h * turn / 8 (1e-4 h) of any surface on it.
@@ -168,8 +166,7 @@ FLAT_TURN = 1e-3
 
 #: Penetration (fraction of the contact surface's cell size) above which a contact penalty
 #: counts as too soft: the answer then carries that much penalty error, which a stiffer
-#: contact_kappa removes. The bar impact at contact_kappa = 1 sinks 1 % of a cell, at 0.01
-#: a whole cell (rebound 0.21 v0 instead of v0, nothing said).
+#: contact_kappa removes (the bar impact's sinking against contact_kappa: docs/contact.md).
 SINKING_LIMIT = 0.05
 
 

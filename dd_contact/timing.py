@@ -282,7 +282,7 @@ def replan(
 
 #: FULL factorises a matrix that holds every subdomain's: its factorisation is taken to
 #: cost at least this fraction of the subdomains' factorisations with their Schur
-#: complements (measured 0.64-0.68 on the benchmark bar at 124k and 306k dofs).
+#: complements (a safe bound below what docs/timing.md measures).
 FULL_FACTOR_BOUND = 0.25
 
 

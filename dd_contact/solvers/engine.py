@@ -108,9 +108,9 @@ class BlockEliminationSolver:
         log: Where factorisations and solves are recorded.
         order: One of :data:`~dd_contact.solvers.schedule.ORDERS`.
         condensation: How ``C^T K^-1 C`` is formed: ``"schur"`` (default: MUMPS computes the
-            Schur complement of ``[[K, C], [C^T, 0]]`` within the factorisation; measured
-            about 3x faster at 150k dofs) or ``"multi-rhs"`` (one substitution per coupling
-            column, in blocks of 256, as the paper counts it).
+            Schur complement of ``[[K, C], [C^T, 0]]`` within the factorisation, the faster;
+            docs/solvers.md) or ``"multi-rhs"`` (one substitution per coupling column, in
+            blocks of 256, as the paper counts it).
         subdomains: This rank's subdomains built (and maybe analysed) already, with this
             ``log`` and ``condensation`` (:func:`owned_subdomains`; ``algorithm="auto"``
             reuses the ones it analysed); by default built here.

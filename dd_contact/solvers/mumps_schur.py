@@ -123,9 +123,8 @@ PACKAGE_ICNTL = {
 
 
 #: ICNTL(49) = 1 compacts MUMPS's workspace to the factors at the end of a factorisation
-#: (MUMPS otherwise keeps its contribution-block stack too: the 12 subdomains of the pin
-#: joint at 1/8 of the paper's cells kept 0.72 GB for 0.40 GB of factors; compacted 0.21 GB
-#: less, the same factors). The compaction copies the factors, so while it runs it adds them
+#: (MUMPS otherwise keeps its contribution-block stack too; docs/solvers.md measures what it
+#: saves). The compaction copies the factors, so while it runs it adds them
 #: to everything the process holds: it pays only when more factorisations follow that the
 #: smaller workspace leaves room for. A factorisation is compacted only when asked
 #: (``compact=True``; the engine asks for each of a rank's subdomains but the last it

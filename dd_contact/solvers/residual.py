@@ -16,8 +16,8 @@ two ways:
   penalties cost the answer its accuracy. Checked against the user's
   ``ContactSettings.residual_tolerance``.
 
-An exact residual costs a sparse matrix-vector product per block: 6-12 % of a step of the
-orders at 49k dofs (benchmarks/residual_check.py). Both are estimated instead from a few
+An exact residual costs a sparse matrix-vector product per block, a good part of a step
+of the orders (benchmarks/residual_check.py measures it). Both are estimated instead from a few
 fixed Gaussian probe vectors ``z``: ``E[(z . r)^2] = |r|^2``, and
 ``z . r = z . b - (A z) . x``, where ``A z`` of the constant part of ``A`` is formed once.
 Per solve that is a few dot products; each estimate is within a factor of a few of the

@@ -242,10 +242,8 @@ def owned_subdomains(
     then those with (re-factorised on each contact change). Each but the last compacts
     MUMPS's workspace after its first factorisation: what the earlier ones keep adds to
     the later ones' peak. The compaction copies the factors, so the last one does not, nor
-    does a re-factorisation: their copy would set the peak. Peaks on the 306k-dof bar
-    (ru_maxrss, MiB; docs/solvers.md): w-v-u 4,261 with both subdomains compacted, 3,392
-    with the first only (FULL 3,439); w-u's one subdomain 5,192 compacted, 3,336 not; v-u
-    4,168 before, 3,424 with its contact subdomain factorised first, 3,300 with it last.
+    does a re-factorisation: their copy would set the peak (the peaks with and without this
+    rule: docs/solvers.md, "Which factorisations compact").
     """
     owned = [b for b, owner in system.owners.items() if b.kind == "u" and owner == comm.rank]
     own_contacts = {b: [r for r in contacts if r.block == b] for b in owned}

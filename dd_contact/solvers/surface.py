@@ -47,7 +47,8 @@ class Surface:
         recondensed: Whether a subdomain can send a new Z (it has contact on its own boundary
             and is re-factorised on a change). The Schur pairs are then rebuilt from the
             base and every subdomain's Z, which are kept. Otherwise both are freed once every
-            subdomain's Z is in them (at 306k dofs 84 MB of dense copies; a new Z then raises).
+            subdomain's Z is in them (dense copies the peak memory need not hold; a new Z
+            then raises).
 
     Attributes:
         base: The surface pairs' own matrices, dense (an off-diagonal one and its transpose
