@@ -1,0 +1,134 @@
+"""The parts of a transient run, alone: its energy balance, contact episodes and run state."""
+
+import warnings
+from types import SimpleNamespace
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+from dd_contact.checkpointing import RunState
+from dd_contact.errors import CoarseTimeStepWarning, EnergyGrowthWarning, InputError
+from dd_contact.monitors import (
+    ENERGY_GROWTH_TOLERANCE,
+    MIN_CONTACT_STEPS,
+    ContactEpisodes,
+    EnergyBalance,
+)
+
+
+def _record(step, total, **extra):
+    return {"step": step, "t": 0.1 * step, "changes": 1, "energy": {"total": total}, **extra}
+
+
+def _no_work():
+    return 0.0, False
+
+
+def test_the_energy_balance_warns_once_when_a_step_creates_energy():
+    balance = EnergyBalance(MPI.COMM_SELF, conserves_energy=True, energy_safe=True)
+    balance.start(100.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        balance.check(_record(1, 100.0 + 0.5 * ENERGY_GROWTH_TOLERANCE * 100.0), _no_work)
+    with pytest.warns(EnergyGrowthWarning, match=r"step 2 .* grew by 0\.0999 J .*please report"):
+        balance.check(_record(2, 100.1), _no_work)
+    assert balance.warned and balance.before == 100.1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        balance.check(_record(3, 200.0), _no_work)  # once a run
+
+
+def test_the_energy_balance_counts_the_loads_work_and_skips_moving_supports():
+    balance = EnergyBalance(MPI.COMM_SELF, conserves_energy=True, energy_safe=False)
+    free = {"u:a": np.array([1.0, 1.0, 0.0])}
+    before = {"u:a": np.zeros(3)}
+    after = {"u:a": np.array([0.1, 0.2, 0.0])}
+    loads = {"u:a": np.array([10.0, 20.0, 99.0])}
+    work, moved = balance.loads_work(before, after, loads, loads, free.__getitem__)
+    assert work == pytest.approx(0.1 * 10.0 + 0.2 * 20.0) and not moved
+    balance.start(1.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        balance.check(_record(1, 1.0 + work), lambda: (work, moved))  # the loads' work only
+        balance.check(_record(2, 50.0), lambda: (0.0, True))  # supports moved: not judged
+    with pytest.warns(EnergyGrowthWarning, match="energy_safe_contact=True"):
+        balance.check(_record(3, 60.0), _no_work)
+
+
+def test_a_damped_scheme_is_held_to_the_start_plus_the_loads_work():
+    balance = EnergyBalance(MPI.COMM_SELF, conserves_energy=False, energy_safe=True)
+    balance.start(10.0)
+    balance.check(_record(1, 9.0), lambda: (1.0, False))
+    assert balance.before == 11.0  # the bound, not the (damped) energy of the step
+
+
+def _energy(kinetic, elastic):
+    return {"kinetic": kinetic, "elastic": elastic}
+
+
+def _episode(monitor, steps, energy_before, first_step=1):
+    """``steps`` steps in contact; ``energy_before``: the energy of the step before."""
+    for k in range(steps):
+        record = {"step": first_step + k, "t": 0.0, "active": {"end": 4}}
+        monitor.observe(record, energy_before if k == 0 else None)
+    monitor.observe({"step": first_step + steps, "t": 0.0, "active": {"end": 0}}, None)
+
+
+def test_a_short_impact_warns_once_and_names_the_time_step():
+    episodes = ContactEpisodes(dt=1e-6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        _episode(episodes, MIN_CONTACT_STEPS, _energy(1.0, 0.0))  # long enough
+        _episode(episodes, 5, _energy(0.1, 1.0), first_step=200)  # a load pressed slowly
+    with pytest.warns(CoarseTimeStepWarning, match=r"after only 5 time step\(s\)"):
+        _episode(episodes, 5, _energy(1.0, 0.5), first_step=400)
+    assert episodes.warned
+
+
+def _subdomain(name, n, seed):
+    rng = np.random.default_rng(seed)
+
+    def field():
+        return SimpleNamespace(x=SimpleNamespace(array=rng.random(n)))
+
+    return SimpleNamespace(name=name, u=field(), velocity=field(), acceleration=field())
+
+
+def _iteration():
+    return SimpleNamespace(
+        gamma=7,
+        release_solves=2,
+        active={"end": np.array([True, False, True])},
+        alpha={"end": 5},
+        releases={"end": 1},
+    )
+
+
+def test_the_run_state_goes_to_arrays_and_back_exactly():
+    zones = [SimpleNamespace(contact=SimpleNamespace(name="end"))]
+    saved = RunState([_subdomain("bar", 6, 0)], zones, _iteration())
+    arrays = saved.arrays(12, 1.2e-5, 1e-6, "inertia=True")
+    target = _subdomain("bar", 6, 1)
+    iteration = SimpleNamespace(gamma=0, release_solves=0, active={}, alpha={}, releases={})
+    restored = RunState([target], zones, iteration)
+    assert restored.restore(arrays, 1e-6, "inertia=True") == (12, 1.2e-5)
+    for name in ("u", "velocity", "acceleration"):
+        source = getattr(saved.owned[0], name).x.array
+        np.testing.assert_array_equal(getattr(target, name).x.array, source)
+    assert (iteration.gamma, iteration.release_solves) == (7, 2)
+    assert (iteration.alpha, iteration.releases) == ({"end": 5}, {"end": 1})
+    np.testing.assert_array_equal(iteration.active["end"], [True, False, True])
+
+
+def test_a_run_state_of_other_settings_or_meshes_is_refused():
+    zones = [SimpleNamespace(contact=SimpleNamespace(name="end"))]
+    arrays = RunState([_subdomain("bar", 6, 0)], zones, _iteration()).arrays(3, 3.0, 1.0, "a")
+    other = RunState([_subdomain("bar", 9, 1)], zones, _iteration())
+    with pytest.raises(InputError, match=r"dt = 1\.0, this run has dt = 2\.0"):
+        other.restore(arrays, 2.0, "a")
+    with pytest.raises(InputError, match="written with a; this run has b"):
+        other.restore(arrays, 1.0, "b")
+    with pytest.raises(InputError, match="does not match subdomain 'bar'"):
+        other.restore(arrays, 1.0, "a")
