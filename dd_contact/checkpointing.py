@@ -1,9 +1,10 @@
 """The state of a transient run as arrays: what a checkpoint holds and how a run resumes.
 
 A run's state is the owned subdomains' displacement, velocity and acceleration, the
-contact iteration's active sets and counts, and the step, time and integration settings
-(which a resumed run must share). The interface and contact interfaces are massless and
-solved afresh in every step: they need no saving. Files are :mod:`dd_contact.io`'s.
+interface's and the owned contact surfaces' displacement (massless, but the next step's
+start forces read their tie forces at t_n), the contact iteration's active sets and counts,
+and the step, time and integration settings (which a resumed run must share). Files are
+:mod:`dd_contact.io`'s.
 """
 
 from __future__ import annotations
@@ -30,12 +31,25 @@ class RunState:
         owned: This rank's subdomains.
         zones: This rank's contact zones.
         iteration: The run's contact iteration (active sets, state-change counts).
+        interface: The scene's interface (``None``: none).
     """
 
     def __init__(
-        self, owned: Sequence[Subdomain], zones: Sequence[ContactZone], iteration: ContactIteration
+        self,
+        owned: Sequence[Subdomain],
+        zones: Sequence[ContactZone],
+        iteration: ContactIteration,
+        interface=None,
     ):
         self.owned, self.zones, self.iteration = list(owned), list(zones), iteration
+        self.interface = interface
+
+    def _surfaces(self) -> dict[str, np.ndarray]:
+        """The surfaces' displacement arrays by checkpoint key (written in place)."""
+        out = {f"w/{z.contact.name}": z.contact.w.x.array for z in self.zones}
+        if self.interface is not None:
+            out[f"v/{self.interface.name}"] = self.interface.v.x.array
+        return out
 
     def arrays(self, step: int, t: float, dt: float, integration: str) -> dict[str, np.ndarray]:
         """This rank's state at ``step`` (time ``t``) as named arrays."""
@@ -56,6 +70,7 @@ class RunState:
             state[f"active/{name}"] = it.active[name]
             state[f"alpha/{name}"] = np.array(it.alpha[name])
             state[f"releases/{name}"] = np.array(it.releases[name])
+        state.update(self._surfaces())
         return state
 
     def restore(
@@ -87,6 +102,14 @@ class RunState:
                         "(different scene or mesh); start a new output directory"
                     )
                 target[:] = state[key]
+        for key, target in self._surfaces().items():
+            if key not in state or state[key].shape != target.shape:
+                raise InputError(
+                    f"resume: the checkpoint holds no {key.split('/')[1]!r} surface of this "
+                    "shape (a different scene, or a checkpoint of an earlier version without "
+                    "the surfaces' state); start a new output directory"
+                )
+            target[:] = state[key]
         it = self.iteration
         it.gamma = int(state["gamma"])
         for z in self.zones:

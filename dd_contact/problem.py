@@ -33,7 +33,14 @@ from dd_contact.monitors import (
     ContactEpisodes,
     EnergyBalance,
 )
-from dd_contact.parallel import any_rank, collective, counted, gathered, sum_over_ranks
+from dd_contact.parallel import (
+    allgather_blocks,
+    any_rank,
+    collective,
+    counted,
+    gathered,
+    sum_over_ranks,
+)
 from dd_contact.post import energy
 from dd_contact.readout import AnalysisReadout
 from dd_contact.scene import Scene
@@ -242,7 +249,10 @@ class TransientProblem(AnalysisReadout):
         )
         #: The contact episodes (with inertia): a warning if one is too short.
         self.episodes = ContactEpisodes(dt)
-        self._run_state = RunState(self.analysis.owned, self.zones, self.iteration)
+        self._run_state = RunState(self.analysis.owned, self.zones, self.iteration, scene.interface)
+        #: The subdomains other ranks own: their velocity and acceleration are kept here too,
+        #: by the owner's update repeated on the same values (bit for bit the owner's).
+        self._others = [s for s in scene.subdomains if s not in self.analysis.owned]
         self._started = False
 
     # -- state ---------------------------------------------------------------------------
@@ -278,6 +288,7 @@ class TransientProblem(AnalysisReadout):
         if self.inertia:
             with self.analysis.petsc_options():
                 self._initial_acceleration()
+            self._share_kinematics()
         self._started = True
 
     def _initial_acceleration(self) -> None:
@@ -397,7 +408,17 @@ class TransientProblem(AnalysisReadout):
                 v, a = self.time_scheme.update(x[sub.block], *self._kinematics(sub))
                 sub.velocity.x.array[: sub.num_dofs] = v
                 sub.acceleration.x.array[: sub.num_dofs] = a
+            u_before = {s.block: s.u.x.array[: s.num_dofs].copy() for s in self._others}
         analysis.publish(x)
+        if self.inertia:  # the others' u arrived with the publication: update them alike
+            for sub in self._others:
+                n = sub.num_dofs
+                _, velocity, acceleration = self._kinematics(sub)
+                v, a = self.time_scheme.update(
+                    sub.u.x.array[:n], u_before[sub.block], velocity, acceleration
+                )
+                sub.velocity.x.array[:n] = v
+                sub.acceleration.x.array[:n] = a
         self.t, self.step = t_new, self.step + 1
         self._previous_loads = (t_new, external)
         accelerations = {s.block: s.acceleration.x.array for s in owned if self.inertia}
@@ -550,4 +571,24 @@ class TransientProblem(AnalysisReadout):
         agreed = self.analysis.agreed
         agreed.latest = self.history[-1] if self.history else {}
         agreed.alpha = gathered(self.comm, self.iteration.alpha)
+        self._share_kinematics(with_displacement=True)
         self._started = True
+
+    def _share_kinematics(self, with_displacement: bool = False) -> None:
+        """Collective: the owners' velocity and acceleration (and u) of every subdomain here.
+
+        Once, where every rank's copies must start equal (the initial state, a restored
+        checkpoint); each step then updates them alike on every rank.
+        """
+        if self.comm.size == 1:
+            return
+        names = (
+            ("u", "velocity", "acceleration") if with_displacement else ("velocity", "acceleration")
+        )
+        sizes = self.model.system.sizes
+        owners = {s.block: self.scene.owner(k) for k, s in enumerate(self.scene.subdomains)}
+        for name in names:
+            local = {s.block: getattr(s, name).x.array[: s.num_dofs] for s in self.analysis.owned}
+            shared = allgather_blocks(self.comm, local, owners, sizes)
+            for sub in self._others:
+                getattr(sub, name).x.array[: sub.num_dofs] = shared[sub.block]

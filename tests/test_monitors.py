@@ -106,14 +106,32 @@ def _iteration():
     )
 
 
+def _surface(name, n, seed):
+    array = np.random.default_rng(seed).random(n)
+    return SimpleNamespace(name=name, x=SimpleNamespace(array=array))
+
+
+def _zones(seed):
+    return [SimpleNamespace(contact=SimpleNamespace(name="end", w=_surface("w", 4, seed)))]
+
+
+def _interface(seed):
+    return SimpleNamespace(name="glue", v=_surface("v", 5, seed))
+
+
 def test_the_run_state_goes_to_arrays_and_back_exactly():
-    zones = [SimpleNamespace(contact=SimpleNamespace(name="end"))]
-    saved = RunState([_subdomain("bar", 6, 0)], zones, _iteration())
+    zones, interface = _zones(0), _interface(0)
+    saved = RunState([_subdomain("bar", 6, 0)], zones, _iteration(), interface)
     arrays = saved.arrays(12, 1.2e-5, 1e-6, "inertia=True")
     target = _subdomain("bar", 6, 1)
     iteration = SimpleNamespace(gamma=0, release_solves=0, active={}, alpha={}, releases={})
-    restored = RunState([target], zones, iteration)
+    restored_zones, restored_interface = _zones(1), _interface(1)
+    restored = RunState([target], restored_zones, iteration, restored_interface)
     assert restored.restore(arrays, 1e-6, "inertia=True") == (12, 1.2e-5)
+    surfaces = [(restored_zones[0].contact.w, zones[0].contact.w)]
+    surfaces.append((restored_interface.v, interface.v))  # the next start forces read them
+    for mine, theirs in surfaces:
+        np.testing.assert_array_equal(mine.x.array, theirs.x.array)
     for name in ("u", "velocity", "acceleration"):
         source = getattr(saved.owned[0], name).x.array
         np.testing.assert_array_equal(getattr(target, name).x.array, source)
@@ -123,7 +141,7 @@ def test_the_run_state_goes_to_arrays_and_back_exactly():
 
 
 def test_a_run_state_of_other_settings_or_meshes_is_refused():
-    zones = [SimpleNamespace(contact=SimpleNamespace(name="end"))]
+    zones = _zones(0)
     arrays = RunState([_subdomain("bar", 6, 0)], zones, _iteration()).arrays(3, 3.0, 1.0, "a")
     other = RunState([_subdomain("bar", 9, 1)], zones, _iteration())
     with pytest.raises(InputError, match=r"dt = 1\.0, this run has dt = 2\.0"):
@@ -132,3 +150,12 @@ def test_a_run_state_of_other_settings_or_meshes_is_refused():
         other.restore(arrays, 1.0, "b")
     with pytest.raises(InputError, match="does not match subdomain 'bar'"):
         other.restore(arrays, 1.0, "a")
+
+
+def test_a_run_state_without_the_surfaces_is_refused():
+    """A checkpoint of an earlier version: resuming from it would start from wrong forces."""
+    zones = _zones(0)
+    arrays = RunState([_subdomain("bar", 6, 0)], zones, _iteration()).arrays(3, 3.0, 1.0, "a")
+    del arrays["w/end"]
+    with pytest.raises(InputError, match=r"no 'end' surface .*start a new output directory"):
+        RunState([_subdomain("bar", 6, 1)], _zones(1), _iteration()).restore(arrays, 1.0, "a")

@@ -198,3 +198,25 @@ def test_dynamic_problem_needs_density():
     )
     with pytest.raises(dd.InputError, match="no density"):
         dd.TransientProblem(dd.Scene(MPI.COMM_WORLD, [block]), dt=0.1)
+
+
+@pytest.mark.parametrize("algorithm", ["w-v-u", "FULL"])
+def test_a_resumed_dynamic_run_with_surfaces_is_the_uninterrupted_one(algorithm, tmp_path):
+    """The next step's start forces read the interface and contact surfaces at t_n."""
+    from dd_contact.paper import examples
+
+    def problem():
+        scene = examples.parallelepiped(algorithm, (12, 4, 2), comm=MPI.COMM_SELF)
+        return dd.TransientProblem(scene, 1e-6, algorithm=algorithm, track_energy=False)
+
+    whole = problem()
+    whole.run(6, summary=False)
+    problem().run(3, output=tmp_path, checkpoint_every=3, summary=False)
+    resumed = problem()
+    resumed.run(6, output=tmp_path, resume=True, summary=False)
+    assert sum(r["changes"] for r in whole.history) >= 2  # contact changed on the way
+    for mine, theirs in zip(resumed.scene.subdomains, whole.scene.subdomains, strict=True):
+        for field in ("u", "velocity", "acceleration"):
+            mine_values, their_values = getattr(mine, field), getattr(theirs, field)
+            np.testing.assert_array_equal(mine_values.x.array, their_values.x.array)
+    assert [r["force"] for r in resumed.history] == [r["force"] for r in whole.history]
