@@ -19,9 +19,9 @@ from dd_contact.parallel import any_rank, sum_over_ranks
 
 __all__ = ["ENERGY_GROWTH_TOLERANCE", "MIN_CONTACT_STEPS", "ContactEpisodes", "EnergyBalance"]
 
-#: A step whose energy grows by more than this fraction beyond the loads' work warns
-#: (EnergyGrowthWarning). Round-off is far below it (docs/contact.md, free vibration); a
-#: contact release of the classic rule gains far more.
+#: A step whose energy grows by more than this fraction of the largest energy of the run
+#: beyond the loads' work warns (EnergyGrowthWarning). Round-off is far below it
+#: (docs/contact.md, free vibration); a contact release of the classic rule gains far more.
 ENERGY_GROWTH_TOLERANCE = 1e-6
 
 #: A contact episode (a region touching from the step its first point enters to the step its
@@ -54,10 +54,13 @@ class EnergyBalance:
         self.before: float | None = None
         #: Whether the warning was given (it is given once a run).
         self.warned = False
+        #: The largest energy of the run so far: the scale of its round-off.
+        self.largest = 0.0
 
     def start(self, total: float) -> None:
         """The total energy at the start of the run."""
         self.before = total
+        self.largest = max(self.largest, abs(total))
 
     def loads_work(
         self,
@@ -93,6 +96,7 @@ class EnergyBalance:
         energy_before = self.before
         energy_after = record["energy"]["total"]
         self.before = energy_after
+        self.largest = max(self.largest, abs(energy_after))
         if energy_before is None or self.warned:
             return
         loads_work, moved = work()
@@ -101,7 +105,7 @@ class EnergyBalance:
         if not self.conserves_energy:
             self.before = energy_before + loads_work
         gain = energy_after - energy_before - loads_work
-        if gain > ENERGY_GROWTH_TOLERANCE * max(abs(energy_before), abs(energy_after)):
+        if gain > ENERGY_GROWTH_TOLERANCE * max(self.largest, abs(energy_before)):
             self.warned = True
             fix = (
                 "this should not happen with energy_safe_contact=True: please report it"
@@ -111,9 +115,9 @@ class EnergyBalance:
             )
             warnings.warn(
                 f"step {record['step']} (t = {record['t']:.6g}): the energy grew by "
-                f"{gain:.3g} J ({gain / max(abs(energy_before), 1e-300):.2%}) more than the "
-                f"loads' work, with {record['changes']} contact state change(s): the contact "
-                f"created energy; {fix}",
+                f"{gain:.3g} J ({gain / max(self.largest, 1e-300):.2%} of the run's largest "
+                f"energy) more than the loads' work, with {record['changes']} contact state "
+                f"change(s): the contact created energy; {fix}",
                 EnergyGrowthWarning,
                 stacklevel=4,
             )

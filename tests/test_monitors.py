@@ -159,3 +159,14 @@ def test_a_run_state_without_the_surfaces_is_refused():
     del arrays["w/end"]
     with pytest.raises(InputError, match=r"no 'end' surface .*start a new output directory"):
         RunState([_subdomain("bar", 6, 1)], _zones(1), _iteration()).restore(arrays, 1.0, "a")
+
+
+def test_round_off_of_a_run_that_came_to_rest_does_not_warn():
+    """Held to the largest energy of the run: 1e-12 J is round-off after 100 J."""
+    balance = EnergyBalance(MPI.COMM_SELF, conserves_energy=True, energy_safe=True)
+    balance.start(100.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        balance.check(_record(1, 1e-7), lambda: (-100.0, False))  # the loads took it out
+        balance.check(_record(2, 1e-7 + 1.4e-12), _no_work)
+    assert balance.largest == 100.0 and not balance.warned
