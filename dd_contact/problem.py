@@ -284,7 +284,7 @@ class TransientProblem(AnalysisReadout):
             sub.velocity.x.array[fixed] = 0.0
         self.iteration.start(self.t0)
         if self.inertia and self.track_energy:
-            self.energy_balance.start(self._energy()["total"])
+            self.energy_balance.start(self._energy())
         if self.inertia:
             with self.analysis.petsc_options():
                 self._initial_acceleration()

@@ -18,8 +18,9 @@ from dd_contact.monitors import (
 )
 
 
-def _record(step, total, **extra):
-    return {"step": step, "t": 0.1 * step, "changes": 1, "energy": {"total": total}, **extra}
+def _record(step, total, contact=0.0, **extra):
+    energy = {"total": total, "contact": contact}
+    return {"step": step, "t": 0.1 * step, "changes": 1, "energy": energy, **extra}
 
 
 def _no_work():
@@ -28,7 +29,7 @@ def _no_work():
 
 def test_the_energy_balance_warns_once_when_a_step_creates_energy():
     balance = EnergyBalance(MPI.COMM_SELF, conserves_energy=True, energy_safe=True)
-    balance.start(100.0)
+    balance.start({"total": 100.0, "contact": 0.0})
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         balance.check(_record(1, 100.0 + 0.5 * ENERGY_GROWTH_TOLERANCE * 100.0), _no_work)
@@ -48,7 +49,7 @@ def test_the_energy_balance_counts_the_loads_work_and_skips_moving_supports():
     loads = {"u:a": np.array([10.0, 20.0, 99.0])}
     work, moved = balance.loads_work(before, after, loads, loads, free.__getitem__)
     assert work == pytest.approx(0.1 * 10.0 + 0.2 * 20.0) and not moved
-    balance.start(1.0)
+    balance.start({"total": 1.0, "contact": 0.0})
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         balance.check(_record(1, 1.0 + work), lambda: (work, moved))  # the loads' work only
@@ -59,7 +60,7 @@ def test_the_energy_balance_counts_the_loads_work_and_skips_moving_supports():
 
 def test_a_damped_scheme_is_held_to_the_start_plus_the_loads_work():
     balance = EnergyBalance(MPI.COMM_SELF, conserves_energy=False, energy_safe=True)
-    balance.start(10.0)
+    balance.start({"total": 10.0, "contact": 0.0})
     balance.check(_record(1, 9.0), lambda: (1.0, False))
     assert balance.before == 11.0  # the bound, not the (damped) energy of the step
 
@@ -164,9 +165,23 @@ def test_a_run_state_without_the_surfaces_is_refused():
 def test_round_off_of_a_run_that_came_to_rest_does_not_warn():
     """Held to the largest energy of the run: 1e-12 J is round-off after 100 J."""
     balance = EnergyBalance(MPI.COMM_SELF, conserves_energy=True, energy_safe=True)
-    balance.start(100.0)
+    balance.start({"total": 100.0, "contact": 0.0})
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         balance.check(_record(1, 1e-7), lambda: (-100.0, False))  # the loads took it out
         balance.check(_record(2, 1e-7 + 1.4e-12), _no_work)
     assert balance.largest == 100.0 and not balance.warned
+
+
+def test_a_release_within_the_iterations_tolerance_does_not_warn():
+    """A release settles its kept force within RELEASE_TOLERANCE of the penalty energy held."""
+    from dd_contact.impact import RELEASE_TOLERANCE
+
+    balance = EnergyBalance(MPI.COMM_SELF, conserves_energy=True, energy_safe=True)
+    balance.start({"total": 1.0, "contact": 0.0})
+    balance.check(_record(1, 1.0, contact=0.5), _no_work)  # half of it in the penalty
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        balance.check(_record(2, 1.0 + 0.9 * RELEASE_TOLERANCE * 0.5), _no_work)
+    with pytest.warns(EnergyGrowthWarning):
+        balance.check(_record(3, 1.01, contact=0.0), _no_work)  # no penalty energy held
