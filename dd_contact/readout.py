@@ -103,11 +103,10 @@ class AnalysisReadout:
     def predict(
         self, steps: float, changes: float, rates: timing.MachineRates | None = None
     ) -> timing.Prediction:
-        """Predicted linear-algebra time of this problem's algorithm (collective).
+        """Collective: this problem's predicted linear-algebra time (``Analysis.predict``).
 
-        From MUMPS's analysis of the matrices it factorises and this machine's rates
-        (:mod:`dd_contact.timing`): set-up, one step, one contact change, and the total for
-        ``steps`` steps with ``changes`` contact state changes.
+        Set-up, one step, one contact change, and the total for ``steps`` steps with
+        ``changes`` contact state changes, in seconds on this machine.
         """
         return self.analysis.predict(steps, changes, rates)
 
