@@ -22,6 +22,7 @@ from dd_contact.errors import (
     InaccurateSolutionError,
     InputError,
     PenaltyRangeWarning,
+    RunStopped,
     SingularMatrixError,
     SurfaceResolutionWarning,
 )
@@ -60,6 +61,7 @@ __all__ = [
     "Material",
     "Penalty",
     "PenaltyRangeWarning",
+    "RunStopped",
     "Plane",
     "Scene",
     "SingularMatrixError",

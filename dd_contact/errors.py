@@ -14,6 +14,7 @@ __all__ = [
     "InaccurateSolutionError",
     "InputError",
     "PenaltyRangeWarning",
+    "RunStopped",
     "SingularMatrixError",
     "SurfaceResolutionWarning",
 ]
@@ -57,3 +58,11 @@ class EnergyGrowthWarning(UserWarning):
 
 class CoarseTimeStepWarning(UserWarning):
     """A contact episode lasted too few time steps for an accurate rebound (energy is kept)."""
+
+
+class RunStopped(SystemExit):
+    """A run ended at a step boundary by SIGTERM or SIGUSR1, its state saved.
+
+    A :class:`SystemExit` with the exit status ``128 + signal`` (143 for SIGTERM), as a
+    process killed by the signal would have: a batch script sees the run did not finish.
+    """

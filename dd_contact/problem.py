@@ -21,6 +21,7 @@ from tqdm import tqdm
 
 from dd_contact import timing
 from dd_contact.analysis import Analysis
+from dd_contact.arguments import positive_int
 from dd_contact.checkpointing import RunState
 from dd_contact.errors import InputError
 from dd_contact.forms import MASS_KINDS
@@ -46,17 +47,12 @@ from dd_contact.readout import AnalysisReadout
 from dd_contact.scene import Scene
 from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
 from dd_contact.solvers.petsc_options import OPTIONS_PREFIX
+from dd_contact.stopping import StopRequests, raise_stopped
 from dd_contact.timestepping import time_scheme
 
 __all__ = ["ENERGY_GROWTH_TOLERANCE", "MIN_CONTACT_STEPS", "StaticProblem", "TransientProblem"]
 
 logger = logging.getLogger(__name__)
-
-
-def _check_count(argument: str, value) -> None:
-    """Refuse a step count that is not a whole number >= 1."""
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or value < 1:
-        raise InputError(f"run: {argument} must be a whole number >= 1, got {value!r}")
 
 
 class StaticProblem(AnalysisReadout):
@@ -483,10 +479,10 @@ class TransientProblem(AnalysisReadout):
     def _run(
         self, n_steps, output, output_every, checkpoint_every, resume, progress, callback, summary
     ) -> list[dict]:
-        _check_count("n_steps", n_steps)
-        _check_count("output_every", output_every)
+        positive_int(n_steps, "run: n_steps")
+        positive_int(output_every, "run: output_every")
         if checkpoint_every is not None:
-            _check_count("checkpoint_every", checkpoint_every)
+            positive_int(checkpoint_every, "run: checkpoint_every")
             if output is None:
                 raise InputError("run: checkpoint_every needs an output directory (output=...)")
         files = RunOutput(self.scene, output, self.inertia) if output is not None else None
@@ -501,24 +497,31 @@ class TransientProblem(AnalysisReadout):
         bar = None
         if show and self.comm.rank == 0 and self.step < n_steps:
             bar = tqdm(total=n_steps, initial=self.step, unit="step", file=sys.stderr)
+        stopped = None
         try:
-            while self.step < n_steps:
-                record = self._advance()
-                if files is not None:
-                    files.record(record, self.step % output_every == 0)
-                if checkpoint_every and self.step % checkpoint_every == 0:
-                    files.save(self._state(), self.history)
-                    logger.info("checkpoint at step %d (t = %.6g)", self.step, self.t)
-                if bar is not None:
-                    bar.update(1)
-                    bar.set_postfix(t=f"{self.t:.4g}", changes=self.iteration.gamma)
-                if callback is not None:
-                    callback(record)
+            with StopRequests() as stop:
+                while self.step < n_steps and stopped is None:
+                    record = self._advance()
+                    if files is not None:
+                        files.record(record, self.step % output_every == 0)
+                    if checkpoint_every and self.step % checkpoint_every == 0:
+                        files.save(self._state(), self.history)
+                        logger.info("checkpoint at step %d (t = %.6g)", self.step, self.t)
+                    if bar is not None:
+                        bar.update(1)
+                        bar.set_postfix(t=f"{self.t:.4g}", changes=self.iteration.gamma)
+                    if callback is not None:
+                        callback(record)
+                    stopped = stop.requested(self.comm)
+            if stopped is not None and files is not None:
+                files.save(self._state(), self.history)
         finally:
             if bar is not None:
                 bar.close()
             if files is not None:
                 files.close(self.history)
+        if stopped is not None:
+            raise_stopped(self.comm, stopped, self.step, self.t, output)
         if summary:
             self._print_summary()
         return self.history

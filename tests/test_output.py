@@ -137,7 +137,7 @@ def test_run_counts_steps_from_t0_and_refuses_nothing_to_do(falling_bar):
 )
 def test_bad_run_arguments_are_refused(argument, kwargs, falling_bar):
     problem = falling_bar()[1]
-    with pytest.raises(dd.InputError, match=f"run: {argument} must be a whole number >= 1"):
+    with pytest.raises(dd.InputError, match=f"run: {argument} must be a positive integer"):
         problem.run(progress=False, **kwargs)
     assert problem.step == 0
 
