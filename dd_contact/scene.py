@@ -8,6 +8,7 @@ surface mesh with its own displacement v, tied to its subdomains by penalties (e
 
 from __future__ import annotations
 
+import hashlib
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -25,7 +26,7 @@ from dd_contact.blocks import Block
 from dd_contact.bodies import Body
 from dd_contact.errors import InputError
 from dd_contact.obstacles import Obstacle
-from dd_contact.parallel import owner_of
+from dd_contact.parallel import allgathered, owner_of
 from dd_contact.subdomains import Subdomain
 
 __all__ = [
@@ -437,6 +438,29 @@ class Scene:
         self.subdomains = list(subdomains)
         self.interface = interface
         self.contacts = list(contacts)
+        self._check_same_on_every_rank()
+
+    def _check_same_on_every_rank(self) -> None:
+        """Collective: refuse meshes that differ between ranks (each rank builds them all).
+
+        Caught here, with the mesh named, before any collective of the solvers could hang or
+        abort on arrays of different sizes.
+        """
+        if self.comm.size == 1:
+            return
+        meshes = [(f"subdomain {s.name!r}", s.mesh) for s in self.subdomains]
+        if self.interface is not None:
+            meshes.append((f"interface {self.interface.name!r}", self.interface.mesh))
+        meshes += [(f"contact {c.name!r}", c.mesh) for c in self.contacts]
+        mine = [(what, _mesh_digest(mesh)) for what, mesh in meshes]
+        for rank, theirs in enumerate(allgathered(self.comm, mine)):
+            for (what, digest), (_, other) in zip(mine, theirs, strict=True):
+                if digest != other:
+                    raise InputError(
+                        f"Scene: the mesh of {what} on rank {self.comm.rank} differs from the "
+                        f"one on rank {rank}; every rank must build the same meshes (the same "
+                        "script, inputs and mesh generator settings on every rank)"
+                    )
 
     def index(self, subdomain: Subdomain) -> int:
         """Position of a subdomain in the scene."""
@@ -475,3 +499,11 @@ class Scene:
                     "tied to a supported subdomain; add Subdomain.fix(...) or tie them through "
                     "the interface, or solve a dynamic problem"
                 )
+
+
+def _mesh_digest(mesh) -> tuple[int, int, str]:
+    """Cells, nodes and a hash of the node coordinates and connectivity of a mesh."""
+    x = np.ascontiguousarray(mesh.geometry.x)
+    cells = np.ascontiguousarray(mesh.geometry.dofmaps[0])
+    digest = hashlib.sha256(x.tobytes() + cells.tobytes()).hexdigest()
+    return cells.shape[0], x.shape[0], digest
