@@ -36,9 +36,11 @@ demo: venv
 docs: venv
 	$(PY) docs/build_api.py build/api
 
+# mypy checks the package (its files and settings: pyproject.toml's [tool.mypy]).
 lint: venv
 	$(VENV)/bin/ruff check $(LINTED)
 	$(VENV)/bin/ruff format --check $(LINTED)
+	$(VENV)/bin/mypy
 
 clean:
 	rm -rf $(VENV)

@@ -23,6 +23,7 @@ import numpy as np
 
 from dd_contact import forms, timing
 from dd_contact.assembly import Model, assemble
+from dd_contact.blocks import Block
 from dd_contact.contact import check_contact_geometry
 from dd_contact.errors import InputError, SingularMatrixError
 from dd_contact.impact import massless_walls
@@ -226,6 +227,7 @@ class Analysis:
         if "FULL" in valid and not skipped:
             structure = candidates.analyse_full(structure)
         analysed = tuple(a for a in valid if a not in skipped)
+        assert structure is not None  # the orders', or FULL's alone
         self.choice = timing.choose(structure, rates, analysed, steps, changes)
         self.choice.skipped = skipped
         self._auto = (structure, rates, steps, changes)  # for the check after CHECK_SOLVES
@@ -258,11 +260,12 @@ class Analysis:
         """
         structure, rates, steps, changes = self._auto
         local = timing.misses(self.work.records, rates)
-        observed = {}  # the worst miss of any rank, the same on every rank
+        observed: dict[str, float] = {}  # the worst miss of any rank, the same on every rank
         for part in allgathered(self.comm, local):
             for kind, ratio in part.items():
                 worst = observed.get(kind, 1.0)
                 observed[kind] = ratio if abs(np.log(ratio)) > abs(np.log(worst)) else worst
+        assert self.choice is not None  # auto chose
         self.choice.misses = observed
         if all(1.0 / timing.MISS <= r <= timing.MISS for r in observed.values()):
             return
@@ -297,7 +300,7 @@ class Analysis:
     def free(self, block: str) -> np.ndarray:
         """1 on the free dofs of an owned subdomain block, 0 on its prescribed ones (kept)."""
         if block not in self._free:
-            self._free[block] = self.model.free(block)
+            self._free[block] = self.model.free(Block.parse(block))
         return self._free[block]
 
     def loads(self, t: float) -> dict[str, np.ndarray]:
@@ -308,7 +311,7 @@ class Analysis:
         return collective(self.comm, lambda: self._loads(t))
 
     def _loads(self, t: float) -> dict[str, np.ndarray]:
-        loads = {}
+        loads: dict[str, np.ndarray] = {}
         for sub in self.owned:
             sub.set_time(t)
             vector = loads[sub.block] = self._load[sub.block]()
@@ -425,7 +428,9 @@ class Analysis:
     def state_now(self) -> dict[str, np.ndarray]:
         """This rank's view of every block at the current time (subdomains, surfaces)."""
         sizes = self.model.system.sizes
-        x = {s.block: s.u.x.array[: sizes[s.block]] for s in self.scene.subdomains}
+        x: dict[str, np.ndarray] = {
+            s.block: s.u.x.array[: sizes[s.block]] for s in self.scene.subdomains
+        }
         if self.scene.interface is not None:
             x[self.scene.interface.block] = self.scene.interface.v.x.array
         for c in self.scene.contacts:

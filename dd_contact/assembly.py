@@ -254,6 +254,7 @@ class ContactZone:
         an inactive node inside the area both show.
         """
         R = self.recovery
+        assert R is not None  # swings only after a recovery
         near = (R != 0).astype(float)
         inside = (p > 0) & (near @ (p <= 0).astype(float) == 0)
         inside &= near @ (~inside).astype(float) == 0
@@ -329,8 +330,8 @@ class Model:
             if mass_coefficient and block in self.mass:
                 mass = sp.csc_array(self.mass[block])[:, dofs]
                 columns[block].append((block, sp.csr_array(mass_coefficient * mass)))
-        dofs = {block: dofs for block, (dofs, _) in self.dirichlet.items()}
-        return Lifting(self.system.sizes, dofs, columns)
+        prescribed = {block: dofs for block, (dofs, _) in self.dirichlet.items()}
+        return Lifting(self.system.sizes, prescribed, columns)
 
     def effective(self, mass_coefficient: float) -> BlockSystem:
         """``K + c M`` with the Dirichlet conditions eliminated; rhs = their lifting."""
@@ -435,7 +436,9 @@ def assemble(scene: Scene) -> Model:
     model = Model(system, {}, {}, [])
     iface = scene.interface
     tied = iface.subdomains if iface is not None else []
-    coverage = np.zeros(iface.mesh.topology.index_map(2).size_local if tied else 0)
+    coverage = np.zeros(
+        iface.mesh.topology.index_map(2).size_local if iface is not None and tied else 0
+    )
     for k, sub in enumerate(scene.subdomains):
         if scene.owner(k) != rank:
             continue

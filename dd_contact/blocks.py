@@ -19,6 +19,7 @@ import scipy.sparse as sp
 __all__ = [
     "BLOCK_KINDS",
     "Block",
+    "BlockKeyed",
     "BlockSystem",
     "ContactRegion",
     "StiffTie",
@@ -43,7 +44,8 @@ class Block(str):
         block.kind, block.name = kind, str(name)
         return block
 
-    def __getnewargs__(self) -> tuple[str, str]:  # pickling (blocks travel between ranks)
+    # pickling (blocks travel between ranks); str's takes its one value, Block's __new__ two
+    def __getnewargs__(self) -> tuple[str, str]:  # type: ignore[override]
         return self.kind, self.name
 
     def __repr__(self) -> str:
@@ -58,6 +60,11 @@ class Block(str):
         if not sep:
             raise ValueError(f"{key!r} is not a block name of the form 'kind:name'")
         return cls(kind, name)
+
+
+#: A mapping read by block: keyed by :class:`Block` s or by their ``"kind:name"`` strings
+#: (a ``Mapping`` is invariant in its key, so ``Mapping[str, V]`` does not take the first).
+type BlockKeyed[V] = Mapping[Block, V] | Mapping[str, V]
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,7 +153,7 @@ class StiffTie:
     rho: float
     sigma: float
 
-    def jump(self, x: dict[str, np.ndarray]) -> dict[Block, np.ndarray]:
+    def jump(self, x: BlockKeyed[np.ndarray]) -> dict[Block, np.ndarray]:
         """``R x``: the tie's unscaled force on u and s, ``(P1 u - P2 s, P4 s - P2^T u)``."""
         u, s = x[self.u], x[self.s]
         return {self.u: self.P1 @ u - self.P2 @ s, self.s: self.P4 @ s - self.P2.T @ u}
@@ -285,7 +292,7 @@ class BlockSystem:
             if other != block:
                 yield other, A
 
-    def row_product(self, row: Block, x: Mapping[Block, np.ndarray]) -> np.ndarray:
+    def row_product(self, row: Block, x: BlockKeyed[np.ndarray]) -> np.ndarray:
         """``(A x)_row``, a new array; a block missing from ``x`` counts as zero."""
         out = np.zeros(self.sizes[row])
         for col, A in self.block_row(row):
@@ -293,19 +300,25 @@ class BlockSystem:
                 out += A @ x[col]
         return out
 
-    def triplets(self, offsets: Mapping[Block, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def triplets(self, offsets: Mapping[str, int]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """A's entries, both triangles, as COO ``(rows, cols, values)`` in one numbering.
 
         Each block starts at ``offsets[block]``. A transposed block is the stored one's
         entries with rows and columns swapped: no arrays of its own before the concatenation.
         """
-        rows, cols, values = [], [], []
+        rows: list[np.ndarray] = []
+        cols: list[np.ndarray] = []
+        values: list[np.ndarray] = []
         for (row, col), A in self.matrices.items():
             coo = sp.coo_array(A)
             r, c = coo.row + offsets[row], coo.col + offsets[col]
-            rows.append(r), cols.append(c), values.append(coo.data)
+            rows.append(r)
+            cols.append(c)
+            values.append(coo.data)
             if row != col:
-                rows.append(c), cols.append(r), values.append(coo.data)
+                rows.append(c)
+                cols.append(r)
+                values.append(coo.data)
         return _joined(rows, np.int64), _joined(cols, np.int64), _joined(values, np.float64)
 
 

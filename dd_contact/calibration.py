@@ -167,7 +167,7 @@ def machine_rates(
     called as :func:`calibrate` measures (default: a message and a progress bar on stderr).
     """
     comm = MPI.COMM_SELF if comm is None else comm
-    rates = None
+    rates: MachineRates | None = None
     if comm.rank == ROOT:
         file = Path(path) if path is not None else _cache_file()
         key = json.dumps(machine_fingerprint(), sort_keys=True) + (" quick" if quick else "")
@@ -195,14 +195,17 @@ def machine_rates(
                 cached[key] = rates.to_dict()
                 file.parent.mkdir(parents=True, exist_ok=True)
                 file.write_text(json.dumps(cached, indent=1))
-    return bcast_from_root(comm, rates)
+    rates = bcast_from_root(comm, rates)
+    assert rates is not None  # the root's
+    return rates
 
 
 class _ConsoleProgress:
     """A one-line message and a progress bar on stderr while the rates are measured."""
 
     def __init__(self, quick: bool, file: Path):
-        self.quick, self.file, self.bar = quick, file, None
+        self.quick, self.file = quick, file
+        self.bar: tqdm | None = None
 
     def __call__(self, done: int, total: int) -> None:
         if self.bar is None:
@@ -309,6 +312,7 @@ def _sparse_points(n: int, rng) -> dict[str, list[float]]:
     A.scale(1.0 + 1e-9)  # new values: the next set-up re-factorises numerically
     factor.refactorise()
     numeric = log.records[-1]
+    assert numeric.flops is not None  # a factorisation's record counts its flops
     b = A.createVecRight()
     b.set(1.0)
     # In a time step other work runs between two substitutions with the same factor.
@@ -321,7 +325,9 @@ def _sparse_points(n: int, rng) -> dict[str, list[float]]:
         "sparse_solve": [factor.entries, solve],
         "sparse_solve_block": [factor.entries * 128, block],
     }
-    factor.destroy(), b.destroy(), A.destroy()
+    factor.destroy()
+    b.destroy()
+    A.destroy()
     return out
 
 

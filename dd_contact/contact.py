@@ -34,6 +34,7 @@ body or whose normal points into it. The active-set iteration is in
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import cast
 
 import basix
 import dolfinx.fem as fem
@@ -85,9 +86,11 @@ def _gauss_points(S: fem.FunctionSpace) -> tuple[np.ndarray, np.ndarray, sp.csr_
     mesh = S.mesh
     name = mesh.topology.cell_type.name
     cell = getattr(basix.CellType, name)
-    X, w_ref = basix.make_quadrature(cell, _QUADRATURE_DEGREE[name])
+    # basix annotates the arrays it returns as ArrayLike
+    quadrature = basix.make_quadrature(cell, _QUADRATURE_DEGREE[name])
+    X, w_ref = cast(tuple[np.ndarray, np.ndarray], quadrature)
     element = S.element.basix_element
-    tab = element.tabulate(1, X)[..., 0]  # (1 + tdim, q, nodes)
+    tab = cast(np.ndarray, element.tabulate(1, X))[..., 0]  # (1 + tdim, q, nodes)
     cmap = mesh.geometry.cmaps[0]
     if cmap.degree != 1:
         raise ValueError("contact surfaces must be first-order meshes")

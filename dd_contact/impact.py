@@ -57,7 +57,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
 from dd_contact.assembly import ContactZone
-from dd_contact.blocks import Block, BlockSystem
+from dd_contact.blocks import Block, BlockKeyed, BlockSystem
 
 __all__ = [
     "GEOMETRIC_STEPS",
@@ -100,7 +100,7 @@ class BlockProducts:
         self._last: dict[Block, tuple[dict[Block, np.ndarray], np.ndarray]] = {}
         self.computed = 0  # products of kept rows taken (not found): a count for tests
 
-    def row(self, row: Block, x: Mapping[Block, np.ndarray]) -> np.ndarray:
+    def row(self, row: Block, x: BlockKeyed[np.ndarray]) -> np.ndarray:
         """``(A x)_row`` as a new array (the caller may change it)."""
         if row not in self._read:
             return self.system.row_product(row, x)
@@ -144,7 +144,7 @@ class StartForces:
         self,
         system: BlockSystem,
         zones: Sequence[ContactZone],
-        x: Mapping[Block, np.ndarray],
+        x: Mapping[str, np.ndarray],
         active: Mapping[str, np.ndarray],
         owned: Sequence[Block],
         offset: Mapping[Block, np.ndarray],
@@ -294,6 +294,7 @@ class StartForces:
         matrix, vector = z.contribution(active[z.contact.name])
         C = sp.coo_array(matrix)  # the contact block placed on the zone's dofs of w
         A = self.system.block(w, w)
+        assert A is not None  # w's own block
         placed = sp.csr_array((C.data, (z.dofs[C.row], z.dofs[C.col])), shape=A.shape)
         A = A + placed
         b = -self.system.row_product(w, {k: v for k, v in self.x.items() if k != w})

@@ -78,7 +78,7 @@ def _written_times(path: Path) -> list[float]:
     """The times already stored in an XDMF file (empty if it does not exist)."""
     if not path.exists():
         return []
-    return [float(e.get("Value")) for e in ET.parse(path).getroot().iter("Time")]
+    return [float(e.attrib["Value"]) for e in ET.parse(path).getroot().iter("Time")]
 
 
 class ResultWriter:
@@ -236,10 +236,12 @@ class History:
 
     def load(self) -> list[dict]:
         """Collective: the history in ``history.json`` on every rank (empty if none)."""
-        history = None
+        history: list[dict] | None = None
         if self.comm.rank == ROOT:
             history = json.loads(self.json_path.read_text()) if self.json_path.exists() else []
-        return bcast_from_root(self.comm, history)
+        history = bcast_from_root(self.comm, history)
+        assert history is not None  # the root's
+        return history
 
 
 class Checkpoint:
@@ -266,7 +268,8 @@ class Checkpoint:
         """Collective: write this rank's arrays."""
         self.directory.mkdir(parents=True, exist_ok=True)
         tmp = self.path.with_name(self.path.name + ".tmp.npz")
-        np.savez(tmp, **arrays)
+        # numpy's stub: a key of **arrays might be its keyword allow_pickle (a bool); none is
+        np.savez(tmp, **arrays)  # type: ignore[arg-type]
         os.replace(tmp, self.path)
         barrier(self.comm)
 

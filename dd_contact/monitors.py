@@ -14,6 +14,7 @@ from mpi4py import MPI
 
 import numpy as np
 
+from dd_contact.blocks import Block
 from dd_contact.errors import CoarseTimeStepWarning, EnergyGrowthWarning
 from dd_contact.impact import RELEASE_TOLERANCE
 from dd_contact.parallel import any_rank, sum_over_ranks
@@ -70,11 +71,11 @@ class EnergyBalance:
 
     def loads_work(
         self,
-        before: Mapping[str, np.ndarray],
+        before: Mapping[Block, np.ndarray],
         after: Mapping[str, np.ndarray],
         previous: Mapping[str, np.ndarray],
         external: Mapping[str, np.ndarray],
-        free: Callable[[str], np.ndarray],
+        free: Callable[[Block], np.ndarray],
     ) -> tuple[float, bool]:
         """Collective: the loads' work over a step (trapezoidal) and whether supports moved.
 

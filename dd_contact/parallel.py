@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import contextvars
 import time
-from collections import Counter
+from collections import Counter, defaultdict
 from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import Any
@@ -62,7 +62,7 @@ class Traffic:
 
     def __init__(self):
         self.counts: Counter[str] = Counter()
-        self.seconds: Counter[str] = Counter()
+        self.seconds: defaultdict[str, float] = defaultdict(float)
 
     @contextmanager
     def call(self, helper: str, nbytes: int = 0):
@@ -115,7 +115,7 @@ def owner_of(index: int, comm: MPI.Comm) -> int:
     return index % comm.size
 
 
-def gathered(comm: MPI.Comm, local: dict) -> dict:
+def gathered[K, V](comm: MPI.Comm, local: Mapping[K, V]) -> dict[K, V]:
     """Collective: the union of every rank's dict (each rank holds its own entries)."""
     if comm.size == 1:
         return dict(local)
@@ -224,11 +224,11 @@ def bcast_array(comm: MPI.Comm, array: np.ndarray) -> np.ndarray:
     return array
 
 
-def allgather_blocks(
+def allgather_blocks[K: str](
     comm: MPI.Comm,
     local: Mapping[str, np.ndarray],
-    owners: Mapping[str, int],
-    sizes: Mapping[str, int],
+    owners: Mapping[K, int],
+    sizes: Mapping[K, int],
 ) -> dict[str, np.ndarray]:
     """Collective: every block of ``owners`` on every rank, each sent by its owner.
 
@@ -247,7 +247,8 @@ def allgather_blocks(
     received = np.empty(sum(counts))
     with traffic.call("allgather_blocks", send.nbytes):
         comm.Allgatherv(send, [received, counts])
-    out, start = {}, 0
+    out: dict[str, np.ndarray] = {}
+    start = 0
     for blocks in by_rank:
         for b in blocks:
             out[b] = received[start : start + sizes[b]]

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import dolfinx.fem as fem
 import dolfinx.mesh
@@ -16,6 +17,7 @@ import scipy.sparse as sp
 import ufl
 
 from dd_contact.assembly import ContactZone, Model
+from dd_contact.blocks import Block
 from dd_contact.forms import stress
 from dd_contact.impact import BlockProducts
 from dd_contact.parallel import gather_to_root, gathered
@@ -66,7 +68,7 @@ def boundary_average(sub: Subdomain, where: Where) -> np.ndarray:
 def energy(
     model: Model,
     x: Mapping[str, np.ndarray],
-    velocities: Mapping[str, np.ndarray],
+    velocities: Mapping[Block, np.ndarray],
     zones: Sequence[ContactZone],
     products: BlockProducts | None = None,
 ) -> dict[str, float]:
@@ -185,8 +187,8 @@ class Reactions:
 
     def __init__(self, model: Model):
         self.model = model
-        self.rows: dict[str, list[tuple[str, sp.csr_array]]] = {}
-        self.mass: dict[str, sp.csr_array] = {}
+        self.rows: dict[Block, list[tuple[Block, sp.csr_array]]] = {}
+        self.mass: dict[Block, sp.csr_array] = {}
         for block, (dofs, _) in model.dirichlet.items():
             self.rows[block] = [
                 (col, sp.csr_array(sp.csr_array(A)[dofs]))
@@ -200,7 +202,7 @@ class Reactions:
         x: Mapping[str, np.ndarray],
         loads: Mapping[str, np.ndarray],
         accelerations: Mapping[str, np.ndarray],
-    ) -> dict[str, np.ndarray]:
+    ) -> dict[Block, np.ndarray]:
         """Reaction 3-vector per owned subdomain block (zero without supports).
 
         Args:
@@ -208,7 +210,7 @@ class Reactions:
             loads: The external load vector of each owned subdomain block.
             accelerations: Acceleration of each owned block (empty for statics).
         """
-        out = {}
+        out: dict[Block, np.ndarray] = {}
         for block, rows in self.rows.items():
             dofs = self.model.dirichlet[block][0]
             r = -loads[block][dofs] if block in loads else np.zeros(len(dofs))
@@ -266,7 +268,7 @@ class Results:
         Contact force, active points and area per region, support reaction per subdomain;
         also refreshes :attr:`alpha`.
         """
-        local: dict[tuple[str, str], object] = {}
+        local: dict[tuple[str, str], Any] = {}
         for z in self.zones:
             name = z.contact.name
             local[("alpha", name)] = alpha[name]
@@ -305,6 +307,7 @@ def gather_contact_fields(scene: Scene, root: int = 0) -> None:
     }
     everything = gather_to_root(comm, mine, root=root)
     if comm.rank == root:
+        assert everything is not None  # gathered here
         fields = {name: pair for part in everything for name, pair in part.items()}
         for c in scene.contacts:
             c.w.x.array[:], c.pressure.x.array[:] = fields[c.name]

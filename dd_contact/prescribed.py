@@ -97,7 +97,10 @@ class Prescribed:
         at(t)  # a malformed value is refused now, not at the first solve
         for c in components:
             dofs = (3 * nodes + c).astype(np.int32)
-            self._add(_Condition(dofs, lambda t, at=at, c=c: at(t)[c], changing))
+            # mypy infers no lambda with default arguments for a Callable[[float], ...]
+            self._add(
+                _Condition(dofs, lambda t, at=at, c=c: at(t)[c], changing)  # type: ignore[misc]
+            )
 
     def add_dirichletbcs(self, bcs: Sequence[fem.DirichletBC]) -> None:
         """The dofs of dolfinx DirichletBCs on V (or ``V.sub(i)``); values read at every solve."""

@@ -492,6 +492,7 @@ class TransientProblem(AnalysisReadout):
         if files is not None:
             files.open(self.step, self.history)
             if self.step == 0:
+                assert files.fields is not None  # opened
                 files.fields.write(self.t)
         show = progress if progress is not None else sys.stderr.isatty()
         bar = None
@@ -505,6 +506,7 @@ class TransientProblem(AnalysisReadout):
                     if files is not None:
                         files.record(record, self.step % output_every == 0)
                     if checkpoint_every and self.step % checkpoint_every == 0:
+                        assert files is not None  # checkpoints need an output directory (above)
                         files.save(self._state(), self.history)
                         logger.info("checkpoint at step %d (t = %.6g)", self.step, self.t)
                     if bar is not None:
@@ -533,6 +535,7 @@ class TransientProblem(AnalysisReadout):
         """
         restored = files is not None and files.checkpoint.exists()
         if restored:
+            assert files is not None  # restored from its checkpoint
             self._restore(files.checkpoint.load(), files.history.load())
         if self.step >= n_steps and not (restored and self.step == n_steps):
             where = f"the checkpoint in {str(output)!r} is" if restored else "the problem is"

@@ -118,13 +118,16 @@ def _record(op: Operation, stats: SparseStatistics | None) -> WorkRecord:
     """The work record of a scheduled operation, with the work counts that price it."""
     n, nrhs = op.size, op.nrhs
     if op.kind == "sparse_factor":
+        assert stats is not None  # a sparse operation's matrix is analysed
         nnz = stats.nnz if op.analysis else 0
         what = f"with a Schur complement of {stats.schur}" if stats.schur else ""
         return WorkRecord(op.target, op.kind, n, 0, 0.0, stats.flops, what, stats.entries, nnz)
     if op.kind == "sparse_solve":
+        assert stats is not None
         flops = 4.0 * stats.entries * nrhs
         return WorkRecord(op.target, op.kind, n, nrhs, 0.0, flops, op.what, stats.entries)
     if op.kind in SWEEPS:
+        assert stats is not None
         flops = 2.0 * stats.entries
         return WorkRecord(op.target, op.kind, n, nrhs, 0.0, flops, op.what, stats.entries)
     if op.kind == "dense_factor":

@@ -51,6 +51,10 @@ UNIFORM_RTOL = 1e-6
 _SI_PREFIXES = {0: "", 1: "k", 2: "M", 3: "G", 4: "T"}
 _WINDOW = (1400, 700)
 
+# The type: ignores on pyvista calls are for its annotations: Plotter's methods that forward
+# to its renderer are wrapped with functools.wraps, whose stub keeps the Renderer method's
+# self (call-arg); Plotter(window_size=...) is annotated a list, and takes any sequence.
+
 
 def use_headless_rendering() -> None:
     """Render off-screen, through EGL when there is no display to connect to.
@@ -215,7 +219,7 @@ def deformed_plotter(
     if scale is None:
         umax = max(np.abs(s.u.x.array).max() for s in scene.subdomains)
         scale = 0.1 * float((high - low).max()) / umax if umax > 0 else 1.0
-    plotter = pyvista.Plotter(off_screen=True, window_size=_WINDOW)
+    plotter = pyvista.Plotter(off_screen=True, window_size=_WINDOW)  # type: ignore[arg-type]
     grids = {f"subdomain {s.name}": deformed_grid(s.u, scale) for s in scene.subdomains}
     stresses = [von_mises(s).x.array for s in scene.subdomains]
     _add_field(plotter, grids, "von Mises", stresses, stress_unit, "von Mises", show_edges=True)
@@ -238,12 +242,12 @@ def deformed_plotter(
             plotter.add_mesh(shape, color="grey", opacity=0.35, name=f"obstacle {name}")
     plotter.add_text(f"{title}  (displacement x {scale:.3g})".strip(), font_size=10)
     # Look at the x-z plane from the front, a little from above: bending shows best.
-    plotter.view_xz()
+    plotter.view_xz()  # type: ignore[call-arg]
     plotter.camera.azimuth = 25
     plotter.camera.elevation = 20
-    plotter.reset_camera(bounds=[v for pair in zip(low, high, strict=True) for v in pair])
+    plotter.reset_camera(bounds=[v for pair in zip(low, high, strict=True) for v in pair])  # type: ignore[call-arg]
     plotter.camera.zoom(1.4)
-    plotter.add_axes()
+    plotter.add_axes()  # type: ignore[call-arg]
     return plotter
 
 
@@ -271,7 +275,7 @@ def contact_pressure_plotter(
     use_headless_rendering()
     import pyvista
 
-    plotter = pyvista.Plotter(off_screen=True, window_size=(1000, 800))
+    plotter = pyvista.Plotter(off_screen=True, window_size=(1000, 800))  # type: ignore[arg-type]
     surface = deformed_grid(contact.w, scale)
     pressure = contact.pressure.x.array
     surfaces = {f"contact {contact.name}": surface}
@@ -287,9 +291,9 @@ def contact_pressure_plotter(
         distance = 3.0 * surface.length
         plotter.camera_position = [centre + distance * mean, centre, _up(mean)]
     else:  # a surface all around a pin: no single side to look from
-        plotter.view_isometric()
-    plotter.reset_camera()
-    plotter.add_axes()
+        plotter.view_isometric()  # type: ignore[call-arg]
+    plotter.reset_camera()  # type: ignore[call-arg]
+    plotter.add_axes()  # type: ignore[call-arg]
     return plotter
 
 
@@ -315,15 +319,15 @@ def contact_pressures_plotter(
     use_headless_rendering()
     import pyvista
 
-    plotter = pyvista.Plotter(off_screen=True, window_size=_WINDOW)
+    plotter = pyvista.Plotter(off_screen=True, window_size=_WINDOW)  # type: ignore[arg-type]
     surfaces = {f"contact {c.name}": deformed_grid(c.w, scale) for c in scene.contacts}
     pressures = [c.pressure.x.array for c in scene.contacts]
     _add_field(plotter, surfaces, "pressure", pressures, unit, "contact pressure", show_edges=True)
     plotter.add_text(f"{title}  (displacement x {scale:.3g})".strip(), font_size=10)
-    plotter.view_vector(view)
-    plotter.reset_camera()
+    plotter.view_vector(view)  # type: ignore[arg-type]
+    plotter.reset_camera()  # type: ignore[call-arg]
     plotter.camera.zoom(1.4)
-    plotter.add_axes()
+    plotter.add_axes()  # type: ignore[call-arg]
     return plotter
 
 

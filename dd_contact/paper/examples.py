@@ -129,7 +129,8 @@ def row_of_blocks(
     ]
     for part in parts:
         part.velocity.interpolate(lambda x: np.vstack([0 * x[0], 0 * x[0], speed + 0 * x[0]]))
-    points, cells = [], []
+    points: list[np.ndarray] = []
+    cells: list[np.ndarray] = []
     for k in range(1, n_blocks):
         p, q = meshes.rectangle_grid(
             np.array([k * a, 0.0, 0.0]),

@@ -9,7 +9,7 @@ twice. Pricing is :mod:`dd_contact.timing`'s: it never builds a solver.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -39,7 +39,7 @@ class SceneStructure:
     """
 
     sizes: dict[str, int]
-    regions: dict[str, str]
+    regions: Mapping[str, str | tuple[str, ...]]
     subdomains: dict[str, SparseStatistics]
     layouts: dict[str, list]
     base_pairs: set

@@ -11,6 +11,8 @@ their PETSc objects before returning:
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 from mpi4py import MPI
 
 import numpy as np
@@ -63,7 +65,7 @@ def solve_mass(
 
 
 def surfaces_in_equilibrium(
-    comm: MPI.Comm, system: BlockSystem, u0: dict[str, np.ndarray], log: WorkLog
+    comm: MPI.Comm, system: BlockSystem, u0: Mapping[Block, np.ndarray], log: WorkLog
 ) -> dict[str, np.ndarray]:
     """Interface and contact-interface displacements in equilibrium with given u (collective).
 
@@ -79,7 +81,7 @@ def surfaces_in_equilibrium(
     system = system.copy()
     for block, values in u0.items():
         system.constrain(block, np.arange(len(values), dtype=np.int32), values)
-    solver = MonolithicSolver(comm, system, {}, log)
+    solver = MonolithicSolver(comm, system, (), log)
     try:
         x = solver.solve(system.rhs)
     finally:

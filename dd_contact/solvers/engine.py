@@ -27,7 +27,8 @@ broadcast).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 from mpi4py import MPI
 
@@ -62,7 +63,7 @@ def order_schedule(
     contacts: Sequence[ContactRegion],
     order: str,
     condensation: str,
-    layouts: dict[str, list],
+    layouts: dict[Block, list],
 ) -> Schedule:
     """Collective: the schedule of ``order`` for this block system (same on every rank).
 
@@ -80,7 +81,7 @@ def order_schedule(
 
 def surface_structure(
     comm: MPI.Comm, system: BlockSystem, contacts: Sequence[ContactRegion]
-) -> tuple[set[tuple[Block, Block]], dict[str, Block]]:
+) -> tuple[set[tuple[Block, Block]], dict[str, tuple[Block, ...]]]:
     """Collective: what every rank knows of the surface, gathered.
 
     Returns the surface block pairs with a matrix of their own (both orientations) and the
@@ -124,35 +125,38 @@ class BlockEliminationSolver:
         log: WorkLog,
         order: str,
         condensation: str = "schur",
-        subdomains: dict[Block, SubdomainSolver] | None = None,
+        subdomains: Mapping[Block, SubdomainSolver] | None = None,
     ):
         refuse_unsolvable(contacts)
         self.comm, self.system, self.log, self.order = comm, system, log, order
         self._regions = {region.name: region for region in contacts}
         if subdomains is None:
             subdomains = owned_subdomains(comm, system, contacts, log, condensation)
-        self.subdomains: dict[Block, SubdomainSolver] = subdomains
+        self.subdomains: Mapping[Block, SubdomainSolver] = subdomains
         layouts = {b: sub.layout for b, sub in self.subdomains.items()}
         self.schedule = order_schedule(comm, system, contacts, order, condensation, layouts)
         self._needed_u = set(self.schedule.needed_u) & set(self.subdomains)
-        pieces = [(r, c, A) for (r, c), A in system.matrices.items() if r.kind != "u" != c.kind]
-        pieces = gather_to_root(comm, pieces)
+        mine = [(r, c, A) for (r, c), A in system.matrices.items() if r.kind != "u" != c.kind]
+        pieces = gather_to_root(comm, mine)
         self.surface: Surface | None = None
         # a subdomain with contact on its own boundary is re-factorised: it sends a new Z
         recondensed = any_rank(comm, any(r.block.kind == "u" for r in contacts))
         if comm.rank == ROOT:
+            assert pieces is not None  # gathered here
             self.surface = Surface(self.schedule, log, recondensed)
             for part in pieces:
                 for r, c, A in part:
                     self.surface.add_base(r, c, A)
-        self._contact: dict[str, sp.csr_array] = {}  # latest contact matrix of each w block
-        self._pending_contact: dict[str, sp.csr_array] = {}  # changed since the last solve
+        self._contact: dict[Block, sp.csr_array] = {}  # latest contact matrix of each w block
+        self._pending_contact: dict[Block, sp.csr_array] = {}  # changed since the last solve
         # The surface blocks side by side in one vector, in the same order on every rank: what
         # the ranks sum (right-hand side) and what rank 0 broadcasts (solution).
         sizes = self.schedule.surface
         blocks = sorted(sizes)
         ends = np.cumsum([sizes[b] for b in blocks])
-        self._where = {b: slice(end - sizes[b], end) for b, end in zip(blocks, ends, strict=True)}
+        self._where: dict[str, slice] = {
+            b: slice(end - sizes[b], end) for b, end in zip(blocks, ends, strict=True)
+        }
         self._surface_size = int(ends[-1]) if blocks else 0
         self._x: dict[str, np.ndarray] = {}
         self._complete = False
@@ -177,7 +181,7 @@ class BlockEliminationSolver:
         Returns the surface blocks solved so far and the owned subdomains the contact check
         needs; the rest follows in :meth:`finish`.
         """
-        changed = {"Z": {}, "contact": self._pending_contact}
+        changed: dict[str, dict[Block, Any]] = {"Z": {}, "contact": self._pending_contact}
         self._pending_contact = {}
         g = np.zeros(self._surface_size)  # this rank's part of the surface right-hand side
         for block, sub in self.subdomains.items():
@@ -189,9 +193,9 @@ class BlockEliminationSolver:
             for s, J in sub.layout:
                 g[self._where[s]][J] += reduced[start : start + len(J)]
                 start += len(J)
-        for block, vector in rhs.items():
-            if Block.parse(block).kind != "u":
-                g[self._where[block]] += vector
+        for key, vector in rhs.items():
+            if Block.parse(key).kind != "u":
+                g[self._where[key]] += vector
         # One meeting of the ranks before the surface solve: a surface vector from each, and
         # a matrix only where one changed (each meeting costs a rank's turn on a busy machine).
         parts = gather_to_root(self.comm, (g, changed), g.nbytes)
@@ -199,6 +203,7 @@ class BlockEliminationSolver:
         x = np.zeros(self._surface_size)
         if self.comm.rank == ROOT:
             surface = self.surface
+            assert parts is not None and surface is not None  # the root's
             g = np.sum([part for part, _ in parts], axis=0)
             for _, part in parts:
                 for block, Z in part["Z"].items():
@@ -237,10 +242,13 @@ class BlockEliminationSolver:
         if not self._complete:
             x = np.zeros(self._surface_size)
             if self.comm.rank == ROOT:
+                assert self.surface is not None  # the root's
                 x = self._packed(self.surface.back_substitute(self._x))
             self._x = self._unpacked(bcast_array(self.comm, x), True)
             self._complete = True
-        u = {b: s.back_substitute(self._x) for b, s in self.subdomains.items()}
+        u: dict[str, np.ndarray] = {
+            b: s.back_substitute(self._x) for b, s in self.subdomains.items()
+        }
         return {**self._x, **u}
 
     @property

@@ -14,7 +14,7 @@ from petsc4py import PETSc
 import numpy as np
 import scipy.sparse as sp
 
-from dd_contact.blocks import BlockSystem, ContactRegion, refuse_unsolvable
+from dd_contact.blocks import Block, BlockKeyed, BlockSystem, ContactRegion, refuse_unsolvable
 from dd_contact.parallel import any_rank
 from dd_contact.solvers.linalg import (
     PatternedMatrix,
@@ -52,7 +52,8 @@ class MonolithicSolver:
         refuse_unsolvable(contacts)
         self.comm, self.system, self.log = comm, system, log
         order = sorted(system.sizes, key=lambda b: system.owners[b])
-        self.offsets, start = {}, 0
+        self.offsets: dict[str, int] = {}
+        start = 0
         for name in order:
             self.offsets[name] = start
             start += system.sizes[name]
@@ -79,31 +80,36 @@ class MonolithicSolver:
             return
         self.matrix.push()
         if self._factor is None:
+            assert self.matrix.A is not None  # a PETSc matrix: not upper_coo
             self._factor = SparseCholesky(self.matrix.A, self.log, "FULL")
         else:
             self._factor.refactorise()
 
-    def solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    def solve(self, rhs: BlockKeyed[np.ndarray]) -> dict[str, np.ndarray]:
         """Solve with this rank's right-hand-side contributions; every rank gets every block."""
         self._refactorise()
+        assert self.matrix.A is not None and self._factor is not None
         b = self.matrix.A.createVecRight()
         for name, vector in rhs.items():
             idx = np.arange(len(vector), dtype=PETSc.IntType) + self.offsets[name]
-            b.setValues(idx, vector, addv=PETSc.InsertMode.ADD_VALUES)
+            # petsc4py's stubs (here and below): values as a Sequence (an ndarray is not), the
+            # insert mode as InsertMode (its values are ints)
+            b.setValues(idx, vector, addv=PETSc.InsertMode.ADD_VALUES)  # type: ignore[arg-type]
         b.assemble()
         x = self._factor.solve(b)
         if self.comm.size == 1:  # x holds every row already
             values = x.getArray(readonly=True).copy()
         else:
             scatter, x_all = PETSc.Scatter.toAll(x)
-            scatter.scatter(x, x_all, addv=PETSc.InsertMode.INSERT_VALUES)
+            scatter.scatter(x, x_all, addv=PETSc.InsertMode.INSERT_VALUES)  # type: ignore[arg-type]
             values = x_all.getArray().copy()
             scatter.destroy()
             x_all.destroy()
         x.destroy()
         b.destroy()
         self._last = {
-            name: values[off : off + self.system.sizes[name]] for name, off in self.offsets.items()
+            name: values[off : off + self.system.sizes[Block.parse(name)]]
+            for name, off in self.offsets.items()
         }
         return self._last
 
@@ -119,6 +125,7 @@ class MonolithicSolver:
     def analyse(self) -> SparseStatistics:
         """Collective: MUMPS's analysis of the matrix (contact patterns included)."""
         self.matrix.push()
+        assert self.matrix.A is not None  # a PETSc matrix: not upper_coo
         return sparse_statistics(self.matrix.A)
 
     def destroy(self) -> None:

@@ -50,8 +50,8 @@ MUMPS_LAYOUT_VERSION = "5.8."
 _INT = ctypes.c_int32  # MUMPS_INT of a default (32-bit integer) MUMPS build
 _INT8 = ctypes.c_int64
 _REAL = ctypes.c_double
-_PINT = ctypes.POINTER(_INT)
-_PREAL = ctypes.POINTER(_REAL)
+_PINT: type[ctypes._Pointer] = ctypes.POINTER(_INT)  # typed alike: mypy joins lists of both
+_PREAL: type[ctypes._Pointer] = ctypes.POINTER(_REAL)
 
 
 class _DmumpsStruc(ctypes.Structure):
@@ -85,8 +85,8 @@ class _DmumpsStruc(ctypes.Structure):
         *[(name, _INT) for name in ("nloc_rhs", "lrhs_loc", "nsol_loc")],
         *[(name, _INT) for name in ("schur_mloc", "schur_nloc", "schur_lld")],
         *[(name, _INT) for name in ("mblock", "nblock", "nprow", "npcol", "ld_rhsintr")],
-        *[("info", _INT * 80), ("infog", _INT * 80), ("rinfo", _REAL * 40)],
-        ("rinfog", _REAL * 40),
+        *[("info", _INT * 80), ("infog", _INT * 80)],
+        *[("rinfo", _REAL * 40), ("rinfog", _REAL * 40)],
         ("deficiency", _INT),
         *[("pivnul_list", _PINT), ("mapping", _PINT), ("singular_values", _PREAL)],
         ("size_schur", _INT),
@@ -229,7 +229,8 @@ class SchurFactorisation:
             rows, cols = rows[upper], cols[upper]
         self._irn = (rows + 1).astype(np.int32)
         self._jcn = (cols + 1).astype(np.int32)
-        self._a = np.zeros(len(self._irn)) if self._upper is not None else None  # values
+        self._a: np.ndarray | None  # values
+        self._a = np.zeros(len(self._irn)) if self._upper is not None else None
         self._listvar = np.arange(size - schur + 1, size + 1, dtype=np.int32)
         self._redrhs = np.zeros(schur)
         self._rhs = np.zeros(size)
@@ -252,8 +253,8 @@ class SchurFactorisation:
         self._compact_once = ICNTL_COMPACT not in icntl  # the user's option holds throughout
         for k, value in {ICNTL_COMPACT: int(compact), **PACKAGE_ICNTL, **icntl}.items():
             self._id.icntl[k - 1] = value
-        for k, value in cntl.items():
-            self._id.cntl[k - 1] = value
+        for k, real in cntl.items():
+            self._id.cntl[k - 1] = real
         self._id.n, self._id.nnz = size, len(self._irn)
         self._id.irn, self._id.jcn = _pointer(self._irn, _INT), _pointer(self._jcn, _INT)
         self._id.size_schur, self._id.schur_lld = schur, schur
@@ -273,6 +274,7 @@ class SchurFactorisation:
     def _set_values(self, values: np.ndarray) -> None:
         """Point MUMPS at ``values`` (in place if they are the upper triangle's, as given)."""
         if self._upper is not None:
+            assert self._a is not None  # made with the mask
             self._a[:] = values[self._upper]
         elif values.dtype == np.float64 and values.flags.c_contiguous:
             self._a = values  # MUMPS reads the caller's array: no copy
@@ -391,7 +393,9 @@ class SchurFactorisation:
         if getattr(self, "_id", None) is not None and not MPI.Is_finalized():
             self._id.job = JOB_END
             _dmumps_c()(ctypes.byref(self._id))
-        self._id = None
+        # None only once destroyed, when nothing but handle and destroy read it: typed as
+        # the live struct for the methods' sake
+        self._id = None  # type: ignore[assignment]
 
     def __del__(self) -> None:
         # as petsc4py objects: freed when collected if nobody called destroy()

@@ -35,7 +35,7 @@ from mpi4py import MPI
 import numpy as np
 import scipy.sparse as sp
 
-from dd_contact.blocks import BlockSystem
+from dd_contact.blocks import Block, BlockSystem
 from dd_contact.parallel import sum_over_ranks
 
 __all__ = [
@@ -74,7 +74,7 @@ class Residual:
 
 
 def free_rows(
-    system: BlockSystem, contact_dofs: Mapping[str, np.ndarray] | None = None
+    system: BlockSystem, contact_dofs: Mapping[Block, np.ndarray] | None = None
 ) -> dict[str, np.ndarray]:
     """The free rows of this rank's subdomain blocks: no tie or contact term acts on them."""
     tied = {b: np.zeros(n, bool) for b, n in system.sizes.items() if b.kind == "u"}
@@ -92,13 +92,13 @@ def exact_residual(
     system: BlockSystem,
     rhs: Mapping[str, np.ndarray],
     x: Mapping[str, np.ndarray],
-    contact: Sequence[tuple[str, np.ndarray, sp.sparray]] = (),
+    contact: Sequence[tuple[Block, np.ndarray, sp.sparray]] = (),
 ) -> Residual:
     """The residuals :class:`ResidualCheck` estimates, exactly (one rank; for verification).
 
     One matrix-vector product per block: what the estimate saves.
     """
-    r = {b: np.zeros(n) for b, n in system.sizes.items()}
+    r: dict[str, np.ndarray] = {b: np.zeros(n) for b, n in system.sizes.items()}
     for block, vector in rhs.items():
         r[block] += vector
     for row, col, A in system.all_blocks():
@@ -128,10 +128,11 @@ class ResidualCheck:
         self,
         comm: MPI.Comm,
         system: BlockSystem,
-        contact_dofs: Mapping[str, np.ndarray] | None = None,
+        contact_dofs: Mapping[Block, np.ndarray] | None = None,
         probes: int = PROBES,
     ):
-        self.comm, self.probes, self.sizes = comm, probes, dict(system.sizes)
+        self.comm, self.probes = comm, probes
+        self.sizes: dict[str, int] = {b: n for b, n in system.sizes.items()}
         self._z: dict[str, np.ndarray] = {}
         # Free rows: subdomain dofs without a tie or contact term (known on their owner).
         self._free = {

@@ -8,11 +8,12 @@ sizes, blocks (:class:`~dd_contact.blocks.Block`) and couplings only: no PETSc, 
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from dd_contact.blocks import Block
+from dd_contact.blocks import Block, BlockKeyed
 
 __all__ = [
     "ALGORITHMS",
@@ -110,9 +111,9 @@ class Group:
             the earlier eliminations): what eliminating it changes.
     """
 
-    blocks: tuple[str, ...]
+    blocks: tuple[Block, ...]
     last: bool
-    neighbours: tuple[str, ...]
+    neighbours: tuple[Block, ...]
 
     @property
     def name(self) -> str:
@@ -145,14 +146,16 @@ class Operation:
     analysis: bool = False
 
 
-def _plan_groups(surface: dict[str, int], pairs: set, levels: tuple[str, ...]) -> list[list[Group]]:
+def _plan_groups(
+    surface: dict[Block, int], pairs: set, levels: tuple[str, ...]
+) -> list[list[Group]]:
     """The groups of each level: connected blocks of the level's kind, given the fill-in."""
     coupled = {frozenset(p) for p in pairs if p[0] != p[1]}
     remaining = set(surface)
     all_groups = []
     for li, kind in enumerate(levels):
         level = sorted(b for b in remaining if b.kind == kind)
-        members: list[list[str]] = []
+        members: list[list[Block]] = []
         for b in level:
             joined = [m for m in members if any(frozenset((b, a)) in coupled for a in m)]
             members = [m for m in members if m not in joined] + [
@@ -203,10 +206,10 @@ class Schedule:
     def __init__(
         self,
         order: str,
-        sizes: dict[str, int],
-        layouts: dict[str, list],
+        sizes: BlockKeyed[int],
+        layouts: BlockKeyed[list],
         base_pairs: set,
-        regions: dict[str, str],
+        regions: Mapping[str, str | tuple[str, ...]],
         condensation: str = "schur",
         split_substitution: bool | None = None,
     ):
@@ -227,15 +230,15 @@ class Schedule:
         #: Contact region -> the blocks its contact matrix couples.
         self.regions = {key: region_blocks(b) for key, b in regions.items()}
         #: Per subdomain: surface block -> (offset in the condensed operator Z, tied dofs).
-        self.tied_at: dict[str, dict[str, tuple[int, np.ndarray]]] = {}
+        self.tied_at: dict[Block, dict[Block, tuple[int, np.ndarray]]] = {}
         pairs = {(a, b) for a, b in base_pairs} | {(b, a) for a, b in base_pairs}
         self.base_pairs = frozenset(pairs)
         for block, layout in self.layouts.items():
             offsets = np.cumsum([0] + [len(J) for _, J in layout])
             self.tied_at[block] = {s: (int(offsets[i]), J) for i, (s, J) in enumerate(layout)}
             pairs |= {(a, b) for a, _ in layout for b, _ in layout}
-        for blocks in self.regions.values():  # a contact pair's blocks are one group
-            pairs |= {(a, b) for a in blocks for b in blocks if a != b}
+        for coupled in self.regions.values():  # a contact pair's blocks are one group
+            pairs |= {(a, b) for a in coupled for b in coupled if a != b}
         #: Surface block pairs that are not zero after the subdomain condensation.
         self.pairs = frozenset(pairs)
         #: The groups of each level, first level first.
@@ -249,7 +252,7 @@ class Schedule:
         self.needed_u = sorted(b for b in needed if b.kind == "u")
 
     # -- the rules -------------------------------------------------------------------------
-    def coupling_size(self, block: str) -> int:
+    def coupling_size(self, block: Block) -> int:
         """Columns of a subdomain's couplings: the size of its condensed operator."""
         return sum(len(J) for _, J in self.layouts.get(block, []))
 
@@ -301,7 +304,7 @@ class Schedule:
         return total
 
     # -- the plans -------------------------------------------------------------------------
-    def factorise_subdomain(self, block: str, analysis: bool) -> list[Operation]:
+    def factorise_subdomain(self, block: Block, analysis: bool) -> list[Operation]:
         """Factorise a subdomain and condense its couplings."""
         n, m = self.subdomains[block], self.coupling_size(block)
         if self.condensation == "schur" and m:
@@ -316,7 +319,7 @@ class Schedule:
         ]
         return ops
 
-    def substitute_subdomain(self, block: str, what: str) -> Operation:
+    def substitute_subdomain(self, block: Block, what: str) -> Operation:
         """A substitution with a subdomain's factor for ``"u_hat"`` or ``"u"``.
 
         Split: the forward sweep for u_hat (the surface right-hand side), the backward sweep
@@ -410,7 +413,7 @@ class FullSchedule:
 
     order = "FULL"
 
-    def __init__(self, size: int, regions: dict[str, str]):
+    def __init__(self, size: int, regions: Mapping[str, str | tuple[str, ...]]):
         self.size, self.regions = size, dict(regions)
 
     def setup(self) -> list[Operation]:

@@ -43,7 +43,7 @@ __all__ = [
 ]
 
 
-def coupling_layout(block: str, system: BlockSystem) -> tuple[list, sp.csr_array]:
+def coupling_layout(block: Block, system: BlockSystem) -> tuple[list, sp.csr_array]:
     """The couplings of a subdomain: ``(surface block, tied dofs)`` each, and their columns.
 
     Returns the layout and ``C``, the subdomain's non-zero coupling columns side by side.
@@ -70,6 +70,7 @@ class SubdomainSolver(Protocol):
     block: Block
     layout: list
     Z: np.ndarray | None
+    matrix: PatternedMatrix  # where the engine sets its contact matrices
 
     @property
     def changing(self) -> bool:
@@ -151,7 +152,10 @@ class SubdomainCondensation:
         if self.schur:
             rows, cols = self.matrix.take_indices()
             self.factor = SchurFactorisation(rows, cols, size, m, log, block, compact)
-        self.Z, self.u_hat, self._b, self._g = None, None, None, None
+        self.Z: np.ndarray | None = None
+        self.u_hat: np.ndarray | None = None
+        self._b: np.ndarray | None = None
+        self._g: np.ndarray | None = None
         self.u: np.ndarray | None = None
         self._factorised = False
 
@@ -166,18 +170,23 @@ class SubdomainCondensation:
         With ``"schur"`` the analysis is the factorisation's own (not repeated by it).
         """
         if self.schur:
+            assert isinstance(self.factor, SchurFactorisation)
             return self.factor.analyse(self.matrix.values)
         self.matrix.push()
+        assert self.matrix.A is not None  # a PETSc matrix without a Schur block
         return sparse_statistics(self.matrix.A)
 
     def factorise(self) -> None:
         """(Re-)factorise K_hat and condense the coupling columns: Z = C^T K^-1 C."""
         self.matrix.push()
         if self.schur:
+            assert isinstance(self.factor, SchurFactorisation)
             self.Z = self.factor.factorise(self.matrix.values)  # S = -Z, exactly symmetric
             np.negative(self.Z, out=self.Z)
         else:
+            assert not isinstance(self.factor, SchurFactorisation)
             if self.factor is None:
+                assert self.matrix.A is not None  # a PETSc matrix without a Schur block
                 self.factor = SparseCholesky(self.matrix.A, self.log, self.block)
             else:
                 self.factor.refactorise()
@@ -199,11 +208,14 @@ class SubdomainCondensation:
         if self._b is None or not np.array_equal(b, self._b):
             self._b = b.copy()
             if self.schur:
+                assert isinstance(self.factor, SchurFactorisation)
                 self._g = self.factor.reduce(b, "u_hat")
             else:
+                assert isinstance(self.factor, SparseCholesky)
                 self.u_hat = self.factor.solve_array(b, "u_hat")
                 self._g = -(self.C.T @ self.u_hat)
         self.u = None
+        assert self._g is not None  # computed with _b
         return self._g
 
     def back_substitute(self, surface: dict[str, np.ndarray]) -> np.ndarray:
@@ -213,10 +225,13 @@ class SubdomainCondensation:
         :meth:`surface_rhs` (a second expansion for the same b sweeps forward again).
         """
         if self.u is None:
+            assert self._b is not None  # surface_rhs came first
             xs = np.concatenate([surface[s][J] for s, J in self.layout] or [np.zeros(0)])
             if not self.schur:
+                assert isinstance(self.factor, SparseCholesky)
                 self.u = self.factor.solve_array(self._b - self.C @ xs, "u")
                 return self.u
+            assert isinstance(self.factor, SchurFactorisation)
             if not self.factor.reduced:  # MUMPS released the forward sweep
                 self.factor.reduce(self._b, "u")
             self.u = self.factor.expand(xs, "u")

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from dd_contact.blocks import Block
 from dd_contact.solvers.linalg import (
     DenseCholesky,
 )
@@ -32,7 +33,7 @@ class _GroupState:
     factor: DenseCholesky | None = None
     B: np.ndarray | None = None  # the non-zero coupling columns to the neighbours
     subtracted: np.ndarray | None = None  # B^T A_GG^-1 B: what eliminating the group subtracts
-    columns: list[tuple[str, np.ndarray]] = field(default_factory=list)
+    columns: list[tuple[Block, np.ndarray]] = field(default_factory=list)
     offsets: np.ndarray | None = None
     g_in: np.ndarray | None = None  # right-hand side when last eliminated
     y: np.ndarray | None = None  # A_GG^-1 g_in
@@ -61,20 +62,20 @@ class Surface:
     def __init__(self, schedule: Schedule, log: WorkLog, recondensed: bool = True):
         self.schedule, self.sizes, self.log = schedule, schedule.surface, log
         self.recondensed = recondensed
-        self.base: dict[tuple[str, str], np.ndarray] = {}
-        self.condensed: dict[str, np.ndarray] = {}  # latest Z of each subdomain (if kept)
+        self.base: dict[tuple[Block, Block], np.ndarray] = {}
+        self.condensed: dict[Block, np.ndarray] = {}  # latest Z of each subdomain (if kept)
         self._sources_freed = False  # base pairs in S and every Z freed (not recondensed)
         #: Contact matrices by the block pair they couple: ``(w, w)`` for an obstacle's
         #: region; a contact pair's off-diagonal pieces will go in as ``(a, b)``.
-        self.contact: dict[tuple[str, str], sp.csr_array] = {}
-        self.schur_pairs: dict[tuple[str, str], np.ndarray] = {}
-        self.eliminated: dict[tuple[str, str], np.ndarray] = {}
+        self.contact: dict[tuple[Block, Block], sp.csr_array] = {}
+        self.schur_pairs: dict[tuple[Block, Block], np.ndarray] = {}
+        self.eliminated: dict[tuple[Block, Block], np.ndarray] = {}
         self.state = {g.name: _GroupState() for g in schedule.flat}
         self.changed: set[str] = set()  # surface blocks changed since the last factorise
-        self.new_pairs: set[tuple[str, str]] = set()  # Schur pairs changed since then
+        self.new_pairs: set[tuple[Block, Block]] = set()  # Schur pairs changed since then
         self.stale: set[str] = {g.name for g in schedule.flat}  # nothing factorised yet
 
-    def add_base(self, row: str, col: str, A: sp.sparray) -> None:
+    def add_base(self, row: Block, col: Block, A: sp.sparray) -> None:
         """Add a stored piece of a surface pair's own matrix (``BlockSystem.matrices``).
 
         The dense pair it stands for in both orientations: the transpose is a view.
@@ -84,7 +85,7 @@ class Surface:
         if row != col:
             self.base[(col, row)] = self.base[(row, col)].T
 
-    def set_condensed(self, block: str, Z: np.ndarray) -> None:
+    def set_condensed(self, block: Block, Z: np.ndarray) -> None:
         """A subdomain's new condensation: rebuild the surface pairs it touches."""
         if self._sources_freed:
             raise RuntimeError(
@@ -113,7 +114,7 @@ class Surface:
                 self.base.pop(pair, None)
             self._sources_freed = True
 
-    def set_contact(self, pair: tuple[str, str], matrix: sp.csr_array) -> None:
+    def set_contact(self, pair: tuple[Block, Block], matrix: sp.csr_array) -> None:
         """The new contact matrix of a block pair (``(w, w)``: a block's own)."""
         self.contact[pair] = matrix
         self.changed |= set(pair)
@@ -131,7 +132,7 @@ class Surface:
         # every pair's matrix as the current level sees it: S's, then each level's eliminated
         level_pairs = {p: self._schur_pair(p) for p in self.schedule.pairs}
         for level in self.schedule.groups:
-            updates: dict[tuple[str, str], list] = {}
+            updates: dict[tuple[Block, Block], list] = {}
             for g in level:
                 state = self.state[g.name]
                 if g.name in self.stale:
@@ -197,6 +198,7 @@ class Surface:
             parts.append(B[:, J])
         state.B = np.hstack(parts)
         state.offsets = np.cumsum([0] + [len(J) for _, J in state.columns])
+        assert state.factor is not None  # factorised before it is coupled
         state.subtracted = state.factor.congruence(state.B, "condense")
 
     def solve(self, g: dict[str, np.ndarray], complete: bool) -> dict[str, np.ndarray]:
@@ -208,19 +210,24 @@ class Surface:
         for level in self.schedule.groups:
             for grp in level:
                 state = self.state[grp.name]
+                assert state.factor is not None  # every group is factorised before a solve
                 rhs = np.concatenate([g[b] for b in grp.blocks])
                 if grp.last:
                     self._split(grp, state.factor.solve(rhs, "x"), g)
                     continue
-                new_rhs = state.y is None or not np.array_equal(rhs, state.g_in)
+                # y and g_in are set together
+                new_rhs = (
+                    state.y is None or state.g_in is None or not np.array_equal(rhs, state.g_in)
+                )
                 if self.schedule.solves(grp, self.stale, new_rhs):
                     state.y, state.g_in = state.factor.solve(rhs, "y"), rhs
                 if grp.neighbours:
+                    assert state.B is not None and state.y is not None and state.offsets is not None
                     correction = state.B.T @ state.y
                     for i, (r, J) in enumerate(state.columns):
                         g[r][J] -= correction[state.offsets[i] : state.offsets[i + 1]]
         self.stale = set()
-        x = {b: g[b] for grp in self.schedule.groups[-1] for b in grp.blocks}
+        x: dict[str, np.ndarray] = {b: g[b] for grp in self.schedule.groups[-1] for b in grp.blocks}
         if complete:
             x.update(self.back_substitute(x))
         return x
@@ -231,8 +238,10 @@ class Surface:
         for level in reversed(self.schedule.groups[:-1]):
             for grp in level:
                 state = self.state[grp.name]
+                assert state.factor is not None and state.g_in is not None  # solved forward
                 rhs = state.g_in.copy()
                 if grp.neighbours:
+                    assert state.B is not None
                     coupled = np.concatenate([x[r][J] for r, J in state.columns])
                     rhs -= state.B @ coupled
                 self._split(grp, state.factor.solve(rhs, "x"), x)

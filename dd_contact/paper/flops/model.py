@@ -369,12 +369,12 @@ class CostReport:
         return self.gflops_decomposition + self.gflops_substitution
 
 
-def _banded(name: str, d: int, b: int, n_dec: int, n_sub: int) -> MeshCost:
+def _banded(name: str, d: int, b: int, n_dec: int, n_sub: float) -> MeshCost:
     dec, sub = n_dec * f3(d, b) / _GIGA, n_sub * f4(d, b) / _GIGA
     return MeshCost(name, int(d), int(b), int(n_dec), int(n_sub), float(dec), float(sub))
 
 
-def _dense(name: str, d: int, n_dec: int, n_sub: int) -> MeshCost:
+def _dense(name: str, d: int, n_dec: int, n_sub: float) -> MeshCost:
     dec, sub = n_dec * f1(d) / _GIGA, n_sub * f2(d) / _GIGA
     return MeshCost(name, int(d), None, int(n_dec), int(n_sub), float(dec), float(sub))
 
@@ -420,7 +420,7 @@ def _variant(s: SceneSizes, algorithm: str) -> tuple[Schedule | FullSchedule, li
     Returns the schedule and, in report order, ``(schedule target, name, dofs,
     half-bandwidth or None for a dense matrix, contacts)`` of every mesh.
     """
-    regions = {c.name: _w(i) for i, c in enumerate(s.contacts)}
+    regions: dict[str, str] = {c.name: _w(i) for i, c in enumerate(s.contacts)}
     if algorithm == "FULL":
         w = s.whole
         regions = {c.name: "FULL" for c in s.contacts}
@@ -510,7 +510,8 @@ def _counts(s: SceneSizes, algorithm: str) -> list[MeshCost]:
     counts = schedule_counts(schedule, s.n_steps, s.gamma, {c.name: c.alpha for c in s.contacts})
     out = []
     for target, name, dofs, bandwidth in meshes:
-        n_dec, n_sub = counts[(target, "decompositions")], counts[(target, "substitutions")]
+        n_dec = counts[(target, "decompositions")]
+        n_sub: float = counts[(target, "substitutions")]
         sweeps = counts[(target, "sweeps")]
         n_sub += sweeps // 2 if sweeps % 2 == 0 else sweeps / 2
         if bandwidth is None:

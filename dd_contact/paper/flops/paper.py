@@ -457,8 +457,8 @@ def pin_joint_sizes(
         )
     contacts = []
     for j in range(active_holes):
-        pin, plate = divmod(j, 2)
-        k = plate * (h + 1) + pin
+        pin, side = divmod(j, 2)
+        k = side * (h + 1) + pin
         contacts.append(
             ContactCounts(f"Gamma_C {subdomains[k].name}", m["contact_dofs"], k, changes)
         )

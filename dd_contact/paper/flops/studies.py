@@ -17,7 +17,7 @@ import os
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from dd_contact.paper.flops.model import CostReport, SceneSizes, compare
 from dd_contact.paper.flops.paper import (
@@ -98,8 +98,8 @@ def _study(
         title=title,
         xlabel=xlabel,
         x=tuple(x),
-        percent_of_full={
-            a: tuple(float(r[a].percent_of_full) for r in reports) for a in algorithms
+        percent_of_full={  # compare fills percent_of_full in
+            a: tuple(float(cast(float, r[a].percent_of_full)) for r in reports) for a in algorithms
         },
         gflops_total={a: tuple(r[a].gflops_total for r in reports) for a in algorithms},
         **kwargs,

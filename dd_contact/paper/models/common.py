@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import dolfinx.mesh
 import numpy as np
@@ -29,7 +30,9 @@ def block_tags(
     With ``hole = ((x, y), radius)``, the wall of a hole about z (its nodes on the circle).
     """
     tol = 1e-9 * max(np.subtract(upper, lower))
-    regions = {}
+    # a locator of each tag (Callable[..., Any]: mypy infers no lambda with defaults for
+    # face_tags's Callable[[np.ndarray], np.ndarray])
+    regions: dict[int, Callable[..., Any]] = {}
     if hole is not None:
         (cx, cy), radius = hole
         regions[FACE_TAGS["hole"]] = lambda x: np.hypot(x[0] - cx, x[1] - cy) < radius * 1.001

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable, Sequence
+from typing import cast
 
 from mpi4py import MPI
 
@@ -61,7 +62,7 @@ LAYOUTS = {
 }
 
 
-def bar_elements(scale: str | float | Sequence[int]) -> tuple[int, int, int]:
+def bar_elements(scale: str | float | Sequence[int]) -> tuple[int, ...]:
     """Hexahedra along x, y, z for a scale.
 
     A name of :data:`BAR_SCALES`, a fraction of the paper's resolution per direction (at
@@ -75,11 +76,13 @@ def bar_elements(scale: str | float | Sequence[int]) -> tuple[int, int, int]:
             )
         return BAR_SCALES[scale]
     if np.ndim(scale) == 0:
-        if not float(scale) > 0.0:
+        fraction = cast(float, scale)  # a number, numpy's too
+        if not float(fraction) > 0.0:
             raise InputError(f"parallelepiped: scale must be positive, got {scale}")
-        return tuple(max(1, round(n * float(scale))) for n in PAPER_BAR.elements)
-    counts = tuple(int(n) for n in scale)
-    if len(counts) != 3 or min(counts) < 1 or list(counts) != list(scale):
+        return tuple(max(1, round(n * float(fraction))) for n in PAPER_BAR.elements)
+    given = cast(Sequence[int], scale)
+    counts = tuple(int(n) for n in given)
+    if len(counts) != 3 or min(counts) < 1 or list(counts) != list(given):
         raise InputError(
             f"parallelepiped: scale {scale!r} must be three positive element counts (nx, ny, nz)"
         )
@@ -152,14 +155,18 @@ def bar_scene(
     if len(parts) == 2:
         x_cut = cuts[1] * h
         tie = Interface.from_boundary(
-            parts[0], lambda x: np.isclose(x[0], x_cut), parts, resolution=tuple(interface)
+            parts[0],
+            lambda x: np.isclose(x[0], x_cut),
+            parts,
+            resolution=cast(tuple[int, int], tuple(interface)),
         )
     wall = wall or Plane([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    zone: ContactInterface | ContactBoundary
     end = lambda x: np.isclose(x[0], 0.0)  # noqa: E731
     if layout[1] == "interface":
         zone = ContactInterface.from_boundary(
-            parts[0], end, wall, resolution=tuple(contact), contact_kappa=contact_kappa,
-            name="end",
+            parts[0], end, wall, resolution=cast(tuple[int, int], tuple(contact)),
+            contact_kappa=contact_kappa, name="end",
         )  # fmt: skip
     else:
         zone = ContactBoundary(parts[0], end, wall, contact_kappa=contact_kappa, name="end")

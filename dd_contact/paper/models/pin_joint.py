@@ -110,7 +110,8 @@ def pin_joint_meshes(
     radius, width = lay.hole_diameter * MM / 2, h * pitch
     around = 4 * c if wall_cells is None else int(wall_cells)
     subdomains, holes, plates, walls = {}, {}, {}, {}
-    pieces = []  # interface rectangles: origin, e1, e2, n1, n2
+    # interface rectangles: origin, e1, e2, n1, n2
+    pieces: list[tuple[tuple[float, ...], tuple[float, ...], tuple[float, ...], int, int]] = []
     for plate, z0, grip_y in (
         ("lower", 0.0, (-grip, 0.0)),
         ("upper", thick, (pitch, pitch + grip)),
@@ -133,7 +134,8 @@ def pin_joint_meshes(
         plates[f"{plate}_grip"] = plate
         cut_y = pitch if plate == "upper" else 0.0
         pieces.append(((0.0, cut_y, z0), (width, 0, 0), (0, 0, thick), h * c, t))
-    points, cells = [], []
+    points: list[np.ndarray] = []
+    cells: list[np.ndarray] = []
     for origin, e1, e2, n1, n2 in pieces:
         p, q = meshes.rectangle_grid(
             np.array(origin), np.array(e1, float), np.array(e2, float), n1, n2, "quadrilateral"

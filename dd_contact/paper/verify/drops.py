@@ -97,6 +97,7 @@ def box_drop_scene(
     if split:
         interface = Interface.from_boundary(parts[0], locator(0, L / 2), parts, resolution=(ny, nz))
     wall = Plane([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    zone: ContactBoundary | ContactInterface
     if contact == "boundary":
         zone = ContactBoundary(parts[0], locator(0, 0.0), wall, name="end")
     else:
@@ -130,6 +131,7 @@ def hemisphere_drop_scene(
     mid = mesh.geometry.x[dolfinx.mesh.entities_to_geometry(mesh, 2, cap)].mean(axis=1)
     near = cap[mid[:, 2] < 0.3 * R]
     plane = Plane([0.0, 0.0, -gap], [0.0, 0.0, 1.0])
+    zone: ContactBoundary | ContactInterface
     if contact == "boundary":
         zone = ContactBoundary(ball, near, plane, name="cap")
     else:
@@ -153,7 +155,8 @@ def drop(
     ``trace`` the ``active`` sets (per step, region -> points; this rank's regions) and the
     ``states`` (:func:`dd_contact.paper.verify.displacements` after each step).
     """
-    active, states = [], []
+    active: list[dict[str, np.ndarray]] = []
+    states: list[np.ndarray] = []
 
     def observe(_):
         active.append({name: a.copy() for name, a in problem.iteration.active.items()})

@@ -10,6 +10,7 @@ import functools
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from mpi4py import MPI
 
@@ -183,8 +184,8 @@ def _penalty_record(case: ExtremeCase, algorithm: str, kappa: float, scene: Scen
         stress = stress_error(scene, 0, -1.0)
         force = float(np.linalg.norm(reaction - [1.0, 0.0, 0.0]))
         notes += sorted({f"{w.category.__name__}: {w.message}" for w in caught})
-    except (RuntimeError, FloatingPointError) as error:
-        notes.append(f"{type(error).__name__}: {error}")
+    except (RuntimeError, FloatingPointError) as failure:
+        notes.append(f"{type(failure).__name__}: {failure}")
     note = "; ".join(notes)
     error = max(stress, force)
     # The exact solution is linear: the penalty models stress and force exactly.
@@ -230,7 +231,7 @@ def extremes(
     unknown = [n for n in names if n not in EXTREME_CASES]
     if unknown:
         raise ValueError(f"unknown extremes case(s) {unknown}; valid: {', '.join(EXTREME_CASES)}")
-    records = []
+    records: list[Record] = []
     for case in (EXTREME_CASES[n] for n in names):
         make = functools.partial(
             pressed_scene, case.kind, cells=case.cells, distorted=case.distorted, comm=comm
@@ -241,6 +242,7 @@ def extremes(
         swept = "kappa" if case.family == "tie" else "contact_tie_kappa"
         for kappa in kappas:
             for algorithm in algorithms:
-                scene = make(**{swept: kappa})
+                swept_kappa: dict[str, Any] = {swept: kappa}
+                scene = make(**swept_kappa)
                 records.append(_penalty_record(case, algorithm, kappa, scene))
     return records

@@ -10,6 +10,7 @@ from __future__ import annotations
 import itertools
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 from mpi4py import MPI
 
@@ -219,7 +220,8 @@ def hertz(
     # Only the cap near the pole can touch: keep the contact surface small.
     mid = mesh.geometry.x[dolfinx.mesh.entities_to_geometry(mesh, 2, cap_facets)].mean(axis=1)
     near = cap_facets[mid[:, 2] < 0.15 * R]
-    kwargs = {"contact_kappa": contact_kappa, "points": points, "name": "cap"}
+    kwargs: dict[str, Any] = {"contact_kappa": contact_kappa, "points": points, "name": "cap"}
+    zone: ContactBoundary | ContactInterface
     if contact == "boundary":
         zone = ContactBoundary(ball, near, plane, **kwargs)
     else:

@@ -86,6 +86,7 @@ def block_scene(
     interface = None
     if kind != "single":
         interface = Interface(surface(1.0), parts, kappa=kappa)
+    zone: ContactBoundary | ContactInterface
     if kind == "boundary":
         zone = ContactBoundary(a, locator(0, 0.0), wall, contact_kappa=contact_kappa, name="end")
     else:
@@ -164,9 +165,10 @@ def displacements(scene: Scene) -> np.ndarray:
 
 def _run_order(kind, dynamic, kappa, order, comm, steps, dt):
     scene = order_scene(kind, dynamic, kappa, comm)
+    problem: TransientProblem | StaticProblem
     if dynamic:
         problem = TransientProblem(scene, dt, algorithm=order)
-        states = []
+        states: list[np.ndarray] = []
         problem.run(
             steps,
             progress=False,
