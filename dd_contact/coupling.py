@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import functools
 from dataclasses import dataclass
+from typing import cast
 
 import basix
 import dolfinx.fem
@@ -77,8 +78,8 @@ _MAX_SPLITS = 5
 @functools.cache
 def _triangle_rule(degree: int) -> tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """Gauss points and weights of degree ``degree`` on the reference triangle."""
-    points, weights = basix.make_quadrature(basix.CellType.triangle, degree)
-    return points, weights
+    rule = basix.make_quadrature(basix.CellType.triangle, degree)  # annotated as ArrayLike
+    return cast(tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]], rule)
 
 
 def _coordinate_element(mesh: dolfinx.mesh.Mesh) -> basix.finite_element.FiniteElement:
@@ -117,7 +118,8 @@ def pull_back(
     for _ in range(iterations):
         if active.size == 0:
             break
-        tab = element.tabulate(1, X[active])[..., 0]  # (1 + tdim, n, num_nodes)
+        # basix annotates tabulate's result as ArrayLike; (1 + tdim, n, num_nodes)
+        tab = cast(np.ndarray, element.tabulate(1, X[active]))[..., 0]
         nodes_a = nodes[active]
         residual = x[active] - np.einsum("nk,nkd->nd", tab[0], nodes_a)
         J = np.einsum("tnk,nkd->ndt", tab[1:], nodes_a)  # (n, gdim, tdim)
@@ -347,7 +349,7 @@ class _Rules:
         limits = np.array([limit for limit, _ in _DEGREES])
         degrees = np.array([degree for _, degree in _DEGREES])
         distortion = self.distortion(tri, tri_s, tri_f)
-        done = [], [], [], []
+        done: tuple[list[np.ndarray], ...] = [], [], [], []
         for level in range(_MAX_SPLITS + 1):
             # A singular map (a degenerate or non-convex cell) is not helped by splitting.
             split = (distortion > limits[-1]) & np.isfinite(distortion) & (level < _MAX_SPLITS)
@@ -561,7 +563,8 @@ def _basis_at(
     mesh = space.mesh
     nodes = mesh.geometry.x[mesh.geometry.dofmaps[0][cells]]
     X = pull_back(_coordinate_element(mesh), nodes, x)
-    return space.element.basix_element.tabulate(0, X)[0, :, :, 0], space.dofmap.list[cells]
+    phi = cast(np.ndarray, space.element.basix_element.tabulate(0, X))  # basix: ArrayLike
+    return phi[0, :, :, 0], space.dofmap.list[cells]
 
 
 def _mass(w, run, phi_a, dofs_a, phi_b, dofs_b, shape) -> sp.csr_array:

@@ -194,7 +194,9 @@ class ContactIteration:
         #: Per zone of this rank: the release solves in which it had points let go (the
         #: solves' new right-hand side is on its block; :meth:`Schedule.release`).
         self.releases = {z.contact.name: 0 for z in zones}
-        self._correction, self._shift, self._last = None, {}, None
+        self._correction: StepCorrection | None = None
+        self._shift: dict[str, np.ndarray] = {}
+        self._last: dict[str, np.ndarray] | None = None
 
     def start(self, t: float) -> None:
         """Initial active sets: the points touching the obstacle at ``t`` (within tolerance)."""
@@ -345,9 +347,9 @@ class ContactIteration:
                     active = self.active[z.contact.name]
                     r = (z.operator.points.x[active] - body.centre) / body.size
                     local.append(rigid_motion_rows(r, z.operator.normal[active]) @ body.free)
-            rows = [p for part in allgathered(self.comm, local) for p in part]
+            parts = [p for part in allgathered(self.comm, local) for p in part]
             m = body.free.shape[1]
-            rows = np.concatenate(rows) if rows else np.zeros((0, m))
+            rows = np.concatenate(parts) if parts else np.zeros((0, m))
             singular = np.linalg.svd(rows, compute_uv=False) if len(rows) else np.zeros(0)
             resisted = int(np.sum(singular > 1e-8 * max(1.0, singular.max(initial=0.0))))
             if resisted < m:
@@ -411,6 +413,7 @@ class ContactIteration:
         rhs, contact = self.solved_system(solver)
         residual = self.residual = self.check.estimate(rhs, x, contact)
         tolerance = self.settings.residual_tolerance
+        assert tolerance is not None  # self.check is None without one
         if not np.isfinite(residual.whole):
             raise InaccurateSolutionError(f"the solution at {where} contains NaN or inf")
         if residual.free is not None and not residual.free <= FREE_ROW_TOLERANCE:

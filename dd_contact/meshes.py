@@ -337,6 +337,7 @@ def hemisphere(
     rank = 0
     if comm.rank != rank:  # Only ``rank`` holds the Gmsh model; the others receive cells.
         data = dolfinx.io.gmsh.model_to_mesh(None, comm, rank, gdim=3)
+        assert data.facet_tags is not None  # the model has physical facet groups
         return data.mesh, data.facet_tags
 
     options = {
@@ -350,6 +351,7 @@ def hemisphere(
     with _gmsh_model("hemisphere", options) as gmsh:
         _hemisphere_model(gmsh, radius, contact_radius, h_contact, h_far, quarter, order, grading)
         data = dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, rank, gdim=3)
+    assert data.facet_tags is not None
     data.facet_tags.name = "hemisphere_facets"
     return data.mesh, data.facet_tags
 
@@ -510,8 +512,8 @@ def cylinder_surface(
         [centre[0] + radius * np.cos(angles), centre[1] + radius * np.sin(angles)]
     )
     points = np.column_stack([np.tile(ring, (n_along + 1, 1)), np.repeat(z, n_around)])
-    i, k = np.meshgrid(np.arange(n_around), np.arange(n_along), indexing="ij")
-    i, k = i.ravel(), k.ravel()
+    i2, k2 = np.meshgrid(np.arange(n_around), np.arange(n_along), indexing="ij")
+    i, k = i2.ravel(), k2.ravel()
     a, b = k * n_around + i, k * n_around + (i + 1) % n_around
     # (z along e1, angle along e2): e1 x e2 = z x tangent = -radial, towards the axis.
     cells = np.column_stack([a, a + n_around, b, b + n_around])

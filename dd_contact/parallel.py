@@ -23,6 +23,7 @@ from mpi4py import MPI
 
 import numpy as np
 
+from dd_contact.blocks import Block, BlockKeyed
 from dd_contact.errors import InputError
 
 __all__ = [
@@ -224,11 +225,11 @@ def bcast_array(comm: MPI.Comm, array: np.ndarray) -> np.ndarray:
     return array
 
 
-def allgather_blocks[K: str](
+def allgather_blocks(
     comm: MPI.Comm,
-    local: Mapping[str, np.ndarray],
-    owners: Mapping[K, int],
-    sizes: Mapping[K, int],
+    local: BlockKeyed[np.ndarray],
+    owners: Mapping[Block, int],
+    sizes: Mapping[Block, int],
 ) -> dict[str, np.ndarray]:
     """Collective: every block of ``owners`` on every rank, each sent by its owner.
 

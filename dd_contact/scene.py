@@ -113,7 +113,8 @@ def _surface(
     if resolution is not None:
         if not isinstance(resolution, Sequence) or len(resolution) != 2:
             raise InputError(f"{what}: resolution must be (n1, n2) cell counts or None")
-        resolution = tuple(arguments.positive_int(n, f"{what}: resolution") for n in resolution)
+        n1, n2 = (arguments.positive_int(n, f"{what}: resolution") for n in resolution)
+        resolution = (n1, n2)
     if cell_type not in ("quadrilateral", "triangle"):
         raise InputError(
             f"{what}: cell_type must be 'quadrilateral' or 'triangle', got {cell_type!r}"

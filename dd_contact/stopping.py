@@ -12,7 +12,9 @@ from __future__ import annotations
 import signal
 import sys
 import threading
+from collections.abc import Callable
 from types import FrameType
+from typing import Any
 
 from mpi4py import MPI
 
@@ -35,7 +37,10 @@ class StopRequests:
     def __init__(self):
         #: The last stop signal received (``None``: none).
         self.signum: int | None = None
-        self._previous: dict[int, object] = {}
+        #: What ``signal.signal`` returned per signal: a handler, an int, or ``None``.
+        self._previous: dict[
+            int, Callable[[int, FrameType | None], Any] | int | signal.Handlers | None
+        ] = {}
 
     def _note(self, signum: int, frame: FrameType | None) -> None:
         self.signum = signum

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import cast
 
 import dolfinx.fem as fem
 import dolfinx.mesh
@@ -130,11 +131,15 @@ class Subdomain:
         if isinstance(where, fem.DirichletBC) or (
             isinstance(where, Sequence) and where and isinstance(where[0], fem.DirichletBC)
         ):
-            bcs = [where] if isinstance(where, fem.DirichletBC) else where
+            bcs = (
+                [where]
+                if isinstance(where, fem.DirichletBC)
+                else cast(Sequence[fem.DirichletBC], where)
+            )
             self.prescribed.add_dirichletbcs(bcs)
             return self
         picked = arguments.components(components, f"subdomain {self.name!r} fix(components=...)")
-        facets = self.locate_facets(where)
+        facets = self.locate_facets(cast(Region, where))  # not DirichletBCs: returned above
         nodes = fem.locate_dofs_topological(self.V, self.mesh.topology.dim - 1, facets)
         nodes = nodes[nodes < self.V.dofmap.index_map.size_local]
         self.prescribed.add_nodes(nodes, picked, value, float(self.time.value))
@@ -205,7 +210,8 @@ class Subdomain:
 
     def set_time(self, t: float) -> None:
         """Set :attr:`time` and evaluate the callable loads and amplitudes at ``t``."""
-        self.time.value = t
+        # dolfinx annotates Constant.value's setter as an array; it takes a number too
+        self.time.value = t  # type: ignore[assignment]
         for constant, load, argument in self._timed:
             values = load(t)
             what = f"{argument} (its load callable returned {values!r} at t = {t})"
@@ -213,7 +219,7 @@ class Subdomain:
         for scale, amplitude, argument in self._amplitudes:
             value = amplitude(t)
             what = f"{argument} (its callable returned {value!r} at t = {t})"
-            scale.value = arguments.real(value, what)
+            scale.value = arguments.real(value, what)  # type: ignore[assignment]  # as above
 
     @property
     def time_constants(self) -> tuple[fem.Constant, ...]:

@@ -69,11 +69,13 @@ def petsc_matrix(
 
     Any rank may add to any row; duplicates are summed.
     """
-    A = PETSc.Mat().create(comm=comm)
+    # petsc4py's stubs (here and below): comm as a PETSc.Comm (an mpi4py one is accepted),
+    # arrays as Sequences (an ndarray is not), enum values as their classes (they are ints)
+    A = PETSc.Mat().create(comm=comm)  # type: ignore[arg-type]
     A.setSizes(((local_rows, global_size), (local_rows, global_size)))
     A.setType(PETSc.Mat.Type.AIJ)
-    A.setPreallocationCOO(rows.astype(PETSc.IntType), cols.astype(PETSc.IntType))
-    A.setValuesCOO(values.astype(PETSc.ScalarType), addv=PETSc.InsertMode.ADD_VALUES)
+    A.setPreallocationCOO(rows.astype(PETSc.IntType), cols.astype(PETSc.IntType))  # type: ignore[arg-type]
+    A.setValuesCOO(values.astype(PETSc.ScalarType), addv=PETSc.InsertMode.ADD_VALUES)  # type: ignore[arg-type]
     A.assemble()
     return A
 
@@ -140,8 +142,9 @@ class SparseCholesky:
         self.schur_complement: np.ndarray | None = None
         self.entries = 0.0
         self._analysed = False
-        A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-        A.setOption(PETSc.Mat.Option.SPD, True)
+        # petsc4py's stubs: enum values typed as int, arrays as Sequences (see petsc_matrix)
+        A.setOption(PETSc.Mat.Option.SYMMETRIC, True)  # type: ignore[arg-type]
+        A.setOption(PETSc.Mat.Option.SPD, True)  # type: ignore[arg-type]
         self.ksp = PETSc.KSP().create(A.comm)
         self.ksp.setOptionsPrefix(options_prefix())  # the factor matrix inherits it
         self.ksp.setOperators(A)
@@ -221,7 +224,8 @@ class SparseCholesky:
     def solve_array(self, b: np.ndarray, what: str = "") -> np.ndarray:
         """:meth:`solve` for a serial factorisation, on numpy arrays."""
         vb = PETSc.Vec().createWithArray(
-            np.ascontiguousarray(b, dtype=PETSc.ScalarType), comm=self.A.comm
+            np.ascontiguousarray(b, dtype=PETSc.ScalarType),  # type: ignore[arg-type]  # stub
+            comm=self.A.comm,
         )
         x = self.solve(vb, what)
         out = x.getArray().copy()
@@ -232,7 +236,9 @@ class SparseCholesky:
         """Substitutions for the columns of a dense matrix at once (MUMPS multi-RHS)."""
         n, m = B.shape
         Bm = PETSc.Mat().createDense(
-            (n, m), array=np.asfortranarray(B, PETSc.ScalarType), comm=self.A.comm
+            (n, m),
+            array=np.asfortranarray(B, PETSc.ScalarType),  # type: ignore[arg-type]  # stub
+            comm=self.A.comm,
         )
         Xm = PETSc.Mat().createDense((n, m), comm=self.A.comm)
         Xm.setUp()
@@ -290,8 +296,8 @@ def sparse_statistics(A: PETSc.Mat, schur: int = 0) -> SparseStatistics:
     lib = _libpetsc()
     integer = ctypes.c_int64 if np.dtype(PETSc.IntType).itemsize == 8 else ctypes.c_int32
     F = ctypes.c_void_p()
-    A.setOption(PETSc.Mat.Option.SYMMETRIC, True)
-    A.setOption(PETSc.Mat.Option.SPD, True)
+    A.setOption(PETSc.Mat.Option.SYMMETRIC, True)  # type: ignore[arg-type]  # stub: int
+    A.setOption(PETSc.Mat.Option.SPD, True)  # type: ignore[arg-type]
     _check(lib.MatGetFactor(_ptr(A), b"mumps", MAT_FACTOR_CHOLESKY, ctypes.byref(F)))
     try:
         schur_is = None
@@ -309,10 +315,11 @@ def sparse_statistics(A: PETSc.Mat, schur: int = 0) -> SparseStatistics:
     finally:
         _check(lib.MatDestroy(ctypes.byref(F)))
         if schur:
+            assert schur_is is not None
             schur_is.destroy()
     return SparseStatistics(
         A.getSize()[0] - schur,
-        int(A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"]),
+        int(A.getInfo(PETSc.Mat.InfoType.GLOBAL_SUM)["nz_used"]),  # type: ignore[arg-type]
         float(rinfog.value),
         float(_mumps_count(infog.value)),
         schur,
@@ -438,7 +445,9 @@ class PatternedMatrix:
             r, c, _ = coo_of(region.pattern)
             keep = kept(region.dofs[r], region.dofs[c])
             r, c = r[keep], c[keep]
-            rows.append(region.dofs[r]), cols.append(region.dofs[c]), vals.append(np.zeros(len(r)))
+            rows.append(region.dofs[r])
+            cols.append(region.dofs[c])
+            vals.append(np.zeros(len(r)))
             self._slices[region.name] = (slice(position, position + len(r)), r, c)
             position += len(r)
         self.A = None

@@ -103,12 +103,13 @@ def _options_under(prefix: str, options: Mapping[str, object]) -> Iterator[None]
     present = {k for k in options if database.hasName(k)}
     try:
         for key, value in options.items():
-            database[key] = value
+            # petsc4py's stub lacks Options.__setitem__ (it exists; None sets a bare flag)
+            database[key] = value  # type: ignore[index]
         yield
     finally:
         for key in options:
             if key in present:
-                database[key] = saved[key]
+                database[key] = saved[key]  # type: ignore[index]  # as above
             else:
                 database.delValue(key)
 
