@@ -13,6 +13,7 @@ process's count, and in the count of the problem whose work is running (:func:`c
 from __future__ import annotations
 
 import contextvars
+import os
 import time
 from collections import Counter, defaultdict
 from collections.abc import Callable, Iterator, Mapping
@@ -22,6 +23,7 @@ from typing import Any
 from mpi4py import MPI
 
 import numpy as np
+import threadpoolctl
 
 from dd_contact.blocks import Block, BlockKeyed
 from dd_contact.errors import InputError
@@ -44,6 +46,7 @@ __all__ = [
     "gathered",
     "max_over_ranks",
     "owner_of",
+    "share_cores",
     "sum_over_ranks",
     "traffic",
 ]
@@ -109,6 +112,36 @@ def counted(scope: Traffic) -> Iterator[Traffic]:
         yield scope
     finally:
         _SCOPE.reset(token)
+
+
+#: Environment variables through which a user sets a process's BLAS threads: if one is
+#: set, :func:`share_cores` leaves the threads as the user has them.
+THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+_cores_shared = False  # share_cores ran in this process (once is enough)
+
+
+def share_cores(comm: MPI.Comm) -> int | None:
+    """Collective: each rank's BLAS threads limited to its share of its node's cores.
+
+    Ranks on one node that each run a multi-threaded BLAS (numpy's and scipy's OpenBLAS
+    start one thread per core) oversubscribe the cores: OpenBLAS threads spin while they
+    wait, and two ranks ran several times slower than one. Done once per process, on more
+    than one rank, unless the user set one of :data:`THREAD_VARIABLES`. Returns the threads
+    per rank set, or ``None``.
+    """
+    global _cores_shared
+    if comm.size == 1 or _cores_shared or any(v in os.environ for v in THREAD_VARIABLES):
+        return None
+    _cores_shared = True
+    with traffic.call("share_cores"):
+        node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+        ranks_here = node.size
+        node.Free()
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    threads = max(1, (cores or 1) // ranks_here)
+    threadpoolctl.threadpool_limits(limits=threads, user_api="blas")
+    return threads
 
 
 def owner_of(index: int, comm: MPI.Comm) -> int:

@@ -26,7 +26,7 @@ from dd_contact.blocks import Block
 from dd_contact.bodies import Body
 from dd_contact.errors import InputError
 from dd_contact.obstacles import Obstacle
-from dd_contact.parallel import allgathered, owner_of
+from dd_contact.parallel import allgathered, owner_of, share_cores
 from dd_contact.subdomains import Subdomain
 
 __all__ = [
@@ -440,6 +440,7 @@ class Scene:
         self.interface = interface
         self.contacts = list(contacts)
         self._check_same_on_every_rank()
+        share_cores(comm)  # ranks that share a node share its cores (BLAS threads)
 
     def _check_same_on_every_rank(self) -> None:
         """Collective: refuse meshes that differ between ranks (each rank builds them all).
