@@ -16,7 +16,6 @@ agreed results in :mod:`dd_contact.post`.
 from __future__ import annotations
 
 import logging
-import warnings
 
 import dolfinx.fem as fem
 import numpy as np
@@ -25,7 +24,7 @@ from dd_contact import forms, timing
 from dd_contact.assembly import Model, assemble
 from dd_contact.blocks import Block
 from dd_contact.contact import check_contact_geometry
-from dd_contact.errors import InputError, SingularMatrixError
+from dd_contact.errors import InputError, SingularMatrixError, warn
 from dd_contact.impact import massless_walls
 from dd_contact.iteration import ContactIteration, ContactSettings
 from dd_contact.parallel import (
@@ -62,12 +61,11 @@ def available_condensation(condensation: str) -> str:
     """``condensation``, or ``"multi-rhs"`` (with a warning) where MUMPS's Schur route is not."""
     if condensation != "schur" or layout_known():
         return condensation
-    warnings.warn(
+    warn(
         f"the MUMPS inside PETSc is {mumps_version() or 'unknown'}, not the 5.8.x "
         "whose reduction and expansion phases dd_contact drives: condensation "
         "'multi-rhs' is used instead (two substitutions a step, not one)",
         RuntimeWarning,
-        stacklevel=4,
     )
     return "multi-rhs"
 

@@ -13,7 +13,6 @@ surface displacement lives in, so every solver can add P_C where it belongs.
 from __future__ import annotations
 
 import dataclasses
-import warnings
 from dataclasses import dataclass, field
 
 from mpi4py import MPI
@@ -34,7 +33,7 @@ from dd_contact.contact import (
     mean_cell_size,
     patch_average,
 )
-from dd_contact.errors import InputError, PenaltyRangeWarning, SurfaceResolutionWarning
+from dd_contact.errors import InputError, PenaltyRangeWarning, SurfaceResolutionWarning, warn
 from dd_contact.parallel import elementwise_max
 from dd_contact.scene import (
     KAPPA_ASSEMBLED,
@@ -87,13 +86,12 @@ def _add_tie(system: BlockSystem, sub, surface, ops: coupling.TieOperators) -> N
     system.kappas[(sub.name, surface.name)] = kappa
     low, high = KAPPA_VERIFIED
     if not low <= kappa <= high:
-        warnings.warn(
+        warn(
             f"the tie of {surface.name!r} to subdomain {sub.name!r} has kappa = {kappa:.3g}, "
             f"outside the verified range [{low:g}, {high:g}]: its results are not verified "
             "(each solve's residual check still guards against a wrong solution); choose "
             "kappa (or epsilon = h / (E kappa)) inside the range",
             PenaltyRangeWarning,
-            stacklevel=4,
         )
 
 
@@ -216,12 +214,11 @@ class ContactZone:
         depth = float(self.operator.penetration(w).max(initial=0.0))
         if not self.sank and depth > SINKING_LIMIT * self.length:
             self.sank = True
-            warnings.warn(
+            warn(
                 f"contact {self.contact.name!r}: points sink {depth:.3g} into the obstacle, "
                 f"{depth / self.length:.0%} of a cell: the contact penalty is too soft and the "
                 "results carry that error; raise contact_kappa (the default is stiff)",
                 PenaltyRangeWarning,
-                stacklevel=2,
             )
         raw = self.operator.nodal_pressure(w)
         if self.recovery is None:
@@ -233,7 +230,7 @@ class ContactZone:
             swing = self._swing(p)
             if swing > OSCILLATION_LIMIT:
                 self.warned = True
-                warnings.warn(
+                warn(
                     f"contact interface {self.contact.name!r}: the contact pressure swings "
                     f"by {swing:.0%} of its peak from node to node, which the wall it is tied "
                     "to does not resolve (a contact surface finer than its wall?): its peak "
@@ -241,7 +238,6 @@ class ContactZone:
                     "wall (force +5.6 % under a prescribed displacement); mesh the contact "
                     "surface no finer than the wall, or use ContactInterface.from_boundary",
                     SurfaceResolutionWarning,
-                    stacklevel=2,
                 )
         return p
 
@@ -366,7 +362,7 @@ def resolution_warning(
     surface = largest_turn(contact.mesh.geometry.x, contact.mesh.geometry.dofmaps[0])
     if wall < FLAT_TURN or wall <= FINER_LIMIT * surface:
         return False
-    warnings.warn(
+    warn(
         f"contact interface {contact.name!r} is finer than its wall along the wall's "
         f"curvature ({wall / max(surface, 1e-300):.2g} of its cells along one wall facet, "
         f"whose neighbours turn by {np.degrees(wall):.3g} degrees): its pressure peaks are "
@@ -374,7 +370,6 @@ def resolution_warning(
         "prescribed displacement); mesh the contact surface no finer than the wall along the "
         "curvature, or use ContactInterface.from_boundary",
         SurfaceResolutionWarning,
-        stacklevel=2,
     )
     return True
 

@@ -6,6 +6,9 @@ rank when any rank finds bad input (:func:`dd_contact.parallel.collective`).
 
 from __future__ import annotations
 
+import warnings
+from pathlib import Path
+
 __all__ = [
     "CoarseTimeStepWarning",
     "ContactCycleWarning",
@@ -17,6 +20,7 @@ __all__ = [
     "RunStopped",
     "SingularMatrixError",
     "SurfaceResolutionWarning",
+    "warn",
 ]
 
 
@@ -66,3 +70,12 @@ class RunStopped(SystemExit):
     A :class:`SystemExit` with the exit status ``128 + signal`` (143 for SIGTERM), as a
     process killed by the signal would have: a batch script sees the run did not finish.
     """
+
+
+#: The package's folder: a warning of ours is attributed to the first caller outside it.
+_PACKAGE = str(Path(__file__).resolve().parent)
+
+
+def warn(message: str, category: type[Warning]) -> None:
+    """Warn at the user's line that led here (the first frame outside the package)."""
+    warnings.warn(message, category, skip_file_prefixes=(_PACKAGE,))

@@ -10,7 +10,6 @@ term itself (points, gap, matrices) is in :mod:`dd_contact.contact`.
 from __future__ import annotations
 
 import hashlib
-import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
@@ -25,6 +24,7 @@ from dd_contact.errors import (
     ContactIterationError,
     InaccurateSolutionError,
     SingularMatrixError,
+    warn,
 )
 from dd_contact.parallel import allgathered, any_rank, sum_over_ranks
 from dd_contact.solvers.residual import (
@@ -287,11 +287,7 @@ class ContactIteration:
                 message + ". Remedies: a smaller time step or load increment, a softer "
                 "contact penalty (contact_kappa), or ContactSettings(on_cycle='union')"
             )
-        warnings.warn(
-            message + "; resolved by making every point of the cycle active",
-            ContactCycleWarning,
-            stacklevel=3,
-        )
+        warn(message + "; resolved by making every point of the cycle active", ContactCycleWarning)
         before = dict(self.active)
         for active in cycle:
             for name in self.active:

@@ -7,7 +7,6 @@ the results. Both are independent of the problem and testable alone.
 
 from __future__ import annotations
 
-import warnings
 from collections.abc import Callable, Mapping
 
 from mpi4py import MPI
@@ -15,7 +14,7 @@ from mpi4py import MPI
 import numpy as np
 
 from dd_contact.blocks import Block
-from dd_contact.errors import CoarseTimeStepWarning, EnergyGrowthWarning
+from dd_contact.errors import CoarseTimeStepWarning, EnergyGrowthWarning, warn
 from dd_contact.impact import RELEASE_TOLERANCE
 from dd_contact.parallel import any_rank, sum_over_ranks
 
@@ -124,13 +123,12 @@ class EnergyBalance:
                 else "use TransientProblem(..., energy_safe_contact=True), or a softer "
                 "contact penalty (contact_kappa)"
             )
-            warnings.warn(
+            warn(
                 f"step {record['step']} (t = {record['t']:.6g}): the energy grew by "
                 f"{gain:.3g} J ({gain / max(self.largest, 1e-300):.2%} of the run's largest "
                 f"energy) more than the loads' work, with {record['changes']} contact state "
                 f"change(s): the contact created energy; {fix}",
                 EnergyGrowthWarning,
-                stacklevel=4,
             )
 
 
@@ -182,7 +180,7 @@ class ContactEpisodes:
 
     def _warn(self, name: str, record: dict, steps: int) -> None:
         duration = steps * self.dt
-        warnings.warn(
+        warn(
             f"contact {name!r}: an impact's contact episode ended at step {record['step']} "
             f"(t = {record['t']:.6g}) after only {steps} time step(s), {duration:.3g} s; "
             f"with fewer than {MIN_CONTACT_STEPS} steps per contact an impact's rebound is "
@@ -190,5 +188,4 @@ class ContactEpisodes:
             f"energy is kept; use a smaller time step, dt <= {duration:.3g} / "
             f"{MIN_CONTACT_STEPS} = {duration / MIN_CONTACT_STEPS:.3g} s",
             CoarseTimeStepWarning,
-            stacklevel=5,
         )

@@ -33,8 +33,11 @@ def test_the_energy_balance_warns_once_when_a_step_creates_energy():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         balance.check(_record(1, 100.0 + 0.5 * ENERGY_GROWTH_TOLERANCE * 100.0), _no_work)
-    with pytest.warns(EnergyGrowthWarning, match=r"step 2 .* grew by 0\.0999 J .*please report"):
+    with pytest.warns(
+        EnergyGrowthWarning, match=r"step 2 .* grew by 0\.0999 J .*please report"
+    ) as caught:
         balance.check(_record(2, 100.1), _no_work)
+    assert caught[0].filename == __file__  # the user's line, not the package's
     assert balance.warned and balance.before == 100.1
     with warnings.catch_warnings():
         warnings.simplefilter("error")
