@@ -421,11 +421,6 @@ class Scene:
                         f"Scene: interface {interface.name!r} ties subdomain {s.name!r}, "
                         "which is not in the scene's subdomain list"
                     )
-        elif len(subdomains) > 1:
-            raise InputError(
-                f"Scene: {len(subdomains)} subdomains but no interface to tie them; add an "
-                "Interface (or merge the meshes into one subdomain)"
-            )
         contact_names = [c.name for c in contacts]
         if len(set(contact_names)) != len(contact_names):
             raise InputError(f"Scene: contact names must be unique, got {contact_names}")

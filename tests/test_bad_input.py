@@ -86,10 +86,17 @@ def test_underconstrained_tied_pair():
         dc.StaticProblem(dc.Scene(MPI.COMM_WORLD, [left, right], iface))
 
 
-def test_untied_extra_subdomain():
-    left, right = _two_boxes()
-    with pytest.raises(dc.InputError, match="no interface to tie them"):
-        dc.Scene(MPI.COMM_WORLD, [left, right])
+def test_subdomains_nothing_ties_are_separate_bodies_each_held_or_refused():
+    """One rule for untied subdomains, with or without an interface beside them."""
+    left, right = _two_boxes()  # left clamped, right held by nothing
+    scene = dc.Scene(MPI.COMM_WORLD, [left, right])
+    assert [[s.name for s in b.subdomains] for b in scene.bodies()] == [["left"], ["right"]]
+    with pytest.raises(dc.InputError, match=r"'right' can move as a rigid body \(6 free"):
+        dc.StaticProblem(scene)
+    right.fix(_on(0, 2.0))
+    with dc.StaticProblem(scene) as problem:  # both held: solved, each on its own
+        problem.solve()
+        assert np.allclose(problem.reactions["right"], 0.0)
 
 
 def test_nan_traction_and_coordinates():
