@@ -276,7 +276,7 @@ class TransientProblem(AnalysisReadout):
 
         collective(self.comm, check_initial_data)
         for sub in owned:
-            fixed = self.model.free(sub.block) == 0
+            fixed = self.analysis.free(sub.block) == 0
             sub.velocity.x.array[fixed] = 0.0
         self.iteration.start(self.t0)
         if self.inertia and self.track_energy:
@@ -300,14 +300,14 @@ class TransientProblem(AnalysisReadout):
         residual = {}
         for sub in owned:
             r = loads[sub.block] - system.row_product(sub.block, x0)
-            residual[sub.block] = r * self.model.free(sub.block)
+            residual[sub.block] = r * self.analysis.free(sub.block)
         for sub in owned:
             if not np.any(residual[sub.block]):
                 sub.acceleration.x.array[:] = 0.0
                 continue
             # M with the prescribed dofs eliminated, as in the effective matrix.
             mass = self.model.mass[sub.block]  # a = 0 on prescribed and massless dofs
-            fixed = np.flatnonzero((self.model.free(sub.block) == 0) | (mass.diagonal() == 0))
+            fixed = np.flatnonzero((self.analysis.free(sub.block) == 0) | (mass.diagonal() == 0))
             sub.acceleration.x.array[:] = solve_mass(
                 mass, fixed, residual[sub.block], self.work, sub.name
             )
@@ -355,7 +355,7 @@ class TransientProblem(AnalysisReadout):
             self.iteration.active,
             [sub.block for sub in owned],
             self.tie_solver.rhs_offset,
-            self.model.free,
+            self.analysis.free,
             scheme.start_weight,
             self._products,
         )
@@ -426,7 +426,7 @@ class TransientProblem(AnalysisReadout):
             self.energy_balance.check(
                 record,
                 lambda: self.energy_balance.loads_work(
-                    before, x, previous, external, self.model.free
+                    before, x, previous, external, self.analysis.free
                 ),
             )
         else:

@@ -188,3 +188,14 @@ def test_a_release_within_the_iterations_tolerance_does_not_warn():
         balance.check(_record(2, 1.0 + 0.9 * RELEASE_TOLERANCE * 0.5), _no_work)
     with pytest.warns(EnergyGrowthWarning):
         balance.check(_record(3, 1.01, contact=0.0), _no_work)  # no penalty energy held
+
+
+def test_the_classic_contact_gets_no_release_allowance():
+    """Without energy-safe contact there is no release iteration to settle within."""
+    from dd_contact.impact import RELEASE_TOLERANCE
+
+    balance = EnergyBalance(MPI.COMM_SELF, conserves_energy=True, energy_safe=False)
+    balance.start({"total": 1.0, "contact": 0.0})
+    balance.check(_record(1, 1.0, contact=0.5), _no_work)
+    with pytest.warns(EnergyGrowthWarning, match="energy_safe_contact=True"):
+        balance.check(_record(2, 1.0 + 0.9 * RELEASE_TOLERANCE * 0.5), _no_work)

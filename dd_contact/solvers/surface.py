@@ -177,11 +177,11 @@ class Surface:
         for i, a in enumerate(g.blocks):
             rows = slice(offsets[i], offsets[i + 1])
             for j, b in enumerate(g.blocks):
+                columns = slice(offsets[j], offsets[j + 1])
                 if level_pairs.get((a, b)) is not None:
-                    A[rows, offsets[j] : offsets[j + 1]] = level_pairs[(a, b)]
-            for j, b in enumerate(g.blocks):  # the contact pieces of row a
-                if (a, b) in self.contact:
-                    A[rows, offsets[j] : offsets[j + 1]] += self.contact[(a, b)].toarray()
+                    A[rows, columns] = level_pairs[(a, b)]
+                if (a, b) in self.contact:  # a contact piece of row a, on top
+                    A[rows, columns] += self.contact[(a, b)].toarray()
         return A
 
     def _couple(self, g: Group, state: _GroupState, level_pairs) -> None:
