@@ -28,6 +28,7 @@ from dd_contact.forms import MASS_KINDS
 from dd_contact.impact import BlockProducts, StartForces
 from dd_contact.io import RunOutput
 from dd_contact.iteration import ContactSettings
+from dd_contact.kinematics import Kinematics
 from dd_contact.monitors import (
     ENERGY_GROWTH_TOLERANCE,
     MIN_CONTACT_STEPS,
@@ -35,7 +36,6 @@ from dd_contact.monitors import (
     EnergyBalance,
 )
 from dd_contact.parallel import (
-    allgather_blocks,
     any_rank,
     collective,
     counted,
@@ -130,6 +130,19 @@ class StaticProblem(AnalysisReadout):
         return analysis.functions()
 
 
+def _check_scene_for(scene: Scene, inertia: bool) -> None:
+    """A density for every subdomain with inertia; supports for every body without."""
+    if inertia:
+        massless = [s.name for s in scene.subdomains if s.material.rho <= 0]
+        if massless:
+            raise InputError(
+                f"TransientProblem: subdomain(s) {massless} have no density; give "
+                "Material(rho=...) or use inertia=False for quasi-static steps"
+            )
+    else:
+        scene.check_static_supports()
+
+
 class TransientProblem(AnalysisReadout):
     """Time stepping with contact: the trapezoidal rule, generalized-alpha, or quasi-static.
 
@@ -206,15 +219,7 @@ class TransientProblem(AnalysisReadout):
         self.scheme = scheme
         self.energy_safe = bool(energy_safe_contact)
         self.inertia = inertia
-        if inertia:
-            massless = [s.name for s in scene.subdomains if s.material.rho <= 0]
-            if massless:
-                raise InputError(
-                    f"TransientProblem: subdomain(s) {massless} have no density; give "
-                    "Material(rho=...) or use inertia=False for quasi-static steps"
-                )
-        else:
-            scene.check_static_supports()
+        _check_scene_for(scene, inertia)
         changes = expected_steps if expected_changes is None else expected_changes
         #: The scene assembled, its solver and contact iteration.
         self.analysis = Analysis(
@@ -246,9 +251,14 @@ class TransientProblem(AnalysisReadout):
         #: The contact episodes (with inertia): a warning if one is too short.
         self.episodes = ContactEpisodes(dt)
         self._run_state = RunState(self.analysis.owned, self.zones, self.iteration, scene.interface)
-        #: The subdomains other ranks own: their velocity and acceleration are kept here too,
-        #: by the owner's update repeated on the same values (bit for bit the owner's).
-        self._others = [s for s in scene.subdomains if s not in self.analysis.owned]
+        #: Every subdomain's velocity and acceleration, stepped alike on every rank.
+        self.kinematics = Kinematics(
+            self.comm,
+            scene.subdomains,
+            {s.block: scene.owner(k) for k, s in enumerate(scene.subdomains)},
+            self.model.mass if inertia else {},
+            self.time_scheme,
+        )
         self._started = False
 
     # -- state ---------------------------------------------------------------------------
@@ -284,7 +294,7 @@ class TransientProblem(AnalysisReadout):
         if self.inertia:
             with self.analysis.petsc_options():
                 self._initial_acceleration()
-            self._share_kinematics()
+            self.kinematics.share()
         self._started = True
 
     def _initial_acceleration(self) -> None:
@@ -312,12 +322,6 @@ class TransientProblem(AnalysisReadout):
                 mass, fixed, residual[sub.block], self.work, sub.name
             )
             logger.debug("initial acceleration of subdomain %r from its mass matrix", sub.name)
-
-    @staticmethod
-    def _kinematics(sub) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The owned displacement, velocity and acceleration of a subdomain now."""
-        n = sub.num_dofs
-        return sub.u.x.array[:n], sub.velocity.x.array[:n], sub.acceleration.x.array[:n]
 
     def energy(self) -> dict[str, float]:
         """Collective: kinetic, elastic (with ties) and contact-penalty energy now [J]."""
@@ -365,7 +369,7 @@ class TransientProblem(AnalysisReadout):
             rhs = np.subtract(previous[block], start.internal[block])
             rhs *= scheme.start_weight
             rhs += loads[block]
-            rhs += self.model.mass[block] @ scheme.history(*self._kinematics(sub))
+            rhs += self.model.mass[block] @ scheme.history(*self.kinematics.now(sub))
             loads[block] = rhs
         return start
 
@@ -400,21 +404,10 @@ class TransientProblem(AnalysisReadout):
             release = start if self.energy_safe else None
         x, iterations, changes = analysis.solve(t_new, analysis.rhs(t_new, loads), where, release)
         if self.inertia:
-            for sub in owned:
-                v, a = self.time_scheme.update(x[sub.block], *self._kinematics(sub))
-                sub.velocity.x.array[: sub.num_dofs] = v
-                sub.acceleration.x.array[: sub.num_dofs] = a
-            u_before = {s.block: s.u.x.array[: s.num_dofs].copy() for s in self._others}
+            self.kinematics.step(x)
         analysis.publish(x)
         if self.inertia:  # the others' u arrived with the publication: update them alike
-            for sub in self._others:
-                n = sub.num_dofs
-                _, velocity, acceleration = self._kinematics(sub)
-                v, a = self.time_scheme.update(
-                    sub.u.x.array[:n], u_before[sub.block], velocity, acceleration
-                )
-                sub.velocity.x.array[:n] = v
-                sub.acceleration.x.array[:n] = a
+            self.kinematics.follow()
         self.t, self.step = t_new, self.step + 1
         self._previous_loads = (t_new, external)
         accelerations = {s.block: s.acceleration.x.array for s in owned if self.inertia}
@@ -577,24 +570,5 @@ class TransientProblem(AnalysisReadout):
         agreed = self.analysis.agreed
         agreed.latest = self.history[-1] if self.history else {}
         agreed.alpha = gathered(self.comm, self.iteration.alpha)
-        self._share_kinematics(with_displacement=True)
+        self.kinematics.share(with_displacement=True)
         self._started = True
-
-    def _share_kinematics(self, with_displacement: bool = False) -> None:
-        """Collective: the owners' velocity and acceleration (and u) of every subdomain here.
-
-        Once, where every rank's copies must start equal (the initial state, a restored
-        checkpoint); each step then updates them alike on every rank.
-        """
-        if self.comm.size == 1:
-            return
-        names = (
-            ("u", "velocity", "acceleration") if with_displacement else ("velocity", "acceleration")
-        )
-        sizes = self.model.system.sizes
-        owners = {s.block: self.scene.owner(k) for k, s in enumerate(self.scene.subdomains)}
-        for name in names:
-            local = {s.block: getattr(s, name).x.array[: s.num_dofs] for s in self.analysis.owned}
-            shared = allgather_blocks(self.comm, local, owners, sizes)
-            for sub in self._others:
-                getattr(sub, name).x.array[: sub.num_dofs] = shared[sub.block]

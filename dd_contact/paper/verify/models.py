@@ -17,7 +17,7 @@ from mpi4py import MPI
 import dolfinx.mesh
 import numpy as np
 
-from dd_contact import meshes
+from dd_contact import forms, meshes
 from dd_contact.obstacles import Plane
 from dd_contact.parallel import allgathered, max_over_ranks, sum_over_ranks
 from dd_contact.post import boundary_average, cell_stress
@@ -298,7 +298,9 @@ def bar_impact(
         duration, rebound (mean velocity after / -v0), energy ratio after/before, changes,
         factorisations, steps, the contact force of every step (``forces``), its largest
         (``peak_force``) and its median while in contact (``plateau_force``) against
-        ``force_ref`` = rho c v0 A.
+        ``force_ref`` = rho c v0 A; what a user reads at the end face
+        (:meth:`_EndFaceWatch.summary`: ``face_tracking``, ``face_speed``,
+        ``kinetic_error``).
     """
     L, a, v0 = BAR_IMPACT["length"], BAR_IMPACT["section"], BAR_IMPACT["v0"]
     material = Material(1.0, 0.0, 1.0)
@@ -314,7 +316,8 @@ def bar_impact(
         scheme=scheme,
         rho_infinity=rho_infinity,
     )
-    g = _run_tracking_penetration(problem, zone, round(end_time / dt), comm)
+    watch = _EndFaceWatch(problem, parts, n)
+    g = _run_tracking_penetration(problem, zone, round(end_time / dt), comm, watch)
     duration = _contact_duration(g, dt)
     momentum, total_mass = _axial_momentum_and_mass(problem, parts, comm)
     work = problem.work_summary()  # collective: every rank's work, merged
@@ -335,6 +338,7 @@ def bar_impact(
         "steps": len(g),
         "history": [record["changes"] for record in problem.history],
         "substitutions": sum(work.get(part.block, {}).get("substitutions", 0) for part in parts),
+        **watch.summary(v0, energy0),
     }
 
 
@@ -376,24 +380,87 @@ def _end_contact(
     )
 
 
+class _EndFaceWatch:
+    """What a user reads of the bar at its end face after every step (every rank).
+
+    The face's and the next node layer's mean axial velocity, and the kinetic energy a user
+    integrates from ``Subdomain.velocity`` with the material's true density (the mass matrix
+    of the problem's kind, the walls' mass where it belongs), beside the package's own.
+    """
+
+    def __init__(self, problem: TransientProblem, parts: list[Subdomain], n: int):
+        self.problem, self.parts = problem, parts
+        self.rows: list[tuple[float, ...]] = []
+        self.mass = {}
+        for part in parts:
+            if part.block in problem.model.mass:  # owned here
+                degree = part.V.element.basix_element.degree
+                consistent = forms.assemble_mass(part)
+                self.mass[part.block] = forms.mass_of_kind(consistent, degree, problem.mass_kind)
+        bar = parts[0]
+        x = bar.V.tabulate_dof_coordinates()[: bar.num_dofs // 3, 0]
+        h = BAR_IMPACT["length"] / n
+        self.face = 3 * np.flatnonzero(np.isclose(x, 0.0))  # axial dofs of the end face
+        self.next = 3 * np.flatnonzero(np.isclose(x, h))  # ... and of the layer behind it
+
+    def read(self, record: dict) -> None:
+        comm = self.problem.comm
+        kinetic = 0.0
+        for part in self.parts:
+            if part.block in self.mass:
+                v = part.velocity.x.array[: part.num_dofs]
+                kinetic += 0.5 * float(v @ (self.mass[part.block] @ v))
+        local = None
+        bar = self.parts[0]
+        if bar.block in self.mass:
+            v = bar.velocity.x.array
+            local = (float(v[self.face].mean()), float(v[self.next].mean()))
+        face, behind = next(p for p in allgathered(comm, local) if p is not None)
+        pressing = float(np.linalg.norm(record["force"]["end"])) > 0
+        user = sum_over_ranks(comm, kinetic)
+        self.rows.append((face, behind, user, record["energy"]["kinetic"], pressing))
+
+    def summary(self, v0: float, energy0: float) -> dict:
+        """The face against the layer it follows once released, and the two kinetic energies.
+
+        ``face_tracking``: from the second step after the last contact on, the largest
+        ``|v_face - (v_next,n + v_next,n+1) / 2| / v0`` (the face moves with the layer
+        behind it: its velocity is the step's mean, the layer's is the trapezoidal one);
+        ``face_speed``: the largest ``|v_face| / v0`` of the run; ``kinetic_error``: the
+        largest ``|KE_user - KE_package| / E0``.
+        """
+        rows = np.array(self.rows)
+        face, behind, user, package, pressing = rows.T
+        last = int(np.flatnonzero(pressing)[-1]) if pressing.any() else -1
+        after = np.arange(max(last + 2, 1), len(rows))
+        mean_behind = 0.5 * (behind[after] + behind[after - 1])
+        return {
+            "face_tracking": float(np.max(np.abs(face[after] - mean_behind), initial=0.0) / v0),
+            "face_speed": float(np.max(np.abs(face)) / v0),
+            "kinetic_error": float(np.max(np.abs(user - package)) / energy0),
+        }
+
+
 def _run_tracking_penetration(
     problem: TransientProblem,
     zone: ContactBoundary | ContactInterface,
     steps: int,
     comm: MPI.Comm,
+    watch: _EndFaceWatch,
 ) -> np.ndarray:
     """Run ``steps`` steps; the end's mean signed penetration after each, on every rank.
 
-    Positive in contact, negative once the bar has left the wall.
+    Positive in contact, negative once the bar has left the wall. ``watch`` reads the face.
     """
     penetration = []
 
-    def after_step(_):
+    def after_step(record):
         local = None
         if problem.zones:  # the contact's owner
             op = problem.zones[0].operator
             local = float(op.penetration(zone.w.x.array[: op.num_dofs]).mean())
         penetration.append(next(p for p in allgathered(comm, local) if p is not None))
+        watch.read(record)
 
     problem.run(steps, callback=after_step, progress=False, summary=False)
     return np.array(penetration)
