@@ -138,6 +138,8 @@ class StartForces:
             generalized-alpha); the corrections carry it too.
         products: Where ``K x_n`` is taken (the energy of the last step's end may have taken
             it already); by default computed here, not kept.
+        end_loads: The loads ``r_n+1`` on the owned subdomain blocks (for :meth:`at_end`).
+        end_offset: The stiff ties' forces of the last solve (for :meth:`at_end`).
     """
 
     def __init__(
@@ -151,8 +153,12 @@ class StartForces:
         free: Callable[[Block], np.ndarray],
         weight: float = 1.0,
         products: BlockProducts | None = None,
+        end_loads: Mapping[Block, np.ndarray] | None = None,
+        end_offset: Callable[[], Mapping[Block, np.ndarray]] | None = None,
     ):
         self.system, self.zones, self.x, self.free = system, zones, x, free
+        self._end_loads = end_loads or {}
+        self._end_offset = end_offset or dict
         self.weight = weight
         self.start = {name: a.copy() for name, a in active.items()}
         #: theta of each contact's releasing points, as last used (and its contacts then)
@@ -267,6 +273,41 @@ class StartForces:
             out[name] = deeper if too_much else np.zeros_like(deeper)
         return out
 
+    def needs_whole(self, active: Mapping[str, np.ndarray], x: Mapping[Block, np.ndarray]) -> bool:
+        """Whether :meth:`at_end` needs more of the solution than ``x`` holds (its walls)."""
+        return any(
+            (self.start[z.contact.name] & ~active[z.contact.name]).any()
+            and not _holds_rows(self.system, z, x)
+            for z in self.zones
+        )
+
+    def at_end(
+        self, active: Mapping[str, np.ndarray], x: Mapping[Block, np.ndarray]
+    ) -> dict[Block, np.ndarray]:
+        """``x`` with the massless dofs of each contact a point leaves in equilibrium.
+
+        The step holds a massless dof's balance only on average over the step, and a point
+        that leaves keeps just the share ``theta`` of its start force: the rest would stay on
+        the wall (and a contact interface's w) as an unbalanced force. The solution then
+        shows the wall overshooting into the obstacle (the point "pressed back", a second
+        and third state change for one release), and the trapezoidal rule flips that force
+        every later step without damping it (a bar's end face zig-zagged for good). Those
+        dofs are put in equilibrium with the rest held, ``r_n+1 - K x + f_C(x; active) =
+        0``: the minimum of a convex potential in them, so the energy can only drop. Zones
+        no point leaves are untouched, and so are those whose rows read blocks ``x`` does
+        not hold (:meth:`needs_whole`).
+        """
+        out = dict(x)
+        offset = self._end_offset()
+        for z in self.zones:
+            name = z.contact.name
+            if (self.start[name] & ~active[name]).any() and _holds_rows(self.system, z, out):
+                state = _in_equilibrium(
+                    self.system, z, out, active[name], self._end_loads, offset, self.free
+                )
+                out.update(state)
+        return out
+
     def _kept(self, z: ContactZone, x: Mapping[Block, np.ndarray] | None) -> np.ndarray:
         """The theta to use next: 1 before any solution, then towards the last solution's."""
         if x is None:
@@ -300,6 +341,82 @@ class StartForces:
         b = -self.system.row_product(w, {k: v for k, v in self.x.items() if k != w})
         np.add.at(b, z.dofs, vector - forces)
         return spsolve(sp.csc_array(A), b)
+
+
+def _massless_dofs(
+    z: ContactZone, free: Callable[[Block], np.ndarray]
+) -> list[tuple[Block, np.ndarray]]:
+    """The free massless dofs of a contact: its wall, and a contact interface's surface."""
+    sub = z.contact.subdomain.block
+    rows = [(sub, z.wall[free(sub)[z.wall] != 0])]
+    if z.block != sub:
+        rows.append((z.block, z.dofs[z.free]))
+    return rows
+
+
+def _holds_rows(system: BlockSystem, z: ContactZone, x: Mapping[Block, np.ndarray]) -> bool:
+    """Whether ``x`` holds every block the rows of ``z``'s massless dofs read."""
+    rows = {z.contact.subdomain.block, z.block}
+    return all(c in x for b in rows for c, _ in system.block_row(b))
+
+
+def _stiffness(system: BlockSystem, row: Block, col: Block) -> sp.csr_array | None:
+    """``A[row, col]`` with the stiff ties' part carried on the right-hand side added."""
+    A = system.block(row, col)
+    for tie in system.stiff_ties:
+        pieces = {
+            (tie.u, tie.u): tie.P1,
+            (tie.u, tie.s): -tie.P2,
+            (tie.s, tie.u): -tie.P2.T,
+            (tie.s, tie.s): tie.P4,
+        }
+        if (row, col) in pieces:
+            part = tie.sigma * sp.csr_array(pieces[(row, col)])
+            A = part if A is None else A + part
+    return None if A is None else sp.csr_array(A)
+
+
+def _in_equilibrium(
+    system: BlockSystem,
+    z: ContactZone,
+    x: Mapping[Block, np.ndarray],
+    active: np.ndarray,
+    loads: Mapping[Block, np.ndarray],
+    offset: Mapping[Block, np.ndarray],
+    free: Callable[[Block], np.ndarray],
+) -> dict[Block, np.ndarray]:
+    """The blocks of ``z``'s massless dofs with those in equilibrium, the rest of x held."""
+    rows = _massless_dofs(z, free)
+    op = z.operator
+    contact = sp.coo_array(op.matrix(active))
+    size = system.sizes[z.block]
+    placed = sp.csr_array(
+        (contact.data, (z.dofs[contact.row], z.dofs[contact.col])), shape=(size, size)
+    )
+    force = np.zeros(size)  # the contact's force at x, on its block
+    np.add.at(force, z.dofs, op.rhs(active) - op.matrix(active) @ x[z.block][z.dofs])
+    residual, matrix = [], []
+    for b, i in rows:
+        r = -system.row_product(b, x)
+        r -= offset.get(b, 0.0)
+        r += loads.get(b, 0.0)
+        if b == z.block:
+            r += force
+        residual.append(r[i])
+        line = []
+        for c, j in rows:
+            A = _stiffness(system, b, c)
+            if b == c == z.block:
+                A = placed if A is None else A + placed
+            line.append(sp.csr_array((len(i), len(j))) if A is None else A[i][:, j])
+        matrix.append(line)
+    delta = spsolve(sp.csc_array(sp.block_array(matrix)), np.concatenate(residual))
+    out, start = {}, 0
+    for b, i in rows:
+        out[b] = np.array(x[b], dtype=float)
+        out[b][i] += delta[start : start + len(i)]
+        start += len(i)
+    return out
 
 
 def _discrete_gradient(g0: np.ndarray, g1: np.ndarray) -> np.ndarray:

@@ -82,6 +82,16 @@ class StepCorrection(Protocol):
         """Whether the terms used for the last solve hold for its solution ``x``."""
         ...
 
+    def needs_whole(self, active: Mapping[str, np.ndarray], x: Mapping[str, np.ndarray]) -> bool:
+        """Whether :meth:`at_end` needs more blocks than the iterate ``x`` holds."""
+        ...
+
+    def at_end(
+        self, active: Mapping[str, np.ndarray], x: Mapping[str, np.ndarray]
+    ) -> dict[str, np.ndarray]:
+        """The state at the end of the step the solution ``x`` with ``active`` stands for."""
+        ...
+
     def pressed_back(self, x: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Per zone: points let go in this step that ``x`` shows must be in contact again.
 
@@ -194,6 +204,9 @@ class ContactIteration:
         #: Per zone of this rank: the release solves in which it had points let go (the
         #: solves' new right-hand side is on its block; :meth:`Schedule.release`).
         self.releases = {z.contact.name: 0 for z in zones}
+        #: Iterates taken whole (every subdomain substituted) to settle a leaving point's walls.
+        self.whole_iterates = 0
+        self._whole: dict[str, np.ndarray] | None = None  # the last solve's, if taken
         self._correction: StepCorrection | None = None
         self._shift: dict[str, np.ndarray] = {}
         self._last: dict[str, np.ndarray] | None = None
@@ -233,19 +246,21 @@ class ContactIteration:
         changes_this_solve = 0
         for iteration in range(1, self.settings.max_iterations + 1):
             x = self._solve_once(solver, rhs, where)
-            new = {z.contact.name: z.operator.active_set(x[z.block][z.dofs]) for z in self.zones}
-            if correction is not None:
-                self._keep_released_out(new, sets[0], released, held_in)
-            changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
+            end = self._at_end(solver, x, whole=False)
+            new, changed = self._next_sets(end, sets[0], released, held_in)
             if not sum_over_ranks(self.comm, len(changed)):
                 if releases < MAX_RELEASES and self._unsettled(x):
                     releases += 1  # the same contact state; its releasing forces still move
                     self._count_release(sets[0])
                     continue
-                changed = self._pressed_back(x, released, held_in, new)
+                # settled: decide on the whole end state (an order's walls substituted)
+                end = self._at_end(solver, x, whole=True)
+                new, changed = self._next_sets(end, sets[0], released, held_in)
                 if not sum_over_ranks(self.comm, len(changed)):
-                    x = self._shifted(self._checked(solver, solver.finish(), where))
-                    return x, iteration, changes_this_solve
+                    changed = self._pressed_back(end, released, held_in, new)
+                if not sum_over_ranks(self.comm, len(changed)):
+                    x = self._shifted(self._checked(solver, self._finished(solver), where))
+                    return self._at_end(solver, x, whole=True), iteration, changes_this_solve
                 seen = {}  # the points pressed back stay in: no cycle through them
             self._count_change(changed)
             changes_this_solve += 1
@@ -256,8 +271,8 @@ class ContactIteration:
                 message = self._cycle_message(previous, new, seen[key], iteration, where)
                 changes_this_solve += self._union_of_cycle(sets[seen[key] :], message)
                 self._solve_once(solver, rhs, where)
-                x = self._shifted(self._checked(solver, solver.finish(), where))
-                return x, iteration + 1, changes_this_solve
+                x = self._shifted(self._checked(solver, self._finished(solver), where))
+                return self._at_end(solver, x, whole=True), iteration + 1, changes_this_solve
             seen[key] = iteration
             sets.append(dict(self.active))
         raise ContactIterationError(
@@ -265,6 +280,37 @@ class ContactIteration:
             f"{where}; raise ContactSettings(max_iterations=...), or take a smaller time step or "
             "load increment"
         )
+
+    def _next_sets(
+        self, end: dict[str, np.ndarray], start: dict, released: dict, held_in: dict
+    ) -> tuple[dict[str, np.ndarray], list[str]]:
+        """The active sets the end state ``end`` shows, and the zones where they changed."""
+        new = {z.contact.name: z.operator.active_set(end[z.block][z.dofs]) for z in self.zones}
+        if self._correction is not None:
+            self._keep_released_out(new, start, released, held_in)
+        return new, [n for n in new if not np.array_equal(new[n], self.active[n])]
+
+    def _at_end(
+        self, solver: ContactSolver, x: dict[str, np.ndarray], whole: bool
+    ) -> dict[str, np.ndarray]:
+        """The end-of-step state ``x`` stands for (the correction's ``at_end``).
+
+        An order's iterate holds the contact blocks only: where the correction needs the
+        walls' subdomains too (a point leaves), ``whole`` takes the whole iterate
+        (collective: a back substitution of each subdomain, once the step's releases have
+        settled); else those walls are left as solved.
+        """
+        if self._correction is None:
+            return x
+        if whole and any_rank(self.comm, self._correction.needs_whole(self.active, x)):
+            self._whole = solver.finish()
+            self.whole_iterates += 1
+            x = self._shifted(self._whole)
+        return self._correction.at_end(self.active, x)
+
+    def _finished(self, solver: ContactSolver) -> dict[str, np.ndarray]:
+        """Collective: the last solve's whole solution (taken once)."""
+        return self._whole if self._whole is not None else solver.finish()
 
     def _keep_released_out(self, new: dict, start: dict, released: dict, held_in: dict) -> None:
         """A point let go since ``start`` stays out of ``new``: the correction carries it.
@@ -376,6 +422,7 @@ class ContactIteration:
                 rhs[block] = rhs[block] + vector if block in rhs else vector
         self.last_solve = (rhs, contact)
         self._last = self._shifted(solver.solve(rhs))
+        self._whole = None
         return self._last
 
     def _unsettled(self, x: dict[str, np.ndarray]) -> bool:

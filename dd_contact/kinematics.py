@@ -68,6 +68,7 @@ class Kinematics:
             for s in self.owned
         }
         self._u_before: dict[Block, np.ndarray] = {}
+        self._masks_shared = False
 
     @staticmethod
     def now(sub) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -110,7 +111,8 @@ class Kinematics:
         if self.comm.size == 1:
             return
         sizes = {s.block: s.num_dofs for s in self.owned + self.others}
-        if any(s.block not in self.massless for s in self.others):
+        if not self._masks_shared:  # every rank takes part, owner of all or of none
+            self._masks_shared = True
             shared = allgather_blocks(
                 self.comm,
                 {b: m.astype(float) for b, m in self.massless.items()},

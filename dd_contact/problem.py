@@ -362,6 +362,8 @@ class TransientProblem(AnalysisReadout):
             self.analysis.free,
             scheme.start_weight,
             self._products,
+            end_loads=dict(loads),
+            end_offset=lambda: self.tie_solver.rhs_offset,
         )
         for sub in owned:
             block = sub.block

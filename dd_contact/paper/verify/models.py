@@ -338,7 +338,9 @@ def bar_impact(
         "steps": len(g),
         "history": [record["changes"] for record in problem.history],
         "substitutions": sum(work.get(part.block, {}).get("substitutions", 0) for part in parts),
-        **watch.summary(v0, energy0),
+        "whole_iterates": problem.iteration.whole_iterates,
+        # the face against the bar from half a wave transit L / 2c after the release on
+        **watch.summary(v0, energy0, settle=round(0.5 * L / dt)),
     }
 
 
@@ -405,11 +407,16 @@ class _EndFaceWatch:
 
     def read(self, record: dict) -> None:
         comm = self.problem.comm
-        kinetic = 0.0
+        kinetic, momentum, mass = 0.0, 0.0, 0.0
         for part in self.parts:
             if part.block in self.mass:
                 v = part.velocity.x.array[: part.num_dofs]
-                kinetic += 0.5 * float(v @ (self.mass[part.block] @ v))
+                M = self.mass[part.block]
+                kinetic += 0.5 * float(v @ (M @ v))
+                axial = np.zeros(part.num_dofs)
+                axial[0::3] = 1.0
+                momentum += float(axial @ (M @ v))
+                mass += float(axial @ (M @ axial))
         local = None
         bar = self.parts[0]
         if bar.block in self.mass:
@@ -417,26 +424,37 @@ class _EndFaceWatch:
             local = (float(v[self.face].mean()), float(v[self.next].mean()))
         face, behind = next(p for p in allgathered(comm, local) if p is not None)
         pressing = float(np.linalg.norm(record["force"]["end"])) > 0
-        user = sum_over_ranks(comm, kinetic)
-        self.rows.append((face, behind, user, record["energy"]["kinetic"], pressing))
+        user, momentum, mass = sum_over_ranks(comm, np.array([kinetic, momentum, mass]))
+        kept = (face, behind, momentum / mass, user, record["energy"]["kinetic"], pressing)
+        self.rows.append(kept)
 
-    def summary(self, v0: float, energy0: float) -> dict:
+    def summary(self, v0: float, energy0: float, settle: int) -> dict:
         """The face against the layer it follows once released, and the two kinetic energies.
 
         ``face_tracking``: from the second step after the last contact on, the largest
         ``|v_face - (v_next,n + v_next,n+1) / 2| / v0`` (the face moves with the layer
         behind it: its velocity is the step's mean, the layer's is the trapezoidal one);
-        ``face_speed``: the largest ``|v_face| / v0`` of the run; ``kinetic_error``: the
-        largest ``|KE_user - KE_package| / E0``.
+        ``face_speed``: the largest ``|v_face| / v0`` of the run; ``face_against_bar``: from
+        ``settle`` steps after the last contact on (the end rings while the release wave
+        leaves it), the largest ``|v_face - v_bar| / v0`` (``v_bar``: the bar's momentum
+        over its mass); ``behind_against_bar``: the same of the node layer behind the face
+        (with mass: the mesh's own ringing); ``kinetic_error``: the largest ``|KE_user -
+        KE_package| / E0``.
         """
         rows = np.array(self.rows)
-        face, behind, user, package, pressing = rows.T
+        face, behind, bar, user, package, pressing = rows.T
         last = int(np.flatnonzero(pressing)[-1]) if pressing.any() else -1
         after = np.arange(max(last + 2, 1), len(rows))
         mean_behind = 0.5 * (behind[after] + behind[after - 1])
         return {
             "face_tracking": float(np.max(np.abs(face[after] - mean_behind), initial=0.0) / v0),
             "face_speed": float(np.max(np.abs(face)) / v0),
+            "face_against_bar": float(
+                np.max(np.abs(face - bar)[last + settle :], initial=0.0) / v0
+            ),
+            "behind_against_bar": float(
+                np.max(np.abs(behind - bar)[last + settle :], initial=0.0) / v0
+            ),
             "kinetic_error": float(np.max(np.abs(user - package)) / energy0),
         }
 
