@@ -37,7 +37,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 
 from dd_contact.paper import verify
-from dd_contact.paper.verify.models import BAR_IMPACT
+from dd_contact.paper.verify.bar import BAR_IMPACT
 
 RESULTS = Path(__file__).parent / "results"
 CFLS = (0.1, 0.25, 0.5, 1.0)

@@ -415,6 +415,20 @@ class Analysis:
                 "penalties?) or the data are not finite"
             )
 
+    def owners_blocks(self, x: dict[str, np.ndarray], blocks: list[Block]) -> dict[str, np.ndarray]:
+        """Collective: ``x`` with the owners' values of the ``blocks`` some rank changed.
+
+        A rank holds copies of blocks it does not own (FULL's whole solution on every rank,
+        the interface everywhere); what an owner changed after the solve (the massless walls
+        put in equilibrium, :meth:`dd_contact.impact.StartForces.at_end`) reaches them here.
+        """
+        names = sorted({Block.parse(b) for part in allgathered(self.comm, blocks) for b in part})
+        if not names:
+            return x
+        system = self.model.system
+        owners = {b: system.owners[b] for b in names}
+        return {**x, **allgather_blocks(self.comm, x, owners, system.sizes)}
+
     def publish_surfaces(self, x: dict[str, np.ndarray]) -> None:
         """Copy the interface's and the owned contact surfaces' displacement into Functions."""
         if self.scene.interface is not None:

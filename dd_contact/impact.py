@@ -158,6 +158,8 @@ class StartForces:
     ):
         self.system, self.zones, self.x, self.free = system, zones, x, free
         self._end_loads = end_loads or {}
+        #: The blocks the last :meth:`at_end` changed on this rank.
+        self.settled_blocks: list[Block] = []
         self._end_offset = end_offset or dict
         self.weight = weight
         self.start = {name: a.copy() for name, a in active.items()}
@@ -299,6 +301,7 @@ class StartForces:
         """
         out = dict(x)
         offset = self._end_offset()
+        self.settled_blocks = []
         for z in self.zones:
             name = z.contact.name
             if (self.start[name] & ~active[name]).any() and _holds_rows(self.system, z, out):
@@ -306,6 +309,7 @@ class StartForces:
                     self.system, z, out, active[name], self._end_loads, offset, self.free
                 )
                 out.update(state)
+                self.settled_blocks += list(state)
         return out
 
     def _kept(self, z: ContactZone, x: Mapping[Block, np.ndarray] | None) -> np.ndarray:

@@ -34,7 +34,7 @@ from dd_contact.solvers.residual import (
     ResidualCheck,
 )
 
-__all__ = ["ContactIteration", "ContactSettings", "ContactSolver", "digest"]
+__all__ = ["STATE_BAND", "ContactIteration", "ContactSettings", "ContactSolver", "digest"]
 
 
 class ContactSolver(Protocol):
@@ -99,6 +99,13 @@ class StepCorrection(Protocol):
         the step: the correction carries their force.
         """
         ...
+
+
+#: A point changes contact state only when its penetration passes zero by more than this
+#: fraction of its contact's size: within it the sign is round-off (a bar landing exactly
+#: at a step's end cycled through its points, penetrations +-1e-17 m, 5 state changes). Not
+#: wider: a stiff penalty turns 1e-12 of the size into 2.8e-3 of a quasi-static load.
+STATE_BAND = 1e-15
 
 
 def digest(active: np.ndarray) -> str:
@@ -206,6 +213,7 @@ class ContactIteration:
         self.releases = {z.contact.name: 0 for z in zones}
         #: Iterates taken whole (every subdomain substituted) to settle a leaving point's walls.
         self.whole_iterates = 0
+        self._held_in_now = False  # whether the last decision pressed points back in
         self._whole: dict[str, np.ndarray] | None = None  # the last solve's, if taken
         self._correction: StepCorrection | None = None
         self._shift: dict[str, np.ndarray] = {}
@@ -246,21 +254,22 @@ class ContactIteration:
         changes_this_solve = 0
         for iteration in range(1, self.settings.max_iterations + 1):
             x = self._solve_once(solver, rhs, where)
-            end = self._at_end(solver, x, whole=False)
-            new, changed = self._next_sets(end, sets[0], released, held_in)
+            # (collective) no change yet: every point is as at the step's start, none left
+            moved = changes_this_solve > 0
+            new, changed = self._decide(solver, x, (sets[0], released, held_in), False, moved)
             if not sum_over_ranks(self.comm, len(changed)):
                 if releases < MAX_RELEASES and self._unsettled(x):
                     releases += 1  # the same contact state; its releasing forces still move
                     self._count_release(sets[0])
                     continue
-                # settled: decide on the whole end state (an order's walls substituted)
-                end = self._at_end(solver, x, whole=True)
-                new, changed = self._next_sets(end, sets[0], released, held_in)
-                if not sum_over_ranks(self.comm, len(changed)):
-                    changed = self._pressed_back(end, released, held_in, new)
-                if not sum_over_ranks(self.comm, len(changed)):
+                if moved:  # settled: decide on the whole end state (an order's walls too)
+                    new, changed = self._decide(solver, x, (sets[0], released, held_in), True)
+                if not moved or not sum_over_ranks(self.comm, len(changed)):
                     x = self._shifted(self._checked(solver, self._finished(solver), where))
-                    return self._at_end(solver, x, whole=True), iteration, changes_this_solve
+                    if moved:
+                        x = self._at_end(solver, x, whole=True)
+                    return x, iteration, changes_this_solve
+            if self._held_in_now:
                 seen = {}  # the points pressed back stay in: no cycle through them
             self._count_change(changed)
             changes_this_solve += 1
@@ -281,11 +290,49 @@ class ContactIteration:
             "load increment"
         )
 
+    def _decide(
+        self,
+        solver: ContactSolver,
+        x: dict[str, np.ndarray],
+        sets: tuple[dict, dict, dict],
+        whole: bool,
+        moved: bool = True,
+    ) -> tuple[dict[str, np.ndarray], list[str]]:
+        """Collective: the active sets the end state of ``x`` shows, and where they changed.
+
+        The points let go in this step that the end state shows pressed back in come back
+        first (and stay in); they are judged on the ``whole`` end state only, once the
+        releases' forces have settled. Before, an iterate that shows such points decides
+        nothing: the entries it shows may be theirs (a bar pushed onto its wall cycled
+        through the neighbours of the points it let go, and created energy). ``sets``: the
+        step's first active sets, the points let go and those held in; ``moved``: whether
+        some rank's active sets changed in this solve (none let go otherwise).
+        """
+        start, released, held_in = sets
+        self._held_in_now = False
+        end = self._at_end(solver, x, whole)
+        if self._correction is None or not moved:
+            return self._next_sets(end, start, released, held_in)
+        if not whole:
+            back = self._correction.pressed_back(end)
+            if any_rank(self.comm, any((back[n] & released[n]).any() for n in back)):
+                return dict(self.active), []
+            return self._next_sets(end, start, released, held_in)
+        back_in = self._pressed_back(end, released, held_in)
+        self._held_in_now = bool(sum_over_ranks(self.comm, len(back_in)))
+        return self._next_sets(end, start, released, held_in)
+
     def _next_sets(
         self, end: dict[str, np.ndarray], start: dict, released: dict, held_in: dict
     ) -> tuple[dict[str, np.ndarray], list[str]]:
         """The active sets the end state ``end`` shows, and the zones where they changed."""
-        new = {z.contact.name: z.operator.active_set(end[z.block][z.dofs]) for z in self.zones}
+        new = {}
+        for z in self.zones:
+            name = z.contact.name
+            g = z.operator.penetration(end[z.block][z.dofs])
+            # a penetration within round-off of zero is no evidence: the point keeps its state
+            undecided = np.abs(g) <= STATE_BAND * z.length
+            new[name] = np.where(undecided, self.active[name], g > 0.0)
         if self._correction is not None:
             self._keep_released_out(new, start, released, held_in)
         return new, [n for n in new if not np.array_equal(new[n], self.active[n])]
@@ -345,25 +392,25 @@ class ContactIteration:
         self._count_change(grown)
         return 1
 
-    def _pressed_back(self, x, released: dict, held_in: dict, new: dict) -> list[str]:
-        """The zones whose let-go points ``x`` shows deeper than at t_n: back in ``new``.
+    def _pressed_back(self, x, released: dict, held_in: dict) -> list[str]:
+        """The zones whose let-go points ``x`` shows deeper than at t_n: now held in.
 
-        Once the correction has settled, a point it let go may end pressed in again: kept
-        out it would hold its whole start force at most, and ending deeper than it started
-        the penalty would store energy no force worked for; back in contact it gets the
-        mean force (exact, or dissipating a small end tension), and stays in for the rest
+        A point let go may end pressed in again (judged on the settled end state, see
+        :meth:`_decide`): kept out it would hold its whole start force at most, and
+        ending deeper than it started the penalty would store energy no force worked for;
+        back in contact it gets the mean force (exact, or dissipating a small end
+        tension), and stays in for the rest
         of the step (docs/contact.md, "Releases without cycles").
         """
         if self._correction is None:
             return []
         back = self._correction.pressed_back(x)
         zones = []
-        for name in new:
+        for name in back:
             again = released[name] & back[name]
             if again.any():
                 released[name] &= ~again
                 held_in[name] |= again
-                new[name] = new[name] | again
                 zones.append(name)
         return zones
 

@@ -405,6 +405,8 @@ class TransientProblem(AnalysisReadout):
             start = self._inertia_loads(loads, previous)
             release = start if self.energy_safe else None
         x, iterations, changes = analysis.solve(t_new, analysis.rhs(t_new, loads), where, release)
+        if release is not None and changes:  # what its owner settled, on every rank
+            x = analysis.owners_blocks(x, release.settled_blocks)
         if self.inertia:
             self.kinematics.step(x)
         analysis.publish(x)

@@ -72,7 +72,7 @@ def test_orders_stay_within_roundoff_of_full_over_many_steps():
     orders = compare.run_algorithm(bar, "w-v-u", 1e-4, 80)
     twin = compare.roundoff_run(bar, 1e-4, 80)
     check = compare.agreement(orders, full, ["end"], twin)
-    assert full.changes["end"] >= 10
+    assert full.changes["end"] >= 6  # 8 (21-23 before one release was one episode)
     assert check.same_history
     assert max(check.early) < compare.EARLY_TOLERANCE
     assert check.worst <= check.limit <= 1e-5

@@ -96,6 +96,9 @@ class _ScriptedZone:
         def update(self, t):
             pass
 
+        def penetration(self, w):
+            return w
+
         def active_set(self, w):
             return w > 0
 

@@ -7,6 +7,8 @@ import pytest
 
 import dd_contact as dd
 from dd_contact.paper import examples
+from dd_contact.paper.verify.bar import _impact_bar
+from dd_contact.paper.verify.models import locator
 
 STEPS = 6
 
@@ -60,3 +62,23 @@ def test_every_rank_reads_the_owners_velocity_and_acceleration(scheme, tmp_path)
         np.testing.assert_array_equal(mine.velocity.x.array, theirs.velocity.x.array)
     for p in (whole, first, resumed):
         p.close()
+
+
+@pytest.mark.mpi
+def test_every_rank_reads_the_massless_face_as_its_owner():
+    """A bar on rank 0 only; its massless end face's rates on rank 1 too."""
+    comm = MPI.COMM_WORLD
+    if comm.size != 2:
+        pytest.skip("two ranks, one owning the bar")
+    parts, _ = _impact_bar(20, False, dd.Material(1.0, 0.0, 1.0))
+    wall = dd.Plane([0.0, 0.0, 0.0], [1.0, 0.0, 0.0])
+    end = dd.ContactBoundary(parts[0], locator(0, 0.0), wall, name="end")
+    problem = dd.TransientProblem(dd.Scene(comm, parts, contacts=[end]), 0.5 / 20)
+    bar = parts[0]
+    face = 3 * np.flatnonzero(np.isclose(bar.V.tabulate_dof_coordinates()[:, 0], 0.0))
+    for _ in range(100):  # past the release at 2 L / c = 80 steps
+        problem.advance()
+        _assert_every_rank_reads_the_owners(problem)
+    assert problem.changes["end"] == 1
+    assert np.allclose(bar.velocity.x.array[face], 0.01, rtol=0.05)  # with the bar, at +v0
+    problem.close()

@@ -9,6 +9,7 @@ against FULL), :mod:`~dd_contact.paper.verify.extremes` (the penalty sweep),
 :mod:`~dd_contact.paper.verify.cases` (the registry of ``dd-contact verify``).
 """
 
+from dd_contact.paper.verify.bar import bar_impact
 from dd_contact.paper.verify.cases import CASES, run_cases
 from dd_contact.paper.verify.drops import (
     box_drop_scene,
@@ -33,7 +34,6 @@ from dd_contact.paper.verify.extremes import (
 )
 from dd_contact.paper.verify.models import (
     Record,
-    bar_impact,
     bent_bar,
     free_vibration,
     hertz,
