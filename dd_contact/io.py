@@ -199,6 +199,11 @@ class History:
         for path in (self.csv_path, self.json_path):
             remove_temporary(path)
         self._columns = list(flat_record(history[0])) if history else None
+        try:
+            if self.json_path.exists():
+                json.loads(self.json_path.read_text())
+        except ValueError as error:
+            logger.warning("%s: it cannot be read (%s); rewritten", self.json_path, error)
         if self.csv_path.exists() and not self.csv_path.read_bytes().endswith(b"\n"):
             logger.warning("%s: its last row was cut short; rewritten", self.csv_path)
         if history:
@@ -297,7 +302,9 @@ class RunOutput:
                     f"the checkpoint at step {self.checkpointed} is intact: make room (or move "
                     "the directory to a disk with room) and run again with resume=True"
                 )
-            raise OutputError(f"run(output=...): {error}; {then}") from local
+            raised = OutputError(f"run(output=...): {error}; {then}")
+            raised.errno = error.errno
+            raise raised from local
 
     def restore(self) -> tuple[dict[str, np.ndarray], list[dict]]:
         """Collective: the checkpoint's state and history (found by ``checkpoint.exists()``)."""

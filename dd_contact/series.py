@@ -13,15 +13,17 @@ The files of the mesh whose output stem is ``<stem>`` (``u_block``, ``w_contact`
 * ``<stem>.xdmf``: the index, one temporal collection with a grid per written step (its
   time, the mesh and every field), which ParaView, pyvista and meshio open.
 
-A step's file is written and closed before the step enters the index, and the index is
-replaced atomically (:func:`dd_contact.writing.replace_atomically`): killed at any moment,
-the index lists only complete steps; a write that fails removes what it started.
+A step's file is made in memory (:func:`hdf5_image`) and written under a temporary name,
+renamed once complete, before the step enters the index, which is replaced the same way
+(:func:`dd_contact.writing.replace_atomically`): killed at any moment, the index lists only
+complete steps; a write that fails removes what it started.
 """
 
 from __future__ import annotations
 
 import re
 from collections.abc import Sequence
+from io import BytesIO
 from pathlib import Path
 from xml.etree import ElementTree as ET
 from xml.sax.saxutils import escape, quoteattr
@@ -34,7 +36,15 @@ import numpy as np
 from dd_contact.post import MeshFields
 from dd_contact.writing import failure, logger, remove_temporary, replace_atomically, set_aside
 
-__all__ = ["FieldLayout", "SeriesWriter", "read_index", "read_step", "step_files"]
+__all__ = [
+    "FieldLayout",
+    "SeriesWriter",
+    "hdf5_image",
+    "read_index",
+    "read_step",
+    "step_file",
+    "step_files",
+]
 
 #: The mesh file of a series, in its folder.
 MESH_FILE = "mesh.h5"
@@ -133,6 +143,21 @@ class FieldLayout:
             x[self._dofs.ravel()] = values[self._nodes.ravel()]
 
 
+def hdf5_image(arrays: dict[str, np.ndarray], attributes: dict | None = None) -> bytes:
+    """An HDF5 file of ``arrays`` (and root ``attributes``), made in memory.
+
+    The file system sees only plain writes of the finished image: a full disk is an
+    ``OSError`` of Python's, never a failure inside the HDF5 library (which raised from its
+    close and even crashed).
+    """
+    buffer = BytesIO()
+    with h5py.File(buffer, "w") as data:
+        data.attrs.update(attributes or {})
+        for name, array in arrays.items():
+            data[name] = array
+    return buffer.getvalue()
+
+
 def _item(dims: Sequence[int], source: str, number: str = "Float") -> str:
     shape = " ".join(str(n) for n in dims)
     return (
@@ -223,12 +248,9 @@ class SeriesWriter:
 
     # -- writing -------------------------------------------------------------------------
     def _write_mesh(self, geometry: np.ndarray, topology: np.ndarray) -> None:
-        def write(f):
-            with h5py.File(f, "w") as data:
-                data["geometry"] = geometry
-                data["topology"] = topology.astype(np.int64)
-
-        replace_atomically(self.folder / MESH_FILE, write, f"the mesh of {self.stem}")
+        image = hdf5_image({"geometry": geometry, "topology": topology.astype(np.int64)})
+        what = f"the mesh of {self.stem} ({self.stem}/{MESH_FILE})"
+        replace_atomically(self.folder / MESH_FILE, lambda f: f.write(image), what, self.directory)
 
     def _grid(self, step: int, t: float) -> str:
         source = f"{self.stem}/{step_file(step)}"
@@ -257,20 +279,15 @@ class SeriesWriter:
     def write(self, step: int, t: float) -> None:
         """Write the fields at ``step`` (time ``t``), then list the step in the index."""
         self.fields.refresh(t)
+        arrays = {}
+        for layout, f in zip(self.layouts, self.fields.functions, strict=True):
+            arrays[layout.name] = layout.values(f)
+            if not layout.exact:
+                arrays[f"dofs/{layout.name}"] = f.x.array
+        image = hdf5_image(arrays, {"step": step, "t": float(t)})
         path = self.folder / step_file(step)
         what = f"the fields of step {step} ({self.stem}/{path.name})"
-        try:
-            with h5py.File(path, "w") as data:
-                data.attrs["step"], data.attrs["t"] = step, float(t)
-                for layout, f in zip(self.layouts, self.fields.functions, strict=True):
-                    data[layout.name] = layout.values(f)
-                    if not layout.exact:
-                        data[f"dofs/{layout.name}"] = f.x.array
-        except BaseException as error:
-            path.unlink(missing_ok=True)
-            if isinstance(error, OSError):
-                raise failure(error, what, self.directory) from error
-            raise
+        replace_atomically(path, lambda f: f.write(image), what, self.directory)
         self.entries[step] = self._grid(step, t)
         try:
             self._write_index()

@@ -52,11 +52,14 @@ def failure(error: BaseException, what: str, directory: Path) -> OutputError:
     return out
 
 
-def replace_atomically(path: Path, write: Callable[[IO[bytes]], object], what: str) -> None:
+def replace_atomically(
+    path: Path, write: Callable[[IO[bytes]], object], what: str, directory: Path | None = None
+) -> None:
     """Write ``path`` as a whole by ``write(file)``: the old file or the new, never a part.
 
-    Raises :class:`OutputError` if it cannot be written; the temporary file is removed
-    whatever stops the write (an error, Ctrl-C).
+    Raises :class:`OutputError` (naming ``what`` and ``directory``, by default the file's)
+    if it cannot be written; the temporary file is removed whatever stops the write (an
+    error, Ctrl-C).
     """
     tmp = path.with_name(path.name + TEMPORARY)
     try:
@@ -66,7 +69,7 @@ def replace_atomically(path: Path, write: Callable[[IO[bytes]], object], what: s
     except BaseException as error:
         tmp.unlink(missing_ok=True)
         if isinstance(error, OSError):
-            raise failure(error, what, path.parent) from error
+            raise failure(error, what, directory or path.parent) from error
         raise
 
 
