@@ -86,7 +86,7 @@ def _scene(model: str):
     from dd_contact import meshes
     from dd_contact.paper.verify import order_scene
 
-    def pressed(name: str, x0: float, tilt: float):
+    def pressed(name: str, x0: float, tilt: float, gap: float):
         """The README's pressed block at x0, its top pushed down (and tilted) in time."""
         steel = dc.Material(E=210e9, nu=0.3, rho=7850.0)
         box = meshes.box(MPI.COMM_SELF, [x0, 0, 0], [x0 + 1, 1, 0.5], [4, 4, 2])
@@ -97,16 +97,16 @@ def _scene(model: str):
                 [0 * x[0], 0 * x[0], -1e-4 * t * (1 + tilt * (x[0] - x0 - 0.5))]
             ),
         )
-        plane = dc.Plane([0, 0, -2e-5], [0, 0, 1])
+        plane = dc.Plane([0, 0, -gap], [0, 0, 1])
         bottom = dc.ContactInterface.from_boundary(
             block, lambda x: np.isclose(x[2], 0.0), plane, name=f"bottom_{name}"
         )
         return block, bottom
 
     if model.startswith("pressed"):  # one block, or two side by side (a body each)
-        parts = [pressed("block", 0.0, 0.0)]
+        parts = [pressed("block", 0.0, 0.0, 0.0)]
         if model == "pressed-pair":
-            parts.append(pressed("other", 2.0, 1.5))
+            parts.append(pressed("other", 2.0, 1.5, 2e-5))
         blocks, contacts = zip(*parts, strict=True)
         scene = dc.Scene(MPI.COMM_WORLD, list(blocks), contacts=list(contacts))
         return scene, {"dt": 0.1, "inertia": False}
@@ -335,20 +335,25 @@ PYVISTA_CHECK = """
 import sys, pyvista
 for path in sys.argv[1:]:
     reader = pyvista.get_reader(path)
+    names = set()
     for t in reader.time_values:
         reader.set_active_time_value(t)
         mesh = reader.read()
-        assert mesh.n_points > 0 and mesh.array_names, path
-    print(len(reader.time_values))
+        assert mesh.n_points > 0, path
+        names |= set(mesh.array_names)
+    print(len(reader.time_values), ",".join(sorted(names)))
 """
 
 
-def pyvista_reads(out: Path) -> str | None:
-    """Why pyvista cannot open every series of ``out`` at every step (in a subprocess)."""
-    paths = [str(p) for p in sorted(out.glob("*.xdmf"))]
+def pyvista_fields(out: Path) -> dict[str, tuple[int, list[str]]]:
+    """Per series of ``out``: the steps and fields pyvista reads (in a subprocess).
+
+    Raises ``RuntimeError`` if pyvista fails or crashes (a crash ends only the subprocess).
+    """
+    paths = sorted(out.glob("*.xdmf"))
     env = {**_environment(), "PYVISTA_OFF_SCREEN": "true"}
     done = subprocess.run(
-        [sys.executable, "-c", PYVISTA_CHECK, *paths],
+        [sys.executable, "-c", PYVISTA_CHECK, *map(str, paths)],
         env=env,
         capture_output=True,
         text=True,
@@ -356,10 +361,19 @@ def pyvista_reads(out: Path) -> str | None:
         check=False,
     )
     if done.returncode != 0:
-        return f"pyvista: rc {done.returncode}: {done.stderr[-300:]}"
-    if done.stdout.split() != [str(STEPS + 1)] * len(paths):
-        return f"pyvista reads {done.stdout.split()} steps"
-    return None
+        raise RuntimeError(f"pyvista: rc {done.returncode}: {done.stderr[-300:]}")
+    lines = [line.split(" ") for line in done.stdout.splitlines()]
+    return {p.stem: (int(n), names.split(",")) for p, (n, names) in zip(paths, lines, strict=True)}
+
+
+def pyvista_reads(out: Path, steps: int = STEPS) -> str | None:
+    """Why pyvista cannot open every series of ``out`` at steps 0 ... ``steps``."""
+    try:
+        found = pyvista_fields(out)
+    except RuntimeError as error:
+        return str(error)
+    wrong = {stem: n for stem, (n, names) in found.items() if n != steps + 1 or not names}
+    return f"pyvista reads {wrong} steps" if wrong else None
 
 
 def check(out: Path, final: Path, reference: Path) -> str | None:
