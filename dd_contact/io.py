@@ -348,7 +348,11 @@ class RunOutput:
 
     def save(self, state: dict[str, np.ndarray], history: list[dict]) -> None:
         """Collective: a checkpoint (with the history) and ``history.json``."""
-        self._attempt(lambda: self.checkpoint.write(state, history))
+        try:
+            self._attempt(lambda: self.checkpoint.write(state, history))
+        except OutputError:
+            self.checkpoint.discard()  # the ranks whose write went through: theirs too
+            raise
         self.checkpoint.commit()
         self.checkpointed = int(state["step"])
         self._attempt(lambda: self.history.save(history))
