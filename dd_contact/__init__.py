@@ -5,10 +5,11 @@ The public API is the list ``__all__`` below, and only it: the scene (``Scene``,
 obstacles), the problems (``StaticProblem``, ``TransientProblem``), their settings, errors
 and warnings, and the four modules a user calls beside them (``meshes``: mesh builders;
 ``io``: output files; ``post``: results derived from a solution; ``viz``: pictures), each
-with an ``__all__`` of its own. The other modules are the library these are built from.
-``dd_contact.paper`` is the paper's reproduction on top of the library (its operation-count
-model, its two examples, the verification cases against closed forms, the algorithm
-comparison); no module of the library imports it, only the ``dd-contact`` command (``cli``).
+with an ``__all__`` of its own, and ``load_results``, which reads a run's output back. The
+other modules are the library these are built from. ``dd_contact.paper`` is the paper's
+reproduction on top of the library (its operation-count model, its two examples, the
+verification cases against closed forms, the algorithm comparison); no module of the library
+imports it, only the ``dd-contact`` command (``cli``).
 """
 
 from mpi4py import MPI as _MPI  # noqa: F401  (loads libmpi before petsc4py)
@@ -21,6 +22,7 @@ from dd_contact.errors import (
     EnergyGrowthWarning,
     InaccurateSolutionError,
     InputError,
+    OutputError,
     PenaltyRangeWarning,
     RunStopped,
     SingularMatrixError,
@@ -29,6 +31,7 @@ from dd_contact.errors import (
 from dd_contact.iteration import ContactSettings
 from dd_contact.obstacles import Cylinder, Plane, Sphere, UserObstacle
 from dd_contact.problem import StaticProblem, TransientProblem
+from dd_contact.results import load_results
 from dd_contact.scene import (
     DEFAULT_KAPPA,
     KAPPA_VERIFIED,
@@ -59,6 +62,7 @@ __all__ = [
     "InputError",
     "Interface",
     "Material",
+    "OutputError",
     "Penalty",
     "PenaltyRangeWarning",
     "Plane",
@@ -73,6 +77,7 @@ __all__ = [
     "UserObstacle",
     "__version__",
     "io",
+    "load_results",
     "meshes",
     "post",
     "viz",

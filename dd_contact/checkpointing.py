@@ -3,22 +3,30 @@
 A run's state is the owned subdomains' displacement, velocity and acceleration, the
 interface's and the owned contact surfaces' displacement (massless, but the next step's
 start forces read their tie forces at t_n), the contact iteration's active sets and counts,
-and the step, time and integration settings (which a resumed run must share). Files are
-:mod:`dd_contact.io`'s.
+and the step, time and integration settings (which a resumed run must share). Its files
+are :class:`Checkpoint`'s, written so that a process killed at any moment, on any rank,
+leaves a state every rank holds.
 """
 
 from __future__ import annotations
 
+import json
+import os
 from collections.abc import Sequence
+from pathlib import Path
+
+from mpi4py import MPI
 
 import numpy as np
 
 from dd_contact.assembly import ContactZone
 from dd_contact.errors import InputError
 from dd_contact.iteration import ContactIteration
+from dd_contact.parallel import ROOT, allgathered, bcast_from_root
 from dd_contact.subdomains import Subdomain
+from dd_contact.writing import TEMPORARY, failure, logger, set_aside
 
-__all__ = ["RunState"]
+__all__ = ["Checkpoint", "RunState"]
 
 #: The fields of a subdomain a checkpoint holds.
 KINEMATICS = ("u", "velocity", "acceleration")
@@ -120,3 +128,124 @@ class RunState:
             it.releases[name] = int(state[key]) if key in state else 0
         it.release_solves = int(state.get("release_solves", 0))
         return int(state["step"]), float(state["t"])
+
+
+class Checkpoint:
+    """A run's state on disk: one ``.npz`` per rank, and the one before it.
+
+    Saving is two collective phases: every rank writes ``checkpoint.rank<r>.npz.tmp``
+    (:meth:`write`); once every rank has, each renames its current file to
+    ``checkpoint.rank<r>.previous.npz`` and the new one to ``checkpoint.rank<r>.npz``
+    (:meth:`commit`). Killed at any moment, each rank holds the new state or the old one,
+    complete, among these files: :meth:`exists` finds the latest step every rank holds,
+    :meth:`load` reads it and tidies the rest. Rank 0's file also holds the history.
+
+    Args:
+        directory: Where the checkpoint lives.
+        comm: Communicator of the run.
+    """
+
+    def __init__(self, directory: str | Path, comm: MPI.Comm):
+        self.directory = Path(directory)
+        self.comm = comm
+        self.path = self.directory / f"checkpoint.rank{comm.rank}.npz"
+        self.previous = self.directory / f"checkpoint.rank{comm.rank}.previous.npz"
+        self.pending = self.path.with_name(self.path.name + TEMPORARY)
+        #: The step :meth:`exists` found (``None``: none).
+        self.step: int | None = None
+
+    def _held(self) -> dict[int, Path]:
+        """The steps of this rank's complete checkpoint files."""
+        held = {}
+        for path in (self.previous, self.path, self.pending):
+            try:
+                with np.load(path) as data:
+                    held[int(data["step"])] = path
+            except Exception:  # missing, cut short, not a checkpoint: not held
+                continue
+        return held
+
+    def exists(self) -> bool:
+        """Collective: whether every rank holds a checkpoint of one step (kept in :attr:`step`).
+
+        Raises :class:`InputError` if some ranks hold checkpoint files and no step is common
+        to all (written by another number of ranks).
+        """
+        held = allgathered(self.comm, sorted(self._held()))
+        some = [rank for rank, steps in enumerate(held) if steps]
+        common = set.intersection(*(set(steps) for steps in held))
+        self.step = max(common) if common else None
+        if some and not common:
+            raise InputError(
+                f"resume: {str(self.directory)!r} holds checkpoint files of rank(s) {some} but "
+                f"no step that all {self.comm.size} ranks saved (written by another number of "
+                "ranks?); run with as many ranks as wrote them, or start a new output directory"
+            )
+        return self.step is not None
+
+    def write(self, arrays: dict[str, np.ndarray], history: list[dict]) -> None:
+        """Rank-local: this rank's arrays (rank 0: and ``history``) to its pending file.
+
+        Raises :class:`~dd_contact.errors.OutputError` (the pending file removed).
+        """
+        arrays = {**arrays, "ranks": np.array(self.comm.size)}
+        if self.comm.rank == ROOT:
+            arrays["history"] = np.frombuffer(json.dumps(history).encode(), dtype=np.uint8)
+        try:
+            with open(self.pending, "wb") as f:
+                np.savez(f, **arrays)  # type: ignore[arg-type]
+        except BaseException as error:
+            self.discard()
+            if isinstance(error, OSError):
+                what = f"the checkpoint of step {int(arrays['step'])} ({self.pending.name})"
+                raise failure(error, what, self.directory) from error
+            raise
+
+    def discard(self) -> None:
+        """Rank-local: remove the pending file (a write failed on some rank)."""
+        self.pending.unlink(missing_ok=True)
+
+    def commit(self) -> None:
+        """Rank-local, once every rank wrote: the pending file becomes the checkpoint."""
+        if self.path.exists():
+            os.replace(self.path, self.previous)
+        os.replace(self.pending, self.path)
+
+    def load(self) -> tuple[dict[str, np.ndarray], list[dict] | None]:
+        """Collective: this rank's arrays at :attr:`step` and the history on every rank.
+
+        The history is ``None`` in a checkpoint of an earlier version (``history.json`` has
+        it). Files of later steps, which not every rank saved, are removed, saying so.
+        """
+        held = self._held()
+        assert self.step is not None and self.step in held  # found by exists()
+        path = held[self.step]
+        with np.load(path) as data:
+            state = {k: data[k] for k in data.files}
+        for step, other in held.items():
+            if step > self.step:
+                other.unlink()
+                logger.warning(
+                    "%s: step %d, which not every rank saved: removed (resuming from step %d)",
+                    other,
+                    step,
+                    self.step,
+                )
+        if path != self.path:
+            if self.path.exists() and self.path not in held.values():
+                set_aside(self.path, "it cannot be read")
+            elif self.path.exists():
+                os.replace(self.path, self.previous)
+            os.replace(path, self.path)
+        self.discard()
+        ranks = int(state.pop("ranks", self.comm.size))
+        if ranks != self.comm.size:
+            raise InputError(
+                f"resume: the checkpoint in {str(self.directory)!r} was written by {ranks} "
+                f"rank(s), this run has {self.comm.size}; run with mpiexec -n {ranks}, or "
+                "start a new output directory"
+            )
+        history = state.pop("history", None)
+        text = None if history is None else bytes(history).decode()
+        text = bcast_from_root(self.comm, text)
+        return state, None if text is None else json.loads(text)

@@ -16,6 +16,7 @@ __all__ = [
     "EnergyGrowthWarning",
     "InaccurateSolutionError",
     "InputError",
+    "OutputError",
     "PenaltyRangeWarning",
     "RunStopped",
     "SingularMatrixError",
@@ -62,6 +63,15 @@ class EnergyGrowthWarning(UserWarning):
 
 class CoarseTimeStepWarning(UserWarning):
     """A contact episode lasted too few time steps for an accurate rebound (energy is kept)."""
+
+
+class OutputError(OSError):
+    """A run's output could not be written (a full disk, a quota, a vanished directory).
+
+    The message names the directory, what was being written and how to go on; ``errno`` is
+    the system's (28, ``ENOSPC``, for a full disk). What was written before stays readable,
+    no temporary file is left, and the last checkpoint is intact.
+    """
 
 
 class RunStopped(SystemExit):

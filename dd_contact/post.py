@@ -21,7 +21,7 @@ from dd_contact.blocks import Block
 from dd_contact.forms import stress
 from dd_contact.impact import BlockProducts
 from dd_contact.parallel import gather_to_root, gathered
-from dd_contact.scene import ContactBoundary, ContactInterface, Scene, Where
+from dd_contact.scene import ContactBoundary, ContactInterface, Interface, Scene, Where
 from dd_contact.subdomains import Subdomain
 
 __all__ = [
@@ -34,6 +34,7 @@ __all__ = [
     "energy",
     "gather_contact_fields",
     "output_fields",
+    "part_fields",
     "von_mises",
 ]
 
@@ -155,6 +156,17 @@ def _contact_fields(contact: ContactInterface | ContactBoundary) -> MeshFields:
     return MeshFields(contact.w.name, [contact.w, contact.pressure, gap, active], refresh)
 
 
+def part_fields(
+    part: Subdomain | Interface | ContactInterface | ContactBoundary, dynamic: bool
+) -> MeshFields:
+    """The output of one part of a scene (a subdomain, the interface, a contact region)."""
+    if isinstance(part, Subdomain):
+        return _subdomain_fields(part, dynamic)
+    if isinstance(part, Interface):
+        return MeshFields(part.v.name, [part.v], lambda t: None)
+    return _contact_fields(part)
+
+
 def output_fields(scene: Scene, rank: int, dynamic: bool) -> list[MeshFields]:
     """The output of every mesh rank ``rank`` owns (the interface is rank 0's).
 
@@ -163,15 +175,11 @@ def output_fields(scene: Scene, rank: int, dynamic: bool) -> list[MeshFields]:
         rank: This rank.
         dynamic: Include velocity and acceleration of the subdomains.
     """
-    out = [
-        _subdomain_fields(s, dynamic)
-        for k, s in enumerate(scene.subdomains)
-        if scene.owner(k) == rank
-    ]
+    parts: list = [s for k, s in enumerate(scene.subdomains) if scene.owner(k) == rank]
     if scene.interface is not None and rank == 0:
-        out.append(MeshFields(scene.interface.v.name, [scene.interface.v], lambda t: None))
-    out += [_contact_fields(c) for c in scene.contacts if scene.contact_owner(c) == rank]
-    return out
+        parts.append(scene.interface)
+    parts += [c for c in scene.contacts if scene.contact_owner(c) == rank]
+    return [part_fields(part, dynamic) for part in parts]
 
 
 class Reactions:

@@ -455,8 +455,9 @@ class TransientProblem(AnalysisReadout):
 
         Args:
             n_steps: Last step number of the run (>= 1).
-            output: Directory (created if missing) for the fields (XDMF), ``history.json``,
-                ``history.csv`` and checkpoints; see ``docs/output.md``.
+            output: Directory (created if missing) for the fields (XDMF and HDF5, a file per
+                written step), ``history.json``, ``history.csv`` and checkpoints; see
+                ``docs/output.md`` (and :func:`dd_contact.load_results` to read them back).
             output_every: Write the fields every this many steps (>= 1).
             checkpoint_every: Save a checkpoint every this many steps (needs ``output``).
             resume: Continue from the checkpoint in ``output`` if there is one.
@@ -487,10 +488,7 @@ class TransientProblem(AnalysisReadout):
         if not self._started:
             self._start()
         if files is not None:
-            files.open(self.step, self.history)
-            if self.step == 0:
-                assert files.fields is not None  # opened
-                files.fields.write(self.t)
+            files.open(self.step, self.t, self.history)
         show = progress if progress is not None else sys.stderr.isatty()
         bar = None
         if show and self.comm.rank == 0 and self.step < n_steps:
@@ -501,11 +499,9 @@ class TransientProblem(AnalysisReadout):
                 while self.step < n_steps and stopped is None:
                     record = self._advance()
                     if files is not None:
-                        files.record(record, self.step % output_every == 0)
-                    if checkpoint_every and self.step % checkpoint_every == 0:
-                        assert files is not None  # checkpoints need an output directory (above)
-                        files.save(self._state(), self.history)
-                        logger.info("checkpoint at step %d (t = %.6g)", self.step, self.t)
+                        files.record(
+                            record, self.history, self._state, output_every, checkpoint_every
+                        )
                     if bar is not None:
                         bar.update(1)
                         bar.set_postfix(t=f"{self.t:.4g}", changes=self.iteration.gamma)
@@ -514,11 +510,15 @@ class TransientProblem(AnalysisReadout):
                     stopped = stop.requested(self.comm)
             if stopped is not None and files is not None:
                 files.save(self._state(), self.history)
+        except BaseException as error:
+            if files is not None:
+                files.close(self.history, error)
+            raise
         finally:
             if bar is not None:
                 bar.close()
-            if files is not None:
-                files.close(self.history)
+        if files is not None:
+            files.close(self.history)
         if stopped is not None:
             raise_stopped(self.comm, stopped, self.step, self.t, output)
         if summary:
@@ -533,7 +533,7 @@ class TransientProblem(AnalysisReadout):
         restored = files is not None and files.checkpoint.exists()
         if restored:
             assert files is not None  # restored from its checkpoint
-            self._restore(files.checkpoint.load(), files.history.load())
+            self._restore(*files.restore())
         if self.step >= n_steps and not (restored and self.step == n_steps):
             where = f"the checkpoint in {str(output)!r} is" if restored else "the problem is"
             raise InputError(

@@ -43,11 +43,14 @@ def _pressed_block(points="nodes"):
 
 
 def _series(path: Path) -> dict[str, list[float]]:
-    """Times of every function in an XDMF file."""
-    out = {}
+    """Times of every field in a series' XDMF index."""
+    out: dict[str, list[float]] = {}
     for grid in ET.parse(path).getroot().iter("Grid"):
-        if grid.get("CollectionType") == "Temporal":
-            out[grid.get("Name")] = [float(g.find("Time").get("Value")) for g in grid]
+        if grid.get("GridType") == "Uniform":
+            for attribute in grid.iter("Attribute"):
+                out.setdefault(attribute.get("Name"), []).append(
+                    float(grid.find("Time").get("Value"))
+                )
     return out
 
 
