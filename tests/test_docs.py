@@ -1,4 +1,5 @@
-"""The docs: every relative link resolves inside the repository; the API reference builds."""
+"""The docs: every relative link resolves inside the repository, every name in their code is
+the API's (``doc_names``), the README's code runs; the API reference builds."""
 
 import importlib.util
 import os
@@ -7,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import doc_names
 import numpy as np
 import pytest
 
@@ -151,3 +153,51 @@ def test_method_names_every_equation_and_the_code_that_implements_it():
             break
         else:
             raise AssertionError(f"{name} does not import")
+
+
+def test_every_name_in_the_docs_is_the_apis():
+    """Each dd_contact name, keyword and ``dd-contact`` command in the docs' code exists."""
+    report = doc_names.check_pages(PAGES)
+    assert not report.missing, "names the API does not have:\n" + "\n".join(report.missing)
+    assert len(report.checked) >= 300  # the check resolves names, it does not skip them
+
+
+WRONG_NAMES = """
+Loads: `set_body_force(lambda t: (0, 0, -9.81))`, not `body_force(lambda t: (0, 0, -9.81))`;
+`sub.body_force(f)` is an attribute; `TransientProblem(scene, dt, masss="lumped")`,
+`problem.run(10, outptu="out")`, `dc.Nope`, `io.write_vtk(scene, "out")`,
+`problem.iteration.release_solve`, `Interface.from_boundary(sub, where, [sub], kapa=1e6)`,
+`dd-contact verfy` and `dd-contact calibrate --shwo`; fine: `np.isclose(x[0], 0)`,
+`fem.Constant(mesh, 0.0)`, `viz.plot_deformed(scene, "a.png")`, `problem.choice.table()`.
+
+```python
+from dd_contact import ioo
+steel = dc.Material(E=210e9, nu=0.3, rhoo=7850.0)
+left = dc.Subdomain(mesh, steel, "left")
+left.fixx(lambda x: x[0] < 1e-9)
+```
+"""
+
+
+def test_a_wrong_name_in_the_docs_is_found():
+    report = doc_names.check_text(WRONG_NAMES, "page")
+    doc_names.check_commands(WRONG_NAMES, "page", report)
+    assert sorted(report.missing) == sorted(
+        f"page: {m}"
+        for m in [
+            "body_force (not a name of the package)",
+            "sub.body_force (an attribute, not a method)",
+            "TransientProblem(masss=...) (no such keyword)",
+            "problem.run(outptu=...) (no such keyword)",
+            "dc.Nope (no such attribute)",
+            "io.write_vtk (no such attribute)",
+            "problem.iteration.release_solve (no such attribute)",
+            "Interface.from_boundary(kapa=...) (no such keyword)",
+            "dd_contact.ioo (no such attribute)",
+            "dc.Material(rhoo=...) (no such keyword)",
+            "left.fixx (no such attribute)",
+            "dd-contact verfy (no such command)",
+            "dd-contact calibrate --shwo (no such option)",
+        ]
+    )
+    assert {"set_body_force()", "viz.plot_deformed", "problem.choice.table"} <= report.checked
