@@ -50,6 +50,56 @@ def test_named_files_exist(page):
         assert name.startswith(outputs), f"{page.name}: `{name}` not found in the repository"
 
 
+# A section named after a page: `docs/solvers.md`, "Loads" or [contact.md](contact.md), "Impact"
+# or docs/contact.md "Impact" (text may wrap across lines).
+SECTION_REFERENCE = re.compile(
+    r"(?:docs/)?([\w-]+\.md)`?(?:\]\([^)]*\))?[,;]?\s+[\"“]([^\"”]{3,80})[\"”]"
+)
+SOURCES = [
+    *PAGES,
+    *sorted((ROOT / "dd_contact").rglob("*.py")),
+    *sorted((ROOT / "demos").glob("*.py")),
+    *sorted((ROOT / "benchmarks").glob("*.py")),
+]
+
+
+def _section_references(text: str) -> list[tuple[str, str]]:
+    text = re.sub(r"\n[ \t]*#:?", "\n", text)  # a reference in comments that wrap
+    return [(page, " ".join(title.split())) for page, title in SECTION_REFERENCE.findall(text)]
+
+
+def _flat(text: str) -> str:
+    return " ".join(text.replace("*", "").replace("`", "").split()).lower()
+
+
+def test_named_sections_exist():
+    """A page and section named together (``docs/contact.md``, "Impact") is a heading or a
+    phrase of that page: moving text between pages must not leave a reference behind."""
+    missing, found = [], 0
+    for source in SOURCES:
+        for page, title in _section_references(source.read_text()):
+            target = ROOT / "docs" / page if page != "README.md" else ROOT / page
+            if not target.exists():
+                continue  # a page that does not exist is test_links_resolve's to report
+            found += 1
+            if _flat(title) not in _flat(target.read_text()):
+                missing.append(f'{source.relative_to(ROOT)}: {page}, "{title}"')
+    assert not missing, "sections that are not where they are said to be:\n" + "\n".join(missing)
+    assert found >= 40
+
+
+def test_section_check_reads_references():
+    text = (
+        'see (`docs/solvers.md`, "Loads") and [contact.md](contact.md), "A time step\n  too coarse"'
+    )
+    text += ' and docs/contact.md "Impact".'
+    assert _section_references(text) == [
+        ("solvers.md", "Loads"),
+        ("contact.md", "A time step too coarse"),
+        ("contact.md", "Impact"),
+    ]
+
+
 def test_link_check_finds_a_broken_link(tmp_path):
     page = tmp_path / "page.md"
     page.write_text("See [the method](../shared/method.md) and [x](https://example.org).")
