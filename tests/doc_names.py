@@ -15,7 +15,10 @@ with :mod:`ast`. Each dotted name whose head is ours is resolved attribute by at
 * keyword arguments of a call that resolves (``TransientProblem(mass="lumped")``,
   ``problem.run(output=...)``) are checked against :func:`inspect.signature`;
 * a bare call (``set_body_force(...)``) must name a function, class or method of the
-  package, or a Python builtin.
+  package, or a Python builtin;
+* a bare exception or warning (``InputError``) or constant (``KAPPA_SPLIT``) must be the
+  package's (or a builtin, a constant of the tests, an environment variable of the tools,
+  a formula's ``D_V``).
 
 Names whose head is not ours (``np.isclose``, ``fem.Constant``, ``x[0]``) are not checked.
 """
@@ -55,6 +58,10 @@ VARIABLES = {
     "iteration": ("ContactIteration",),
 }
 ALIASES = ("dd_contact", "dc", "dd")
+#: Environment variables and C names the docs mention beside the package's constants.
+FOREIGN_CONSTANTS = ("DD_", "OMP_", "OPENBLAS_", "MKL_", "PETSC_", "PYVISTA_", "VTK_", "DMUMPS_")
+CONSTANT = re.compile(r"[A-Z][A-Z0-9]*_[A-Z0-9_]+|\w+(?:Error|Warning)")
+FORMULA = re.compile(r"[A-Z]{1,2}_[A-Z]{1,2}")  # D_V, B_U: the paper's symbols
 
 FENCE = re.compile(r"^```(\w*)\n(.*?)^```", re.S | re.M)
 SPAN = re.compile(r"(`+)(.+?)\1", re.S)
@@ -164,6 +171,20 @@ def assigned_anywhere() -> dict[str, list]:
         for name, kinds in _self_assignments(cls).items():
             out.setdefault(name, []).extend(k for k in kinds if inspect.isclass(k))
     return out
+
+
+@cache
+def constant_names() -> frozenset[str]:
+    """The module-level names and class attributes of the package, and the tests' constants."""
+    names = set(dir(builtins))
+    for module in modules().values():
+        names.update(vars(module))
+    for cls in _classes():
+        names.update(dir(cls))
+    tests = Path(__file__).parent
+    for path in tests.glob("*.py"):
+        names.update(re.findall(r"^([A-Z][A-Z0-9_]*) *[:=]", path.read_text(), re.M))
+    return frozenset(names)
 
 
 def _callable(obj) -> bool:
@@ -381,6 +402,18 @@ class Checker(ast.NodeVisitor):
                 self.variables[item.optional_vars.id] = kinds
         for statement in node.body:
             self.visit(statement)
+
+    def visit_Name(self, node):
+        """A bare constant or exception (``KAPPA_SPLIT``, ``InputError``) is the package's."""
+        name = node.id
+        if not CONSTANT.fullmatch(name) or name in self.variables:
+            return
+        if name.startswith(FOREIGN_CONSTANTS) or FORMULA.fullmatch(name):
+            return
+        if name in constant_names():
+            self.report.checked.add(name)
+        else:
+            self._miss(name, "not a name of the package")
 
     def visit_Import(self, node):
         pass
