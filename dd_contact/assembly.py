@@ -150,13 +150,13 @@ def _check_covered(surface, what: str, coverage: np.ndarray, comm: MPI.Comm | No
 
 #: Node-to-node swing of the recovered pressure (fraction of its peak, ContactZone._swing)
 #: above which a contact surface is reported as unresolved by its wall: it separates the
-#: accurate surfaces from those finer than their wall (docs/contact.md, "Modelling
-#: contact", has the measurements).
+#: accurate surfaces from those finer than their wall (docs/validation.md, "Surfaces finer
+#: than their wall", has the measurements).
 OSCILLATION_LIMIT = 0.075
 
 #: Cell size of a curved wall along its curvature over its contact surface's above which the
 #: surface counts as finer than its wall (resolution_warning; the ratios measured accurate
-#: and inaccurate are in docs/contact.md).
+#: and inaccurate are in docs/validation.md).
 FINER_LIMIT = 1.1
 #: Turn between neighbouring wall facets [rad] below which a wall counts as flat: its
 #: facets then lie within h * turn / 8 (1e-4 h) of any surface on it.
@@ -164,7 +164,7 @@ FLAT_TURN = 1e-3
 
 #: Penetration (fraction of the contact surface's cell size) above which a contact penalty
 #: counts as too soft: the answer then carries that much penalty error, which a stiffer
-#: contact_kappa removes (the bar impact's sinking against contact_kappa: docs/contact.md).
+#: contact_kappa removes (the bar impact's sinking against contact_kappa: docs/validation.md).
 SINKING_LIMIT = 0.05
 
 
@@ -353,7 +353,7 @@ def resolution_warning(
     """Warn (and say so) if a contact interface is finer than its curved wall.
 
     A surface with more cells along a wall's curvature than the wall has gives pressures
-    5-170 % high (docs/contact.md). Geometry alone decides, so the check holds in dynamics,
+    5-170 % high (docs/validation.md). Geometry alone decides, so the check holds in dynamics,
     where an impact's pressure is rough on any surface: cells turn from one to the next by
     the curvature times their size across it (:func:`contact.largest_turn`), so the wall's
     turn over the surface's is how many surface cells lie along one wall cell.

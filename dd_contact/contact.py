@@ -204,7 +204,7 @@ def patch_average(mass: sp.sparray) -> sp.csr_array:
     """``R p = (M p) / (M 1)``: each node's value averaged over its cells, weighted by ``M``.
 
     The pressure recovery of a contact surface that does not copy the wall it is tied to
-    (``docs/contact.md``, "Independent contact surfaces"). Smooth fields keep their values to
+    (``docs/contact.md``, "Modelling contact"). Smooth fields keep their values to
     second order in the cell size; a node-to-node (checkerboard) oscillation is damped to a
     third of its amplitude or less. A node outside ``M`` (zero row) keeps its own value.
     """

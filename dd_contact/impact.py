@@ -7,7 +7,7 @@ point is linear only while its state holds. A point that leaves contact during a
 its start force ``k g_n`` over the whole step. That work, ``k g_n (g_n - g_{n+1}) / 2``,
 exceeds the energy the penalty held, ``k g_n^2 / 2``: each release creates
 ``k g_n |g_{n+1}| / 2``. With a stiff penalty, the point bounces off again, and the bar
-impact of docs/contact.md gained 9-12x its energy over 30-60 such releases.
+impact of docs/validation.md ("Impact") gained 9-12x its energy over 30-60 such releases.
 
 The step is therefore written in its equilibrium form: the start-of-step forces are computed
 from the state at ``t_n``, not carried in the acceleration::

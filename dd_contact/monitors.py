@@ -23,13 +23,13 @@ __all__ = ["ENERGY_GROWTH_TOLERANCE", "MIN_CONTACT_STEPS", "ContactEpisodes", "E
 #: A step whose energy grows by more than this fraction of the largest energy of the run
 #: beyond the loads' work warns (EnergyGrowthWarning), unless energy-safe contact's release
 #: iteration allows it (RELEASE_TOLERANCE of the penalty energy held at the step's start).
-#: Round-off is far below it (docs/contact.md, free vibration); a contact release of the
+#: Round-off is far below it (docs/validation.md, "Free vibration"); a contact release of the
 #: classic rule gains far more.
 ENERGY_GROWTH_TOLERANCE = 1e-6
 
 #: A contact episode (a region touching from the step its first point enters to the step its
 #: last one leaves) closed in fewer steps than this warns (CoarseTimeStepWarning); the
-#: measurements behind it are in docs/contact.md, "A time step too coarse for the impact".
+#: measurements behind it are in docs/validation.md, "A time step too coarse for the impact".
 MIN_CONTACT_STEPS = 60
 
 

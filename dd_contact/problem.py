@@ -174,12 +174,12 @@ class TransientProblem(AnalysisReadout):
             them apart, e.g. ``-bracket_mat_mumps_icntl_14 50`` on the command line.
         energy_safe_contact: Contact that never creates energy (:mod:`dd_contact.impact`,
             the default): massless contact walls, and a point leaving contact keeps the
-            discrete-gradient share of its start force (docs/contact.md measures what it
+            discrete-gradient share of its start force (docs/validation.md measures what it
             changes). ``False``: the classic trapezoidal contact (the paper's; it creates
             energy when points leave contact, which is reported).
         mass: ``"consistent"`` (the default), ``"lumped"`` (row sums for degree 1, the
             diagonal scaled to the exact total mass for degree 2) or ``"averaged"`` (half
-            each: an impact's peak force overshoots least; docs/contact.md).
+            each: an impact's peak force overshoots least; docs/validation.md).
         scheme: ``"trapezoidal"`` (the default: no numerical damping, energy conserved) or
             ``"generalized-alpha"`` (damps the modes short against dt; second order).
         rho_infinity: generalized-alpha's spectral radius for dt / period -> infinity, in

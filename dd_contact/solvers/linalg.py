@@ -115,7 +115,7 @@ def release_freed_memory() -> None:
 
     Building a solver frees many temporary arrays of a few MB each, which glibc keeps in
     the process's heap; without this they add to the peak memory of the factorisations
-    that follow (docs/solvers.md, "Speed"). Without glibc it does nothing.
+    that follow (docs/benchmarks.md, "Memory"). Without glibc it does nothing.
     """
     trim = _malloc_trim()
     if trim is not None:

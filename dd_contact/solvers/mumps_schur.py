@@ -123,7 +123,7 @@ PACKAGE_ICNTL = {
 
 
 #: ICNTL(49) = 1 compacts MUMPS's workspace to the factors at the end of a factorisation
-#: (MUMPS otherwise keeps its contribution-block stack too; docs/solvers.md measures what it
+#: (MUMPS otherwise keeps its contribution-block stack too; docs/benchmarks.md measures what it
 #: saves). The compaction copies the factors, so while it runs it adds them
 #: to everything the process holds: it pays only when more factorisations follow that the
 #: smaller workspace leaves room for. A factorisation is compacted only when asked

@@ -258,7 +258,7 @@ def owned_subdomains(
     MUMPS's workspace after its first factorisation: what the earlier ones keep adds to
     the later ones' peak. The compaction copies the factors, so the last one does not, nor
     does a re-factorisation: their copy would set the peak (the peaks with and without this
-    rule: docs/solvers.md, "Which factorisations compact").
+    rule: docs/benchmarks.md, "Which factorisations compact").
     """
     owned = [b for b, owner in system.owners.items() if b.kind == "u" and owner == comm.rank]
     own_contacts = {b: [r for r in contacts if r.block == b] for b in owned}
