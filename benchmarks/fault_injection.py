@@ -29,10 +29,8 @@ blocks side by side, a body each, one tilted as it is pressed, so its contact ar
 (``pressed-pair``); two blocks flying at a wall, the contact area growing and shrinking
 (``dd_contact.paper.verify.order_scene``, with inertia): an interface and a contact
 interface (``flying``: FULL, v-w-u, w-v-u), and an interface with contact on a block's own
-boundary (``flying-boundary``: v-u). Each on 1 and 2 ranks (``mpiexec -n 2``), but for the
-one-subdomain ``pressed`` on 1 rank only: on 2 ranks a rank owns no subdomain, and
-``Kinematics.share`` calls a collective on one rank only there (it hangs; a bug outside this
-script, reported in the results).
+boundary (``flying-boundary``: v-u). Each on 1 and 2 ranks (``mpiexec -n 2``; on 2 ranks the
+one-subdomain ``pressed`` leaves a rank without a subdomain).
 
 Writes benchmarks/results/fault_injection.json: per mode and ranks the trials and passes (in
 all and per case: the trials take the cases in turn), and every failure's reason.
@@ -463,9 +461,9 @@ def main() -> None:
         for ranks in [int(r) for r in args.ranks.split(",")]:
             if ranks > 1 and not MPIEXEC.exists():
                 continue
-            cases = [c for c in args.cases.split(",") if ranks == 1 or not c.startswith("pressed:")]
+            cases = args.cases.split(",")
             references = {}
-            for case in cases:  # on 2 ranks "pressed" leaves a rank without a subdomain: above
+            for case in cases:
                 reference = work / f"reference_{ranks}_{case.replace(':', '_')}"
                 done = _run(_command(case, reference, ranks, resume=False))
                 if done.returncode != 0:
