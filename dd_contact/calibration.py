@@ -28,7 +28,7 @@ import scipy.linalg as sla
 from tqdm import tqdm
 
 from dd_contact.parallel import ROOT, bcast_from_root
-from dd_contact.solvers.linalg import SparseCholesky, sparse_statistics
+from dd_contact.solvers.linalg import SparseCholesky, dense_threads, sparse_statistics
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
@@ -332,7 +332,12 @@ def _sparse_points(n: int, rng) -> dict[str, list[float]]:
 
 
 def _dense_points(n: int, rng) -> dict[str, list[float]]:
-    """One point of each dense kind, on a random n x n SPD matrix."""
+    """One point of each dense kind, on a random n x n SPD matrix, threaded as the solver's."""
+    with dense_threads(n):
+        return _dense_points_threaded(n, rng)
+
+
+def _dense_points_threaded(n: int, rng) -> dict[str, list[float]]:
     X = rng.standard_normal((n, n))
     S = X @ X.T + n * np.eye(n)
     L = sla.cho_factor(S.copy(), lower=True, check_finite=False)
