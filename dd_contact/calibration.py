@@ -50,11 +50,12 @@ RATE_KINDS = {
     "dense_factor": "flops of a LAPACK Cholesky factorisation (n^3/3)",
     "dense_solve": "flops of one LAPACK substitution pair (2 n^2)",
     "dense_solve_block": "flops of triangular solves with many columns (n^2 per column)",
+    "call": "operations of a solver (factorisations, solves, products): its time outside them",
 }
 
 logger = logging.getLogger(__name__)
 
-_FORMAT = 1  # version of the cached file's layout
+_FORMAT = 2  # version of the cached file's layout (2: tiny sizes, the "call" kind)
 
 #: Plausible rates per core, kind -> (least, most) units per second: a measured point
 #: outside ``least`` .. ``most x cores`` is an artefact (a timer hiccup, a loaded machine,
@@ -68,6 +69,7 @@ PLAUSIBLE_RATES = {
     "dense_factor": (2e7, 1e11),
     "dense_solve": (1e6, 2e10),
     "dense_solve_block": (1e6, 1e11),
+    "call": (1e2, 1e7),
 }
 
 
@@ -84,11 +86,18 @@ class MachineRates:
     machine: dict[str, Any] = field(default_factory=dict)
 
     def seconds(self, kind: str, work: float) -> float:
-        """Predicted seconds of ``work`` units of ``kind`` (rate interpolated in log-log)."""
+        """Predicted seconds of ``work`` units of ``kind``.
+
+        The rate is interpolated in log-log between the measured sizes and flat beyond the
+        largest; below the smallest the time is flat: a call costs at least what the
+        smallest measured call did (its overhead).
+        """
         if work <= 0:
             return 0.0
         pts = np.asarray(self.points[kind], dtype=float)
         w, t = pts[:, 0], pts[:, 1]
+        if work < w[0]:
+            return float(t[0])
         rate = np.exp(np.interp(np.log(work), np.log(w), np.log(w / t)))
         return float(work / rate)
 
@@ -262,10 +271,11 @@ def _elasticity_matrix(n: tuple[int, int, int]):
 
 #: Sizes :func:`calibrate` measures: hexahedral cube meshes (elements per edge) and dense
 #: matrices (rows). The largest cube takes about 2 s to factorise on one core of this
-#: 2-core machine; rates are flat beyond the largest size measured.
+#: 2-core machine; rates are flat beyond the largest size measured, times below the
+#: smallest (a 3^3 cube of 192 dofs, 10 rows: what a call costs at least).
 CALIBRATION_SIZES = {
-    "full": ([6, 10, 14, 18], [50, 200, 600, 1200, 2000]),
-    "quick": ([6, 10], [50, 200, 800]),
+    "full": ([3, 6, 10, 14, 18], [10, 50, 200, 600, 1200, 2000]),
+    "quick": ([3, 6, 10], [10, 50, 200, 800]),
 }
 _ATTEMPTS = 3  # measurements of a size whose rates are implausible before it is dropped
 
@@ -277,13 +287,17 @@ def calibrate(
 
     Sparse: MUMPS on elasticity matrices of cube meshes (analysis, numeric factorisation,
     substitutions with one and with 128 right-hand sides). Dense: LAPACK potrf, potrs and
-    triangular solves on random SPD matrices. A size whose rates fall outside
-    :data:`PLAUSIBLE_RATES` is measured again (up to 3 times), then left out. Run with the
-    thread settings of the real runs. ``progress(done, total)``, if given, is called after
-    each measured size.
+    triangular solves on random SPD matrices. Calls: the orders' engine on a block system of
+    many small blocks, its time outside its factorisations and solves. A size whose rates
+    fall outside :data:`PLAUSIBLE_RATES` is measured again (up to 3 times), then left out.
+    Run with the thread settings of the real runs. ``progress(done, total)``, if given, is
+    called after each measured size.
     """
     cubes, dense_sizes = CALIBRATION_SIZES["quick" if quick else "full"]
-    sizes = [(_sparse_points, n) for n in cubes] + [(_dense_points, n) for n in dense_sizes]
+    sizes: list[tuple[Callable[[int, Any], dict[str, list[float]]], int]] = [
+        (_sparse_points, n) for n in cubes
+    ]
+    sizes += [(_dense_points, n) for n in dense_sizes] + [(_call_points, 0)]
     points: dict[str, list[list[float]]] = {k: [] for k in RATE_KINDS}
     rng = np.random.default_rng(0)
     for done, (measure, n) in enumerate(sizes, 1):
@@ -344,7 +358,9 @@ def _dense_points_threaded(n: int, rng) -> dict[str, list[float]]:
     seconds = _timed(lambda: sla.cho_factor(S.copy(), lower=True, check_finite=False), 3)
     seconds -= _timed(lambda: S.copy(), 3)
     v = rng.standard_normal(n)
-    solve = _timed(lambda: sla.cho_solve(L, v, check_finite=False), 7)
+    # In a time step other work runs between two substitutions with the same factor: a
+    # factor larger than a core's cache (1 MB) comes from memory.
+    solve = _timed(lambda: sla.cho_solve(L, v, check_finite=False), 7, cold=8 * n * n > 2**20)
     m = min(n, 256)
     Bd = rng.standard_normal((n, m))
     block = _timed(lambda: sla.solve_triangular(L[0], Bd, lower=True, check_finite=False), 3)
@@ -353,3 +369,60 @@ def _dense_points_threaded(n: int, rng) -> dict[str, list[float]]:
         "dense_solve": [2.0 * n * n, solve],
         "dense_solve_block": [float(n * n * m), block],
     }
+
+
+#: The block system on which :func:`_call_points` runs the engine: subdomains, their dofs
+#: and the contact dofs of each (its interface ties as many dofs of each subdomain).
+CALL_SYSTEM = (8, 400, 100)
+
+
+def _call_points(_: int, rng) -> dict[str, list[float]]:
+    """Seconds per operation that the orders' engine spends outside its operations.
+
+    The engine's Python around each factorisation, solve and product (surface blocks
+    gathered, right-hand sides compared, vectors copied and split), measured with v-w-u
+    and w-v-u on a many-block system (:data:`CALL_SYSTEM`): 1D Laplacians tied to one
+    interface and each to a contact interface of its own. The mean of the two orders'
+    medians over a few solves after the first.
+    """
+    from dd_contact.solvers.engine import BlockEliminationSolver
+
+    system = _many_blocks(*CALL_SYSTEM)
+    per_call = []
+    for order in ("v-w-u", "w-v-u"):
+        log = WorkLog()
+        solver = BlockEliminationSolver(MPI.COMM_SELF, system, [], log, order)
+        samples = []
+        for repeat in range(6):
+            rhs = {b: rng.standard_normal(n) for b, n in system.sizes.items() if b.kind == "u"}
+            first, start = len(log.records), time.perf_counter()
+            solver.solve(rhs)
+            solver.finish()
+            seconds = time.perf_counter() - start
+            done = log.records[first:]
+            if repeat:  # the first factorises
+                samples.append((seconds - sum(r.seconds for r in done)) / len(done))
+        per_call.append(statistics.median(samples))
+        solver.destroy()
+    return {"call": [1.0, max(statistics.fmean(per_call), 1e-7)]}
+
+
+def _many_blocks(k: int, n: int, m: int):
+    """A system of k subdomains of n dofs, each tied to m interface dofs and m contact dofs."""
+    import scipy.sparse as sp
+
+    from dd_contact.blocks import Block, BlockSystem
+
+    ones = np.ones(n - 1)
+    laplacian = sp.csr_array(sp.diags_array([-ones, 4.0 * np.ones(n), -ones], offsets=[-1, 0, 1]))
+    v = Block("v", "interface")
+    sizes, matrices = {v: k * m}, {(v, v): sp.csr_array(2.0 * sp.eye_array(k * m))}
+    for j in range(k):
+        u, w = Block("u", f"s{j}"), Block("w", f"c{j}")
+        sizes[u], sizes[w] = n, m
+        rows = np.arange(m)
+        matrices[(u, u)] = laplacian
+        matrices[(u, v)] = sp.csr_array((-np.ones(m), (rows, j * m + rows)), shape=(n, k * m))
+        matrices[(u, w)] = sp.csr_array((-np.ones(m), (n - m + rows, rows)), shape=(n, m))
+        matrices[(w, w)] = sp.csr_array(2.0 * sp.eye_array(m))
+    return BlockSystem(sizes, dict.fromkeys(sizes, 0), matrices)

@@ -183,6 +183,10 @@ class BlockEliminationSolver:
         Returns the surface blocks solved so far and the owned subdomains the contact check
         needs; the rest follows in :meth:`finish`.
         """
+        with self.log.solving():
+            return self._solve(rhs)
+
+    def _solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         changed: dict[str, dict[Block, Any]] = {"Z": {}, "contact": self._pending_contact}
         self._pending_contact = {}
         g = np.zeros(self._surface_size)  # this rank's part of the surface right-hand side
@@ -242,6 +246,10 @@ class BlockEliminationSolver:
         The other ranks' subdomains stay there: a caller that needs every block on every
         rank gathers them (:func:`dd_contact.parallel.allgather_blocks`).
         """
+        with self.log.solving():
+            return self._finish()
+
+    def _finish(self) -> dict[str, np.ndarray]:
         if not self._complete:
             x = np.zeros(self._surface_size)
             if self.comm.rank == ROOT:
