@@ -16,6 +16,7 @@ agreed results in :mod:`dd_contact.post`.
 from __future__ import annotations
 
 import logging
+import time
 
 import dolfinx.fem as fem
 import numpy as np
@@ -55,6 +56,11 @@ logger = logging.getLogger(__name__)
 
 #: Solves after which ``algorithm="auto"`` compares its prediction with the clock.
 CHECK_SOLVES = 3
+
+
+def _clocks() -> tuple[float, float]:
+    """The wall clock and this process's CPU time [s]."""
+    return time.perf_counter(), time.process_time()
 
 
 def available_condensation(condensation: str) -> str:
@@ -179,6 +185,7 @@ class Analysis:
             self.settings = contact or ContactSettings()
             collective(self.comm, self._check_contact_geometry)
             self._system, self._solves = system, 0
+            self._started = _clocks()  # reset at the first solve
             self.condensation = condensation
             #: The prediction behind ``algorithm="auto"`` (``None`` for a named algorithm).
             self.choice: timing.Choice | None = None
@@ -274,7 +281,9 @@ class Analysis:
         with the rates corrected by what was measured, and switch solver if another wins.
         """
         structure, rates, expected = self._auto
-        local = timing.misses(self.work.records, rates, self.work.calls)
+        wall, cpu = (now - then for now, then in zip(_clocks(), self._started, strict=True))
+        share = min(cpu / wall, 1.0) if wall > 0 and cpu > 0 else 1.0  # another job's load
+        local = timing.misses(self.work.records, rates, self.work.calls, share)
         observed: dict[str, float] = {}  # the worst miss of any rank, the same on every rank
         for part in allgathered(self.comm, local):
             for kind, ratio in part.items():
@@ -387,6 +396,8 @@ class Analysis:
             )
         try:
             with self.petsc_options():
+                if not self._solves:
+                    self._started = _clocks()  # what auto's check compares with the clock
                 out = self.iteration.solve(self.tie_solver, rhs, t, where, correction)
                 self._solves += 1
                 if self.choice is not None and self._solves == CHECK_SOLVES:

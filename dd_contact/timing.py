@@ -347,22 +347,26 @@ def misses(
     records: Sequence[WorkRecord],
     rates: MachineRates,
     calls: Sequence[tuple[int, float]] = (),
+    share: float = 1.0,
 ) -> dict[str, float]:
     """Measured over predicted seconds of ``records``, per rate kind (enough time only).
 
     ``calls``: per call of the solver (:attr:`WorkLog.calls`), its operations and its
     seconds outside them: the ``"call"`` kind (the first call, which builds the surface
-    system, is left out).
+    system, is left out). ``share``: the share of a core the process had while they ran
+    (CPU over wall-clock time, at most 1): the rates are a core's own (calibration), and
+    the wall-clock seconds measured are scaled by it, so that another job on the machine,
+    which slows every kind alike, is not taken for a wrong rate.
     """
     measured: dict[str, float] = {}
     predicted: dict[str, float] = {}
     for r in records:
         kind = rate_kind(r)
-        measured[kind] = measured.get(kind, 0.0) + r.seconds
+        measured[kind] = measured.get(kind, 0.0) + r.seconds * share
         predicted[kind] = predicted.get(kind, 0.0) + record_seconds(r, rates)
     later = list(calls)[1:]
     if later and "call" in rates.points:
-        measured["call"] = sum(seconds for _, seconds in later)
+        measured["call"] = share * sum(seconds for _, seconds in later)
         predicted["call"] = overhead_seconds(sum(n for n, _ in later), rates)
     return {
         kind: measured[kind] / predicted[kind]
@@ -394,7 +398,7 @@ def replan(
     best = min(predictions, key=lambda a: (predictions[a].total, a != choice.algorithm))
     if SWITCH_GAIN * predictions[best].total > predictions[choice.algorithm].total:
         best = choice.algorithm  # a switch builds and factorises anew: only for a clear gain
-    return Choice(best, predictions, True, dict(observed))
+    return Choice(best, predictions, True, dict(observed), dict(choice.skipped))
 
 
 #: FULL factorises a matrix that holds every subdomain's: its factorisation is taken to
@@ -415,8 +419,8 @@ def full_cannot_win(
 
     FULL's factorisation and every re-factorisation, and every substitution (one per solve),
     cost at least :data:`FULL_FACTOR_BOUND` of the subdomains' work (analysed in
-    ``structure``): when that bound already loses to the best of ``orders``, FULL need not
-    be analysed at all.
+    ``structure``), done at the fastest rate measured: when that bound already loses to the
+    best of ``orders``, FULL need not be analysed at all.
     """
     if not orders:
         return None
@@ -425,6 +429,6 @@ def full_cannot_win(
     entries = sum(s.entries for s in structure.subdomains.values())
     e = expected
     solves = (e.steps + e.changes + e.releases) * e.tie_solves
-    least = (1.0 + e.changes) * rates.seconds("sparse_factor", FULL_FACTOR_BOUND * flops)
-    least += solves * rates.seconds("sparse_solve", FULL_FACTOR_BOUND * entries)
+    least = (1.0 + e.changes) * rates.least_seconds("sparse_factor", FULL_FACTOR_BOUND * flops)
+    least += solves * rates.least_seconds("sparse_solve", FULL_FACTOR_BOUND * entries)
     return least if least > best else None

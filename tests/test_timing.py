@@ -496,3 +496,20 @@ def test_auto_prices_the_stiff_ties_solves_and_counts_them_when_it_checks(rates)
     it = analysis.iteration
     assert rest.tie_solves == pytest.approx(solves / (1 + it.gamma + it.release_solves))
     assert rest.tie_solves > 1 and rest.steps == 9
+
+
+def test_fulls_lower_bound_uses_the_fastest_rate_measured():
+    rates = timing.MachineRates({"sparse_solve": [[1e4, 1e-3], [1e6, 2e-3], [1e8, 1.0]]})
+    # 5e8 per second at 1e6 is the fastest: below and beyond, the bound is no slower
+    assert rates.least_seconds("sparse_solve", 1e3) == pytest.approx(2e-6)
+    assert rates.least_seconds("sparse_solve", 1e9) == pytest.approx(2.0)
+    for work in (1e3, 1e5, 1e7, 1e9):
+        assert rates.least_seconds("sparse_solve", work) <= rates.seconds("sparse_solve", work)
+
+
+def test_a_process_with_half_a_core_is_judged_by_its_share():
+    """Another job on the machine slows every kind alike: no miss."""
+    rates = timing.MachineRates({k: _flat(1e9) for k in timing.RATE_KINDS})
+    records = [WorkRecord("d", "dense_factor", 3000, 0, 2 * 9.0, 9e9)]  # 2 x its 9 s
+    assert timing.misses(records, rates) == pytest.approx({"dense_factor": 2.0})
+    assert timing.misses(records, rates, share=0.5) == pytest.approx({"dense_factor": 1.0})
