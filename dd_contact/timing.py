@@ -192,7 +192,12 @@ def _record(op: Operation, stats: SparseStatistics | None) -> WorkRecord:
 
 
 def plan(structure: SceneStructure, algorithm: str) -> Plan:
-    """What ``algorithm`` factorises and solves for this scene (its schedule, with counts)."""
+    """What ``algorithm`` factorises and solves for this scene (its schedule, with counts).
+
+    Made once per structure and algorithm (kept in ``structure.plans``).
+    """
+    if algorithm in structure.plans:
+        return structure.plans[algorithm]
     if algorithm == "FULL" and structure.full is None:
         raise ValueError("FULL's matrix was not analysed (scene_structure(full=True))")
     if algorithm not in ALGORITHMS:
@@ -205,7 +210,9 @@ def plan(structure: SceneStructure, algorithm: str) -> Plan:
 
     changes = {key: records(schedule.change(key)) for key in structure.regions}
     releases = {key: records(schedule.release(key)) for key in structure.regions}
-    return Plan(algorithm, records(schedule.setup()), records(schedule.step()), changes, releases)
+    made = Plan(algorithm, records(schedule.setup()), records(schedule.step()), changes, releases)
+    structure.plans[algorithm] = made
+    return made
 
 
 # -- predictions and the choice ------------------------------------------------------------
@@ -351,16 +358,21 @@ def misses(
 ) -> dict[str, float]:
     """Measured over predicted seconds of ``records``, per rate kind (enough time only).
 
-    ``calls``: per call of the solver (:attr:`WorkLog.calls`), its operations and its
-    seconds outside them: the ``"call"`` kind (the first call, which builds the surface
-    system, is left out). ``share``: the share of a core the process had while they ran
-    (CPU over wall-clock time, at most 1): the rates are a core's own (calibration), and
-    the wall-clock seconds measured are scaled by it, so that another job on the machine,
-    which slows every kind alike, is not taken for a wrong rate.
+    What the rest of a run repeats is judged: a first factorisation (its symbolic analysis,
+    its factor's fresh memory: 1.3-3x a numeric one, and up to 4x the cube's analysis rate
+    per entry on the pin joint's whole matrix) is left out. ``calls``: per call of the
+    solver (:attr:`WorkLog.calls`), its operations and its seconds outside them: the
+    ``"call"`` kind (the first call, which builds the surface system, is left out).
+    ``share``: the share of a core the process had while they ran (CPU over wall-clock
+    time, at most 1): the rates are a core's own (calibration), and the wall-clock seconds
+    measured are scaled by it, so that another job on the machine, which slows every kind
+    alike, is not taken for a wrong rate.
     """
     measured: dict[str, float] = {}
     predicted: dict[str, float] = {}
     for r in records:
+        if r.nnz:  # a first factorisation, with its analysis: once a run
+            continue
         kind = rate_kind(r)
         measured[kind] = measured.get(kind, 0.0) + r.seconds * share
         predicted[kind] = predicted.get(kind, 0.0) + record_seconds(r, rates)

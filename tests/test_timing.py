@@ -513,3 +513,12 @@ def test_a_process_with_half_a_core_is_judged_by_its_share():
     records = [WorkRecord("d", "dense_factor", 3000, 0, 2 * 9.0, 9e9)]  # 2 x its 9 s
     assert timing.misses(records, rates) == pytest.approx({"dense_factor": 2.0})
     assert timing.misses(records, rates, share=0.5) == pytest.approx({"dense_factor": 1.0})
+
+
+def test_a_first_factorisation_is_not_judged():
+    """Its analysis and fresh memory are paid once: the rest of the run repeats neither."""
+    rates = timing.MachineRates({k: _flat(1e9) for k in timing.RATE_KINDS})
+    first = WorkRecord("u", "sparse_factor", 100, 0, 50.0, 1e9, "", 1e6, 5000)  # 50x
+    again = WorkRecord("u", "sparse_factor", 100, 0, 3.0, 1e9, "", 1e6)  # 3x
+    assert timing.misses([first], rates) == {}
+    assert timing.misses([first, again], rates) == pytest.approx({"sparse_factor": 3.0})
