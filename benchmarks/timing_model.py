@@ -80,7 +80,10 @@ def compare(runs: list[dict], plan, rates) -> dict:
         p = timing.predict(plan, rates, n_steps, gamma)
         measured = sum(s["seconds"] for s in run["steps"])
         linear_algebra = sum(
-            b["seconds_decomposition"] + b["seconds_substitution"] + b["seconds_schur"]
+            b["seconds_decomposition"]
+            + b["seconds_substitution"]
+            + b["seconds_schur"]
+            + b.get("seconds_product", 0.0)
             for name, b in run["work"].items()
             if not name.startswith("mass:")  # the initial acceleration: before the steps
         )

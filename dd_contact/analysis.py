@@ -16,6 +16,7 @@ agreed results in :mod:`dd_contact.post`.
 from __future__ import annotations
 
 import logging
+import time
 
 import dolfinx.fem as fem
 import numpy as np
@@ -55,6 +56,11 @@ logger = logging.getLogger(__name__)
 
 #: Solves after which ``algorithm="auto"`` compares its prediction with the clock.
 CHECK_SOLVES = 3
+
+
+def _clocks() -> tuple[float, float]:
+    """The wall clock and this process's CPU time [s]."""
+    return time.perf_counter(), time.process_time()
 
 
 def available_condensation(condensation: str) -> str:
@@ -179,11 +185,15 @@ class Analysis:
             self.settings = contact or ContactSettings()
             collective(self.comm, self._check_contact_geometry)
             self._system, self._solves = system, 0
+            self._started = _clocks()  # reset at the first solve
             self.condensation = condensation
             #: The prediction behind ``algorithm="auto"`` (``None`` for a named algorithm).
             self.choice: timing.Choice | None = None
+            #: Whether the run releases contact points (energy-safe contact): priced.
+            self.releasing = mass_coefficient > 0 and massless_walls
             if algorithm == "auto":
-                algorithm, reused = self._choose(valid, expected, rates)
+                expected_run = self._expected(expected, self.releasing)
+                algorithm, reused = self._choose(valid, expected_run, rates)
                 self._use(algorithm, reused)
             else:
                 self._use(algorithm)
@@ -205,13 +215,27 @@ class Analysis:
             self.agreed = Results(self.comm, scene, self.model, self.iteration.alpha)
 
     # -- the solver -----------------------------------------------------------------------
-    def _choose(self, valid, expected, rates):
+    def _expected(self, expected: tuple[float, float], releases: bool) -> timing.Expected:
+        """Collective: the run priced: ``(steps, changes)``, releases, the stiff ties' solves.
+
+        Energy-safe contact (``releases``) solves again about
+        :data:`timing.RELEASES_PER_CHANGE` times per change.
+        """
+        steps, changes = expected
+        stiff = sum_over_ranks(self.comm, len(self._system.stiff_ties)) > 0
+        return timing.Expected(
+            steps,
+            changes,
+            timing.RELEASES_PER_CHANGE * changes if releases else 0.0,
+            timing.TIE_SOLVES if stiff else 1.0,
+        )
+
+    def _choose(self, valid, expected: timing.Expected, rates):
         """Collective: ``algorithm="auto"``'s choice, and the analysed parts of its solver.
 
         The orders are analysed first (their subdomains kept for the chosen solver); FULL
         only if :func:`dd_contact.timing.full_cannot_win` does not rule it out.
         """
-        steps, changes = expected
         rates = rates if rates is not None else timing.machine_rates(comm=self.comm)
         contacts = [z.region for z in self.zones]
         candidates = Candidates(self.comm, self._system, contacts, self.condensation, self.work)
@@ -219,16 +243,16 @@ class Analysis:
         structure = candidates.analyse_orders() if orders else None
         skipped = {}
         if structure is not None:
-            least = timing.full_cannot_win(structure, rates, orders, steps, changes)
+            least = timing.full_cannot_win(structure, rates, orders, expected)
             if least is not None:
                 skipped["FULL"] = least
         if "FULL" in valid and not skipped:
             structure = candidates.analyse_full(structure)
         analysed = tuple(a for a in valid if a not in skipped)
         assert structure is not None  # the orders', or FULL's alone
-        self.choice = timing.choose(structure, rates, analysed, steps, changes)
+        self.choice = timing.choose(structure, rates, analysed, expected)
         self.choice.skipped = skipped
-        self._auto = (structure, rates, steps, changes)  # for the check after CHECK_SOLVES
+        self._auto = (structure, rates, expected)  # for the check after CHECK_SOLVES
         return self.choice.algorithm, candidates.take(self.choice.algorithm)
 
     def _use(self, algorithm: str, reused=None) -> None:
@@ -256,8 +280,10 @@ class Analysis:
         time (a loaded machine, stale rates), choose again for the rest of the expected run
         with the rates corrected by what was measured, and switch solver if another wins.
         """
-        structure, rates, steps, changes = self._auto
-        local = timing.misses(self.work.records, rates)
+        structure, rates, expected = self._auto
+        wall, cpu = (now - then for now, then in zip(_clocks(), self._started, strict=True))
+        share = min(cpu / wall, 1.0) if wall > 0 and cpu > 0 else 1.0  # another job's load
+        local = timing.misses(self.work.records, rates, self.work.calls, share)
         observed: dict[str, float] = {}  # the worst miss of any rank, the same on every rank
         for part in allgathered(self.comm, local):
             for kind, ratio in part.items():
@@ -267,8 +293,7 @@ class Analysis:
         self.choice.misses = observed
         if all(1.0 / timing.MISS <= r <= timing.MISS for r in observed.values()):
             return
-        left = (max(steps - self._solves, 1.0), max(changes - self.iteration.gamma, 0.0))
-        choice = timing.replan(self.choice, structure, rates, observed, *left)
+        choice = timing.replan(self.choice, structure, rates, observed, self._rest(expected))
         logger.warning(
             "algorithm='auto': the first %d solves took %s x the predicted time; chose again "
             "for the rest of the run: %s (was %s)",
@@ -281,6 +306,19 @@ class Analysis:
         if choice.algorithm != self.algorithm:
             self.solver.destroy()
             self._use(choice.algorithm)
+
+    def _rest(self, expected: timing.Expected) -> timing.Expected:
+        """The rest of the expected run, with the tie solves per solve counted so far."""
+        it = self.iteration
+        changes = max(expected.changes - it.gamma, 0.0)
+        releases = expected.releases and timing.RELEASES_PER_CHANGE * changes
+        tie_solves = expected.tie_solves
+        if isinstance(self.tie_solver, AugmentedTies):
+            solves = self._solves + it.gamma + it.release_solves  # of the contact iteration
+            tie_solves = max(self.tie_solver.solves / max(solves, 1), 1.0)
+        return timing.Expected(
+            max(expected.steps - self._solves, 1.0), changes, releases, tie_solves
+        )
 
     # -- a solve --------------------------------------------------------------------------
     def _check_contact_geometry(self, t: float = 0.0) -> None:
@@ -358,6 +396,8 @@ class Analysis:
             )
         try:
             with self.petsc_options():
+                if not self._solves:
+                    self._started = _clocks()  # what auto's check compares with the clock
                 out = self.iteration.solve(self.tie_solver, rhs, t, where, correction)
                 self._solves += 1
                 if self.choice is not None and self._solves == CHECK_SOLVES:
@@ -460,11 +500,12 @@ class Analysis:
     def predict(
         self, steps: float, changes: float, rates: timing.MachineRates | None = None
     ) -> timing.Prediction:
-        """Predicted linear-algebra time of this analysis's algorithm (collective).
+        """Predicted solver time of this analysis's algorithm (collective).
 
         From MUMPS's analysis of the matrices it factorises and this machine's rates
-        (:mod:`dd_contact.timing`): set-up, one step, one contact change, and the total for
-        ``steps`` steps with ``changes`` contact state changes.
+        (:mod:`dd_contact.timing`): set-up, one step, one contact change, one release solve,
+        and the total for ``steps`` steps with ``changes`` contact state changes (and the
+        release and stiff-tie solves expected with them).
         """
         contacts = [z.region for z in self.zones]
         full = self.algorithm == "FULL"
@@ -478,7 +519,9 @@ class Analysis:
                 full=full,
                 orders=not full,
             )
-        return timing.predict(timing.plan(structure, self.algorithm), rates, steps, changes)
+        e = self._expected((steps, changes), self.releasing)
+        plan = timing.plan(structure, self.algorithm)
+        return timing.predict(plan, rates, e.steps, e.changes, e.releases, e.tie_solves)
 
     # -- resources ------------------------------------------------------------------------
     def petsc_options(self):

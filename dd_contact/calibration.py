@@ -28,7 +28,7 @@ import scipy.linalg as sla
 from tqdm import tqdm
 
 from dd_contact.parallel import ROOT, bcast_from_root
-from dd_contact.solvers.linalg import SparseCholesky, sparse_statistics
+from dd_contact.solvers.linalg import SparseCholesky, dense_threads, sparse_statistics
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
@@ -44,17 +44,18 @@ __all__ = [
 #: What each measured rate is counted in.
 RATE_KINDS = {
     "sparse_factor": "flops of a MUMPS numeric Cholesky factorisation",
-    "sparse_analysis": "matrix entries through MUMPS's symbolic analysis",
+    "sparse_analysis": "matrix entries of a first factorisation: its analysis, fresh memory",
     "sparse_solve": "factor entries read by one forward and backward substitution",
     "sparse_solve_block": "factor entries x right-hand sides of a multi-RHS substitution",
     "dense_factor": "flops of a LAPACK Cholesky factorisation (n^3/3)",
     "dense_solve": "flops of one LAPACK substitution pair (2 n^2)",
     "dense_solve_block": "flops of triangular solves with many columns (n^2 per column)",
+    "call": "operations of a solver (factorisations, solves, products): its time outside them",
 }
 
 logger = logging.getLogger(__name__)
 
-_FORMAT = 1  # version of the cached file's layout
+_FORMAT = 2  # version of the cached file's layout (2: tiny sizes, the "call" kind)
 
 #: Plausible rates per core, kind -> (least, most) units per second: a measured point
 #: outside ``least`` .. ``most x cores`` is an artefact (a timer hiccup, a loaded machine,
@@ -68,6 +69,7 @@ PLAUSIBLE_RATES = {
     "dense_factor": (2e7, 1e11),
     "dense_solve": (1e6, 2e10),
     "dense_solve_block": (1e6, 1e11),
+    "call": (1e2, 1e7),
 }
 
 
@@ -84,13 +86,24 @@ class MachineRates:
     machine: dict[str, Any] = field(default_factory=dict)
 
     def seconds(self, kind: str, work: float) -> float:
-        """Predicted seconds of ``work`` units of ``kind`` (rate interpolated in log-log)."""
+        """Predicted seconds of ``work`` units of ``kind``.
+
+        The rate is interpolated in log-log between the measured sizes and flat beyond the
+        largest; below the smallest the time is flat: a call costs at least what the
+        smallest measured call did (its overhead).
+        """
         if work <= 0:
             return 0.0
         pts = np.asarray(self.points[kind], dtype=float)
         w, t = pts[:, 0], pts[:, 1]
+        if work < w[0]:
+            return float(t[0])
         rate = np.exp(np.interp(np.log(work), np.log(w), np.log(w / t)))
         return float(work / rate)
+
+    def least_seconds(self, kind: str, work: float) -> float:
+        """Seconds of ``work`` units of ``kind`` at the fastest rate measured: a lower bound."""
+        return work / max(w / t for w, t in self.points[kind]) if work > 0 else 0.0
 
     def rate(self, kind: str, work: float) -> float:
         """Work units per second at ``work`` units."""
@@ -223,6 +236,27 @@ class _ConsoleProgress:
             self.bar.close()
 
 
+class _Clock:
+    """Seconds since it started: the wall clock's, or the process's CPU time if less.
+
+    Another job on the machine stretches the wall-clock time of every kind of work, by
+    however much it runs at that moment; the CPU time of one thread's work is what it takes
+    on a core of its own. Threaded work (CPU time above the wall clock's) keeps its wall time.
+    """
+
+    def __init__(self):
+        self.wall, self.cpu = time.perf_counter(), time.process_time()
+
+    def seconds(self) -> float:
+        wall, cpu = time.perf_counter() - self.wall, time.process_time() - self.cpu
+        return min(wall, cpu) if cpu > 0 else wall
+
+    def share(self) -> float:
+        """CPU time over wall time since it started (at most 1: threads count once)."""
+        wall, cpu = time.perf_counter() - self.wall, time.process_time() - self.cpu
+        return min(cpu / wall, 1.0) if wall > 0 and cpu > 0 else 1.0
+
+
 def _timed(action, repeats: int = 1, cold: bool = False) -> float:
     """Median seconds of ``action`` after one warm-up call; ``cold``: evict the caches first."""
     action()
@@ -231,9 +265,9 @@ def _timed(action, repeats: int = 1, cold: bool = False) -> float:
     for _ in range(repeats):
         if flush is not None:
             flush += 1.0
-        start = time.perf_counter()
+        clock = _Clock()
         action()
-        times.append(time.perf_counter() - start)
+        times.append(clock.seconds())
     return statistics.median(times)
 
 
@@ -262,10 +296,11 @@ def _elasticity_matrix(n: tuple[int, int, int]):
 
 #: Sizes :func:`calibrate` measures: hexahedral cube meshes (elements per edge) and dense
 #: matrices (rows). The largest cube takes about 2 s to factorise on one core of this
-#: 2-core machine; rates are flat beyond the largest size measured.
+#: 2-core machine; rates are flat beyond the largest size measured, times below the
+#: smallest (a 3^3 cube of 192 dofs, 10 rows: what a call costs at least).
 CALIBRATION_SIZES = {
-    "full": ([6, 10, 14, 18], [50, 200, 600, 1200, 2000]),
-    "quick": ([6, 10], [50, 200, 800]),
+    "full": ([3, 6, 10, 14, 18], [10, 50, 200, 600, 1200, 2000]),
+    "quick": ([3, 6, 10], [10, 50, 200, 800]),
 }
 _ATTEMPTS = 3  # measurements of a size whose rates are implausible before it is dropped
 
@@ -277,13 +312,17 @@ def calibrate(
 
     Sparse: MUMPS on elasticity matrices of cube meshes (analysis, numeric factorisation,
     substitutions with one and with 128 right-hand sides). Dense: LAPACK potrf, potrs and
-    triangular solves on random SPD matrices. A size whose rates fall outside
-    :data:`PLAUSIBLE_RATES` is measured again (up to 3 times), then left out. Run with the
-    thread settings of the real runs. ``progress(done, total)``, if given, is called after
-    each measured size.
+    triangular solves on random SPD matrices. Calls: the orders' engine on a block system of
+    many small blocks, its time outside its factorisations and solves. A size whose rates
+    fall outside :data:`PLAUSIBLE_RATES` is measured again (up to 3 times), then left out.
+    Run with the thread settings of the real runs. ``progress(done, total)``, if given, is
+    called after each measured size.
     """
     cubes, dense_sizes = CALIBRATION_SIZES["quick" if quick else "full"]
-    sizes = [(_sparse_points, n) for n in cubes] + [(_dense_points, n) for n in dense_sizes]
+    sizes: list[tuple[Callable[[int, Any], dict[str, list[float]]], int]] = [
+        (_sparse_points, n) for n in cubes
+    ]
+    sizes += [(_dense_points, n) for n in dense_sizes] + [(_call_points, 0)]
     points: dict[str, list[list[float]]] = {k: [] for k in RATE_KINDS}
     rng = np.random.default_rng(0)
     for done, (measure, n) in enumerate(sizes, 1):
@@ -304,14 +343,21 @@ def calibrate(
 def _sparse_points(n: int, rng) -> dict[str, list[float]]:
     """One point of each sparse kind, on the elasticity matrix of an n^3 cube mesh."""
     A = _elasticity_matrix((n, n, n))
-    start = time.perf_counter()
+    clock = _Clock()
     stats = sparse_statistics(A)  # the symbolic analysis alone, timed directly
-    analysis = time.perf_counter() - start
+    analysis = clock.seconds()
     log = WorkLog()
+    clock = _Clock()
     factor = SparseCholesky(A, log, "calibration")
+    first = clock.seconds()
     A.scale(1.0 + 1e-9)  # new values: the next set-up re-factorises numerically
+    clock = _Clock()
     factor.refactorise()
+    numeric_seconds = clock.seconds()
     numeric = log.records[-1]
+    # A first factorisation costs more than a numeric one by its analysis and its factor's
+    # fresh memory (page faults): up to 2.5x the analysis alone on this machine.
+    analysis = max(analysis, first - min(numeric.seconds, numeric_seconds))
     assert numeric.flops is not None  # a factorisation's record counts its flops
     b = A.createVecRight()
     b.set(1.0)
@@ -320,7 +366,7 @@ def _sparse_points(n: int, rng) -> dict[str, list[float]]:
     B = np.ones((A.getSize()[0], 128))
     block = _timed(lambda: factor.solve_many(B), cold=True)
     out = {
-        "sparse_factor": [numeric.flops, numeric.seconds],
+        "sparse_factor": [numeric.flops, min(numeric.seconds, numeric_seconds)],
         "sparse_analysis": [float(stats.nnz), analysis],
         "sparse_solve": [factor.entries, solve],
         "sparse_solve_block": [factor.entries * 128, block],
@@ -332,14 +378,21 @@ def _sparse_points(n: int, rng) -> dict[str, list[float]]:
 
 
 def _dense_points(n: int, rng) -> dict[str, list[float]]:
-    """One point of each dense kind, on a random n x n SPD matrix."""
+    """One point of each dense kind, on a random n x n SPD matrix, threaded as the solver's."""
+    with dense_threads(n):
+        return _dense_points_threaded(n, rng)
+
+
+def _dense_points_threaded(n: int, rng) -> dict[str, list[float]]:
     X = rng.standard_normal((n, n))
     S = X @ X.T + n * np.eye(n)
     L = sla.cho_factor(S.copy(), lower=True, check_finite=False)
     seconds = _timed(lambda: sla.cho_factor(S.copy(), lower=True, check_finite=False), 3)
     seconds -= _timed(lambda: S.copy(), 3)
     v = rng.standard_normal(n)
-    solve = _timed(lambda: sla.cho_solve(L, v, check_finite=False), 7)
+    # In a time step other work runs between two substitutions with the same factor: a
+    # factor larger than a core's cache (1 MB) comes from memory.
+    solve = _timed(lambda: sla.cho_solve(L, v, check_finite=False), 7, cold=8 * n * n > 2**20)
     m = min(n, 256)
     Bd = rng.standard_normal((n, m))
     block = _timed(lambda: sla.solve_triangular(L[0], Bd, lower=True, check_finite=False), 3)
@@ -348,3 +401,61 @@ def _dense_points(n: int, rng) -> dict[str, list[float]]:
         "dense_solve": [2.0 * n * n, solve],
         "dense_solve_block": [float(n * n * m), block],
     }
+
+
+#: The block system on which :func:`_call_points` runs the engine: subdomains, their dofs
+#: and the contact dofs of each (its interface ties as many dofs of each subdomain).
+CALL_SYSTEM = (8, 400, 100)
+
+
+def _call_points(_: int, rng) -> dict[str, list[float]]:
+    """Seconds per operation that the orders' engine spends outside its operations.
+
+    The engine's Python around each factorisation, solve and product (surface blocks
+    gathered, right-hand sides compared, vectors copied and split), measured with v-w-u
+    and w-v-u on a many-block system (:data:`CALL_SYSTEM`): 1D Laplacians tied to one
+    interface and each to a contact interface of its own. The mean of the two orders'
+    medians over a few solves after the first.
+    """
+    from dd_contact.solvers.engine import BlockEliminationSolver
+
+    system = _many_blocks(*CALL_SYSTEM)
+    per_call = []
+    for order in ("v-w-u", "w-v-u"):
+        log = WorkLog()
+        solver = BlockEliminationSolver(MPI.COMM_SELF, system, [], log, order)
+        samples = []
+        for repeat in range(6):
+            rhs = {b: rng.standard_normal(n) for b, n in system.sizes.items() if b.kind == "u"}
+            first, clock = len(log.records), _Clock()
+            solver.solve(rhs)
+            solver.finish()
+            seconds = time.perf_counter() - clock.wall
+            done = log.records[first:]
+            if repeat:  # the first factorises; records are wall-clock: scaled by the share
+                outside = (seconds - sum(r.seconds for r in done)) * clock.share()
+                samples.append(outside / len(done))
+        per_call.append(statistics.median(samples))
+        solver.destroy()
+    return {"call": [1.0, max(statistics.fmean(per_call), 1e-7)]}
+
+
+def _many_blocks(k: int, n: int, m: int):
+    """A system of k subdomains of n dofs, each tied to m interface dofs and m contact dofs."""
+    import scipy.sparse as sp
+
+    from dd_contact.blocks import Block, BlockSystem
+
+    ones = np.ones(n - 1)
+    laplacian = sp.csr_array(sp.diags_array([-ones, 4.0 * np.ones(n), -ones], offsets=[-1, 0, 1]))
+    v = Block("v", "interface")
+    sizes, matrices = {v: k * m}, {(v, v): sp.csr_array(2.0 * sp.eye_array(k * m))}
+    for j in range(k):
+        u, w = Block("u", f"s{j}"), Block("w", f"c{j}")
+        sizes[u], sizes[w] = n, m
+        rows = np.arange(m)
+        matrices[(u, u)] = laplacian
+        matrices[(u, v)] = sp.csr_array((-np.ones(m), (rows, j * m + rows)), shape=(n, k * m))
+        matrices[(u, w)] = sp.csr_array((-np.ones(m), (n - m + rows, rows)), shape=(n, m))
+        matrices[(w, w)] = sp.csr_array(2.0 * sp.eye_array(m))
+    return BlockSystem(sizes, dict.fromkeys(sizes, 0), matrices)

@@ -41,6 +41,7 @@ TWO_CORES = timing.MachineRates(
         "dense_factor": _flat(6.5e9),
         "dense_solve": _flat(3.7e8),
         "dense_solve_block": _flat(1.4e10),
+        "call": _flat(1.0 / 14e-6),  # the engine's Python around an operation: 14 us
     }
 )
 
@@ -79,7 +80,8 @@ def test_rates_interpolate_between_the_measured_sizes_and_stay_flat_beyond():
     assert rates.seconds("dense_factor", 1e8) == pytest.approx(1e-2)
     assert rates.rate("dense_factor", 1e7) == pytest.approx(np.sqrt(1e9 * 1e10))  # log-log
     assert rates.rate("dense_factor", 1e12) == pytest.approx(1e10)
-    assert rates.rate("dense_factor", 10.0) == pytest.approx(1e9)
+    # below the smallest size a call costs what the smallest did: its overhead
+    assert rates.seconds("dense_factor", 10.0) == pytest.approx(1e-3)
     assert rates.seconds("dense_factor", 0.0) == 0.0
 
 
@@ -139,7 +141,8 @@ def test_calibration_measures_an_implausible_size_again(monkeypatch):
     monkeypatch.setattr(calibration, "_dense_points", measured)
     shown = []
     rates = calibration.calibrate(quick=True, progress=lambda d, t: shown.append((d, t)))
-    assert rates.points["dense_factor"] == [[100**3 / 3.0, 1e-3]] and shown == [(1, 1)]
+    assert rates.points["dense_factor"] == [[100**3 / 3.0, 1e-3]]
+    assert shown == [(1, 2), (2, 2)]  # the dense size, then the engine's calls
 
 
 def test_auto_calibration_shows_a_message_and_a_progress_bar(tmp_path, monkeypatch, capsys, rates):
@@ -171,7 +174,7 @@ def test_calibrate_command_measures_caches_and_shows(tmp_path, monkeypatch, caps
 def test_quick_calibration_measures_every_kind(rates):
     assert set(rates.points) == set(timing.RATE_KINDS)
     for kind, points in rates.points.items():
-        assert len(points) >= 2, kind
+        assert len(points) >= (1 if kind == "call" else 2), kind  # one "call": per operation
         assert all(work > 0 and seconds > 0 for work, seconds in points), kind
     assert rates.machine["quick"] is True
     # A MUMPS factorisation of a million flops is at least 1 Mflop/s and at most 1 Tflop/s.
@@ -237,7 +240,9 @@ def test_prediction_adds_up_its_parts(rates):
     problem = dd.TransientProblem(verify.order_scene("interface", True, 1e4), 0.01, "v-w-u")
     p = problem.predict(100, 30, rates)
     assert p.algorithm == "v-w-u" and p.setup > 0 and p.step > 0 and p.change > 0
-    assert p.total == pytest.approx(p.setup + 100 * p.step + 30 * p.change)
+    # energy-safe contact (the default) releases about RELEASES_PER_CHANGE times a change
+    assert p.release > 0 and p.releases == timing.RELEASES_PER_CHANGE * 30 and p.tie_solves == 1
+    assert p.total == pytest.approx(p.setup + 100 * p.step + 30 * p.change + 15 * p.release)
 
 
 # -- algorithm="auto" on scenes whose answer is known -------------------------------------
@@ -364,7 +369,7 @@ def test_a_replan_switches_only_for_a_clear_gain():
     structure = analysed.SceneStructure({}, {}, {}, {}, set(), None)
 
     def priced(totals):  # the rest of the run of each (one "step" of that many seconds)
-        def predict(plan, rates, steps, changes):
+        def predict(plan, rates, steps, changes, releases, tie_solves):
             return timing.Prediction(plan, 0.0, totals[plan], 0.0, steps, changes)
 
         return predict
@@ -374,7 +379,8 @@ def test_a_replan_switches_only_for_a_clear_gain():
         with pytest.MonkeyPatch.context() as mp:
             mp.setattr(timing, "plan", lambda structure, algorithm: algorithm)
             mp.setattr(timing, "predict", priced(totals))
-            again = timing.replan(choice, structure, TWO_CORES, {"sparse_factor": 3.0}, 1, 0)
+            rest = timing.Expected(1, 0)
+            again = timing.replan(choice, structure, TWO_CORES, {"sparse_factor": 3.0}, rest)
         assert again.algorithm == expected and again.replanned
         assert again.misses == {"sparse_factor": 3.0}
 
@@ -389,3 +395,130 @@ def test_misses_are_measured_over_predicted_seconds_per_kind():
     assert timing.misses(records, rates) == pytest.approx(
         {"dense_factor": 3.0, "sparse_solve": 4.0}
     )
+
+
+# -- what the solvers spend around their operations (issue 30) -------------------------
+@pytest.mark.parametrize("algorithm", ["v-w-u", "w-v-u", "FULL"])
+def test_a_step_records_the_operations_its_plan_prices(algorithm):
+    """A step without a contact change: the solver records exactly the plan's operations
+    (substitutions, surface solves, coupling products), and its time around them in
+    calls of its solve and finish."""
+    problem = dd.TransientProblem(verify.order_scene("interface", True, 1e4), 0.01, algorithm)
+    structure = analysed.scene_structure(
+        problem.comm,
+        problem.solver.system,
+        [z.region for z in problem.zones],
+        full=algorithm == "FULL",
+        orders=algorithm != "FULL",
+    )
+    plan = timing.plan(structure, algorithm)
+    problem.run(2, progress=False, summary=False)
+    for _ in range(30):
+        first, calls = len(problem.work.records), len(problem.work.calls)
+        released = problem.iteration.release_solves
+        record = problem.advance()
+        if not record["changes"] and problem.iteration.release_solves == released:
+            break
+    else:
+        pytest.skip("every step changed the contact state")
+    done = problem.work.records[first:]
+    key = lambda r: (r.block, r.kind, r.what, r.size, r.nrhs)  # noqa: E731
+    assert Counter(map(key, done)) == Counter(map(key, plan.step))
+    # the eliminated group's coupling: B^T y forward, B x in the back-substitution
+    products = [r.what for r in done if r.kind == "dense_product"]
+    assert sorted(products) == ([] if algorithm == "FULL" else ["x", "y"])
+    # one solve and one finish, whose operations are the step's
+    assert sum(n for n, _ in problem.work.calls[calls:]) == len(plan.step)
+    assert all(seconds >= 0 for _, seconds in problem.work.calls[calls:])
+
+
+def test_an_operation_is_priced_with_the_time_around_it():
+    rates = timing.MachineRates({k: _flat(1e9) for k in timing.RATE_KINDS})
+    rates.points["call"] = _flat(1.0 / 2e-5)  # 20 us around each operation
+    records = [
+        WorkRecord("w", "dense_solve", 100, 1, 0.0),
+        WorkRecord("w", "dense_product", 100, 40, 0.0, what="y"),
+        WorkRecord("w", "dense_product", 100, 40, 0.0, what="condense"),
+    ]
+    plan = timing.Plan("v-w-u", [], records, {})
+    # a solve 2 n^2, a product with a vector 2 n m, W^T W n m^2 (flops at 1e9/s each)
+    work = 2 * 100**2 + 2 * 100 * 40 + 100 * 40**2
+    assert plan.seconds(plan.step, rates) == pytest.approx(work / 1e9 + 3 * 2e-5)
+    assert [timing.rate_kind(r) for r in records] == [
+        "dense_solve",
+        "dense_solve",
+        "dense_solve_block",
+    ]
+
+
+def test_releases_and_stiff_tie_solves_add_to_the_total():
+    p = timing.Prediction("A", 1.0, 0.1, 0.5, 100, 20, release=0.05, releases=10, tie_solves=3)
+    solves = 100 + 20 + 10
+    assert p.total == pytest.approx(1.0 + 100 * 0.1 + 20 * 0.5 + 10 * 0.05 + 2 * solves * 0.1)
+    assert timing.Prediction("A", 1.0, 0.1, 0.5, 100, 20).total == pytest.approx(21.0)
+
+
+def test_the_plan_prices_one_release_solve_per_region():
+    problem = dd.TransientProblem(verify.order_scene("interface", True, 1e4), 0.01, "v-w-u")
+    structure = analysed.scene_structure(
+        problem.comm, problem.solver.system, [z.region for z in problem.zones], full=False
+    )
+    plan = timing.plan(structure, "v-w-u")
+    schedule = structure.schedule("v-w-u")
+    assert set(plan.releases) == set(structure.regions)
+    for region, records in plan.releases.items():
+        assert [(r.block, r.kind, r.what) for r in records] == [
+            (o.target, o.kind, o.what) for o in schedule.release(region)
+        ]
+    assert plan.release_seconds(TWO_CORES) > 0
+
+
+def test_the_solvers_time_around_their_operations_is_judged_after_the_first_call():
+    rates = timing.MachineRates({k: _flat(1e9) for k in timing.RATE_KINDS})
+    rates.points["call"] = _flat(1.0 / 1e-5)
+    # the first call builds the surface system: left out; then 3 x 10 operations in 0.6 s
+    calls = [(50, 5.0), (10, 0.2), (10, 0.2), (10, 0.2)]
+    assert timing.misses([], rates, calls) == pytest.approx({"call": 0.6 / 3e-4})
+    assert timing.misses([], rates, calls[:1]) == {}
+
+
+def test_auto_prices_the_stiff_ties_solves_and_counts_them_when_it_checks(rates):
+    from dd_contact.solvers.stiff_ties import AugmentedTies
+
+    scene = verify.pressed_scene("interface", kappa=1e12, comm=MPI.COMM_SELF)
+    problem = dd.StaticProblem(scene, "auto", rates=rates)
+    assert isinstance(problem.analysis.tie_solver, AugmentedTies)
+    assert all(p.tie_solves == timing.TIE_SOLVES for p in problem.choice.predictions.values())
+    problem.solve()
+    analysis = problem.analysis
+    solves = analysis.tie_solver.solves
+    rest = analysis._rest(timing.Expected(10, 3, 0.0, timing.TIE_SOLVES))
+    it = analysis.iteration
+    assert rest.tie_solves == pytest.approx(solves / (1 + it.gamma + it.release_solves))
+    assert rest.tie_solves > 1 and rest.steps == 9
+
+
+def test_fulls_lower_bound_uses_the_fastest_rate_measured():
+    rates = timing.MachineRates({"sparse_solve": [[1e4, 1e-3], [1e6, 2e-3], [1e8, 1.0]]})
+    # 5e8 per second at 1e6 is the fastest: below and beyond, the bound is no slower
+    assert rates.least_seconds("sparse_solve", 1e3) == pytest.approx(2e-6)
+    assert rates.least_seconds("sparse_solve", 1e9) == pytest.approx(2.0)
+    for work in (1e3, 1e5, 1e7, 1e9):
+        assert rates.least_seconds("sparse_solve", work) <= rates.seconds("sparse_solve", work)
+
+
+def test_a_process_with_half_a_core_is_judged_by_its_share():
+    """Another job on the machine slows every kind alike: no miss."""
+    rates = timing.MachineRates({k: _flat(1e9) for k in timing.RATE_KINDS})
+    records = [WorkRecord("d", "dense_factor", 3000, 0, 2 * 9.0, 9e9)]  # 2 x its 9 s
+    assert timing.misses(records, rates) == pytest.approx({"dense_factor": 2.0})
+    assert timing.misses(records, rates, share=0.5) == pytest.approx({"dense_factor": 1.0})
+
+
+def test_a_first_factorisation_is_not_judged():
+    """Its analysis and fresh memory are paid once: the rest of the run repeats neither."""
+    rates = timing.MachineRates({k: _flat(1e9) for k in timing.RATE_KINDS})
+    first = WorkRecord("u", "sparse_factor", 100, 0, 50.0, 1e9, "", 1e6, 5000)  # 50x
+    again = WorkRecord("u", "sparse_factor", 100, 0, 3.0, 1e9, "", 1e6)  # 3x
+    assert timing.misses([first], rates) == {}
+    assert timing.misses([first, again], rates) == pytest.approx({"sparse_factor": 3.0})

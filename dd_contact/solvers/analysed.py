@@ -10,7 +10,7 @@ twice. Pricing is :mod:`dd_contact.timing`'s: it never builds a solver.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from mpi4py import MPI
 
@@ -36,6 +36,7 @@ class SceneStructure:
         base_pairs: Surface block pairs with a matrix of their own.
         full: MUMPS's analysis of FULL's matrix (``None``: FULL not considered).
         condensation: How the orders condense a subdomain (``"schur"``, ``"multi-rhs"``).
+        plans: What pricing made of it, per algorithm (:func:`dd_contact.timing.plan`).
     """
 
     sizes: dict[str, int]
@@ -45,6 +46,7 @@ class SceneStructure:
     base_pairs: set
     full: SparseStatistics | None
     condensation: str = "schur"
+    plans: dict = field(default_factory=dict, repr=False, compare=False)
 
     def schedule(self, algorithm: str) -> Schedule | FullSchedule:
         """The schedule ``algorithm`` follows on this scene."""

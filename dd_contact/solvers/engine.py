@@ -37,9 +37,7 @@ import scipy.sparse as sp
 
 from dd_contact.blocks import Block, BlockSystem, ContactRegion, refuse_unsolvable
 from dd_contact.parallel import ROOT, allgathered, any_rank, bcast_array, gather_to_root, gathered
-from dd_contact.solvers.linalg import (
-    coo_of,
-)
+from dd_contact.solvers.linalg import coo_of, dense_threads
 from dd_contact.solvers.schedule import (
     Schedule,
 )
@@ -158,6 +156,10 @@ class BlockEliminationSolver:
             b: slice(end - sizes[b], end) for b, end in zip(blocks, ends, strict=True)
         }
         self._surface_size = int(ends[-1]) if blocks else 0
+        #: Rows of the largest dense group: its size decides the BLAS threads of the surface.
+        self._dense_rows = max(
+            (sum(sizes[b] for b in g.blocks) for g in self.schedule.flat), default=0
+        )
         self._x: dict[str, np.ndarray] = {}
         self._complete = False
 
@@ -181,6 +183,10 @@ class BlockEliminationSolver:
         Returns the surface blocks solved so far and the owned subdomains the contact check
         needs; the rest follows in :meth:`finish`.
         """
+        with self.log.solving():
+            return self._solve(rhs)
+
+    def _solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         changed: dict[str, dict[Block, Any]] = {"Z": {}, "contact": self._pending_contact}
         self._pending_contact = {}
         g = np.zeros(self._surface_size)  # this rank's part of the surface right-hand side
@@ -205,13 +211,14 @@ class BlockEliminationSolver:
             surface = self.surface
             assert parts is not None and surface is not None  # the root's
             g = np.sum([part for part, _ in parts], axis=0)
-            for _, part in parts:
-                for block, Z in part["Z"].items():
-                    surface.set_condensed(block, Z)
-                for block, matrix in part["contact"].items():
-                    surface.set_contact((block, block), matrix)
-            surface.factorise()
-            solved = surface.solve({b: g[w].copy() for b, w in self._where.items()}, complete)
+            with dense_threads(self._dense_rows):
+                for _, part in parts:
+                    for block, Z in part["Z"].items():
+                        surface.set_condensed(block, Z)
+                    for block, matrix in part["contact"].items():
+                        surface.set_contact((block, block), matrix)
+                surface.factorise()
+                solved = surface.solve({b: g[w].copy() for b, w in self._where.items()}, complete)
             x = self._packed(solved)
         self._x = self._unpacked(bcast_array(self.comm, x), complete)
         self._complete = complete
@@ -239,11 +246,16 @@ class BlockEliminationSolver:
         The other ranks' subdomains stay there: a caller that needs every block on every
         rank gathers them (:func:`dd_contact.parallel.allgather_blocks`).
         """
+        with self.log.solving():
+            return self._finish()
+
+    def _finish(self) -> dict[str, np.ndarray]:
         if not self._complete:
             x = np.zeros(self._surface_size)
             if self.comm.rank == ROOT:
                 assert self.surface is not None  # the root's
-                x = self._packed(self.surface.back_substitute(self._x))
+                with dense_threads(self._dense_rows):
+                    x = self._packed(self.surface.back_substitute(self._x))
             self._x = self._unpacked(bcast_array(self.comm, x), True)
             self._complete = True
         u: dict[str, np.ndarray] = {

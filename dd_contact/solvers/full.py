@@ -87,6 +87,10 @@ class MonolithicSolver:
 
     def solve(self, rhs: BlockKeyed[np.ndarray]) -> dict[str, np.ndarray]:
         """Solve with this rank's right-hand-side contributions; every rank gets every block."""
+        with self.log.solving():
+            return self._solve(rhs)
+
+    def _solve(self, rhs: BlockKeyed[np.ndarray]) -> dict[str, np.ndarray]:
         self._refactorise()
         assert self.matrix.A is not None and self._factor is not None
         b = self.matrix.A.createVecRight()

@@ -14,7 +14,8 @@ from __future__ import annotations
 import ctypes
 import functools
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 from mpi4py import MPI
@@ -23,6 +24,7 @@ from petsc4py import PETSc
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
+import threadpoolctl
 from dolfinx.fem.petsc import get_petsc_lib
 
 from dd_contact.blocks import ContactRegion
@@ -37,6 +39,7 @@ __all__ = [
     "SingularMatrixError",
     "SparseCholesky",
     "SparseStatistics",
+    "dense_threads",
     "petsc_matrix",
     "release_freed_memory",
     "sparse_statistics",
@@ -120,6 +123,38 @@ def release_freed_memory() -> None:
     trim = _malloc_trim()
     if trim is not None:
         trim(0)
+
+
+#: Dense work on matrices of fewer rows than this runs on one BLAS thread (docs/solvers.md,
+#: "Dense work on one thread"): numpy's and scipy's OpenBLAS start a thread per core, and on
+#: a core another process uses, a small factorisation waits for its spinning partner thread
+#: (v-w-u's 449 surface factorisations of the pin joint: 0.18 s on one thread, 2.2-37.6 s
+#: on two of this shared 2-core machine).
+DENSE_THREADED_ROWS = 2000
+
+
+@functools.cache
+def _blas_libraries() -> tuple:
+    """The BLAS libraries loaded in this process (numpy's and scipy's are, by this module)."""
+    return tuple(threadpoolctl.ThreadpoolController().select(user_api="blas").lib_controllers)
+
+
+@contextmanager
+def dense_threads(rows: int) -> Iterator[None]:
+    """One BLAS thread inside, for dense work on fewer than DENSE_THREADED_ROWS rows.
+
+    Larger work keeps the process's threads. A few microseconds: use it around a whole
+    solve, not each small operation.
+    """
+    libraries = [] if rows >= DENSE_THREADED_ROWS else _blas_libraries()
+    limited = [(lib, n) for lib in libraries if (n := lib.num_threads) > 1]
+    for lib, _ in limited:
+        lib.set_num_threads(1)
+    try:
+        yield
+    finally:
+        for lib, n in limited:
+            lib.set_num_threads(n)
 
 
 class SparseCholesky:
@@ -374,7 +409,8 @@ class DenseCholesky:
         """B^T A^-1 B, symmetric, from one forward substitution per column of B.
 
         With A = L L^T it is W^T W for W = L^-1 B: half the work of ``B.T @ solve(B)``, and
-        symmetric to the last bit. Logged as a substitution per column.
+        symmetric to the last bit. Logged as a substitution per column, and W^T W as a
+        ``"dense_product"`` (n m^2 flops).
         """
         start = time.perf_counter()
         W = sla.solve_triangular(self.factor[0], B, lower=True, check_finite=False)
@@ -382,7 +418,25 @@ class DenseCholesky:
         self.log.add(
             self.block, "dense_solve", n, nrhs, time.perf_counter() - start, n * n * nrhs, what
         )
-        return W.T @ W
+        start = time.perf_counter()
+        out = W.T @ W
+        seconds = time.perf_counter() - start
+        self.log.add(self.block, "dense_product", n, nrhs, seconds, float(n * nrhs * nrhs), what)
+        return out
+
+    def product(self, B: np.ndarray, x: np.ndarray, what: str, transpose: bool) -> np.ndarray:
+        """``B^T x`` (``transpose``) or ``B x`` for a coupling matrix B with this factor's rows.
+
+        Logged as a ``"dense_product"`` with B's columns as right-hand sides: one pass over
+        B, memory traffic like a substitution (2 n m flops).
+        """
+        start = time.perf_counter()
+        out = B.T @ x if transpose else B @ x
+        n, m = B.shape
+        self.log.add(
+            self.block, "dense_product", n, m, time.perf_counter() - start, 2.0 * n * m, what
+        )
+        return out
 
     def solve(self, B: np.ndarray, what: str = "") -> np.ndarray:
         """Forward/back substitution for a vector or the columns of a matrix."""

@@ -334,11 +334,15 @@ class Schedule:
         return Operation(block, SWEEPS[what == "u"], n, 1, what)
 
     def factorise_group(self, g: Group) -> list[Operation]:
-        """Factorise a group and, if it is eliminated, condense its coupling columns."""
+        """Factorise a group and, if it is eliminated, condense its coupling columns.
+
+        The condensation is a triangular solve of the columns, then their product W^T W.
+        """
         n = sum(self.surface[b] for b in g.blocks)
         ops = [Operation(g.name, "dense_factor", n)]
         if not g.last and g.neighbours and (m := self.coupling_columns(g)):
             ops.append(Operation(g.name, "dense_solve", n, m, "condense"))
+            ops.append(Operation(g.name, "dense_product", n, m, "condense"))
         return ops
 
     def solve_group(self, g: Group, what: str | None = None) -> Operation:
@@ -346,9 +350,34 @@ class Schedule:
         n = sum(self.surface[b] for b in g.blocks)
         return Operation(g.name, "dense_solve", n, 1, what or ("x" if g.last else "y"))
 
+    def coupling_product(self, g: Group, what: str) -> list[Operation]:
+        """An eliminated group's coupling matrix B times a vector: none for the last level.
+
+        ``"y"``: B^T y, its forward elimination into the later levels (in every surface
+        solve, whether y was solved again or not); ``"x"``: B x, the later levels' solution
+        in its back-substitution.
+        """
+        if g.last or not g.neighbours or not (m := self.coupling_columns(g)):
+            return []
+        return [Operation(g.name, "dense_product", sum(self.surface[b] for b in g.blocks), m, what)]
+
+    def forward(self, stale: set[str], new_rhs: bool) -> list[Operation]:
+        """The surface solve's forward elimination and last level, group by group."""
+        ops: list[Operation] = []
+        for g in self.flat:
+            if self.solves(g, stale, new_rhs):
+                ops.append(self.solve_group(g))
+            ops += self.coupling_product(g, "y")
+        return ops
+
     def back_substitution(self) -> list[Operation]:
         """Solutions of the earlier levels given the last (in the engine's order)."""
-        return [self.solve_group(g, "x") for level in reversed(self.groups[:-1]) for g in level]
+        return [
+            op
+            for level in reversed(self.groups[:-1])
+            for g in level
+            for op in [*self.coupling_product(g, "x"), self.solve_group(g, "x")]
+        ]
 
     def setup(self) -> list[Operation]:
         """Before the first solution: every factorisation and condensation."""
@@ -358,7 +387,7 @@ class Schedule:
     def step(self) -> list[Operation]:
         """One time step (new right-hand sides) without a contact state change."""
         ops = [self.substitute_subdomain(b, "u_hat") for b in self.layouts]
-        ops += [self.solve_group(g) for g in self.flat] + self.back_substitution()
+        ops += self.forward(set(), True) + self.back_substitution()
         return ops + [self.substitute_subdomain(b, "u") for b in self.layouts]
 
     def change(self, region: str) -> list[Operation]:
@@ -371,8 +400,7 @@ class Schedule:
                 ops.append(self.substitute_subdomain(block, "u_hat"))
         stale = self.stale_groups(self.touched(*blocks))
         ops += [op for g in self.flat if g.name in stale for op in self.factorise_group(g)]
-        ops += [self.solve_group(g) for g in self.flat if self.solves(g, stale, False)]
-        return ops + self._read_back(blocks)
+        return ops + self.forward(stale, False) + self._read_back(blocks)
 
     def release(self, region: str) -> list[Operation]:
         """One more solve of the same contact state, with a new right-hand side on ``region``.
@@ -389,7 +417,10 @@ class Schedule:
             if block.kind == "u":
                 ops.append(self.substitute_subdomain(block, "u_hat"))
         new_rhs = self.stale_groups(self.touched(*blocks))  # a new rhs propagates as staleness
-        ops += [self.solve_group(g) for g in self.flat if self.solves(g, set(), g.name in new_rhs)]
+        for g in self.flat:
+            if self.solves(g, set(), g.name in new_rhs):
+                ops.append(self.solve_group(g))
+            ops += self.coupling_product(g, "y")
         return ops + self._read_back(blocks)
 
     def _read_back(self, blocks: tuple[Block, ...]) -> list[Operation]:

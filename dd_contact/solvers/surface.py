@@ -223,7 +223,7 @@ class Surface:
                     state.y, state.g_in = state.factor.solve(rhs, "y"), rhs
                 if grp.neighbours:
                     assert state.B is not None and state.y is not None and state.offsets is not None
-                    correction = state.B.T @ state.y
+                    correction = state.factor.product(state.B, state.y, "y", transpose=True)
                     for i, (r, J) in enumerate(state.columns):
                         g[r][J] -= correction[state.offsets[i] : state.offsets[i + 1]]
         self.stale = set()
@@ -243,7 +243,7 @@ class Surface:
                 if grp.neighbours:
                     assert state.B is not None
                     coupled = np.concatenate([x[r][J] for r, J in state.columns])
-                    rhs -= state.B @ coupled
+                    rhs -= state.factor.product(state.B, coupled, "x", transpose=False)
                 self._split(grp, state.factor.solve(rhs, "x"), x)
         return x
 

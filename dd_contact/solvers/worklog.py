@@ -8,6 +8,9 @@ plans, so a run can report what it did and compare it with what was predicted.
 
 from __future__ import annotations
 
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from mpi4py import MPI
@@ -24,7 +27,8 @@ class WorkRecord:
     block: str
     # "sparse_factor", "sparse_solve", "sparse_forward", "sparse_backward" (half a
     # substitution each: MUMPS's Schur reduction and expansion), "dense_factor",
-    # "dense_solve", "schur"
+    # "dense_solve", "dense_product" (a group's coupling matrix times vectors: nrhs is its
+    # columns), "schur"
     kind: str
     size: int
     nrhs: int
@@ -37,9 +41,27 @@ class WorkRecord:
 
 @dataclass
 class WorkLog:
-    """All factorisations and solves of a run."""
+    """All factorisations and solves of a run.
+
+    Attributes:
+        records: Every operation, in order.
+        calls: Per call of a solver's solve or finish (:meth:`solving`): the operations it
+            recorded and the wall seconds it spent outside them (its Python around them).
+    """
 
     records: list[WorkRecord] = field(default_factory=list)
+    calls: list[tuple[int, float]] = field(default_factory=list)
+
+    @contextmanager
+    def solving(self) -> Iterator[None]:
+        """A solver's solve or finish: its time outside the records it adds goes to calls."""
+        first, start = len(self.records), time.perf_counter()
+        try:
+            yield
+        finally:
+            seconds = time.perf_counter() - start
+            done = self.records[first:]
+            self.calls.append((len(done), seconds - sum(r.seconds for r in done)))
 
     @classmethod
     def planned(cls, operations) -> WorkLog:
@@ -75,7 +97,7 @@ class WorkLog:
 
         Matrix kind (sparse/dense) and size, decompositions, substitutions (right-hand sides
         summed, as the paper counts them; a forward and a backward sweep make one),
-        Schur complements, seconds and GFLOPs of each.
+        Schur complements, products with a coupling matrix, seconds and GFLOPs of each.
         """
         out: dict[str, dict] = {}
         for r in self.records:
@@ -87,9 +109,11 @@ class WorkLog:
                     "decompositions": 0,
                     "substitutions": 0,
                     "schur": 0,
+                    "products": 0,
                     "seconds_decomposition": 0.0,
                     "seconds_substitution": 0.0,
                     "seconds_schur": 0.0,
+                    "seconds_product": 0.0,
                     "gflops_decomposition": 0.0,
                     "gflops_substitution": 0.0,
                 },
@@ -102,6 +126,9 @@ class WorkLog:
                 b["substitutions"] += r.nrhs if r.kind.endswith("_solve") else r.nrhs / 2
                 b["seconds_substitution"] += r.seconds
                 b["gflops_substitution"] += (r.flops or 0.0) / 1e9
+            elif r.kind.endswith("_product"):
+                b["products"] += 1
+                b["seconds_product"] += r.seconds
             else:
                 b["schur"] += 1
                 b["seconds_schur"] += r.seconds
