@@ -22,12 +22,13 @@ import dolfinx.fem as fem
 import numpy as np
 
 from dd_contact import forms, timing
-from dd_contact.assembly import Model, assemble
+from dd_contact.assembly import Model, PairZone, assemble
 from dd_contact.blocks import Block
 from dd_contact.contact import check_contact_geometry
 from dd_contact.errors import InputError, SingularMatrixError, warn
 from dd_contact.impact import massless_walls
 from dd_contact.iteration import ContactIteration, ContactSettings
+from dd_contact.pairs import PairOperator, check_pair_geometry
 from dd_contact.parallel import (
     Traffic,
     allgather_blocks,
@@ -123,6 +124,15 @@ def _with_mass(model: Model, scene: Scene, mass_kind: str, massless: bool) -> No
             model.mass[sub.block] = forms.mass_of_kind(model.mass[sub.block], degree, mass_kind)
 
 
+def _contact_dofs(zones) -> dict[Block, np.ndarray]:
+    """Block -> dofs any contact term of ``zones`` may act on."""
+    out: dict[Block, np.ndarray] = {}
+    for z in zones:
+        for block, dofs in z.parts:
+            out[block] = np.union1d(out[block], dofs) if block in out else dofs
+    return out
+
+
 class Analysis:
     """The scene assembled, with its solver and contact iteration; what a problem solves with.
 
@@ -204,7 +214,7 @@ class Analysis:
                 system.sizes,
                 None
                 if self.settings.residual_tolerance is None
-                else ResidualCheck(self.comm, system, {z.block: z.dofs for z in self.zones}),
+                else ResidualCheck(self.comm, system, _contact_dofs(self.zones)),
                 held=[] if mass_coefficient else scene.bodies(),
             )
         self._closed = False
@@ -324,6 +334,12 @@ class Analysis:
     def _check_contact_geometry(self, t: float = 0.0) -> None:
         """Refuse an obstacle that overlaps the body or whose normal points into it."""
         for z in self.zones:
+            if isinstance(z, PairZone):
+                tolerance = self.settings.penetration_tolerance
+                size = 1e-3 * z.length if tolerance is None else tolerance
+                assert isinstance(z.operator, PairOperator)
+                check_pair_geometry(z.operator, z.contact.name, size)
+                continue
             check_contact_geometry(
                 z.operator,
                 z.contact.mesh,
@@ -448,7 +464,7 @@ class Analysis:
             sub.u.x.array[:] = x[sub.block]
         self.publish_surfaces(x)
         for z in self.zones:
-            z.contact.pressure.x.array[:] = z.pressure(x[z.block][z.dofs])
+            z.publish(x)
         if any(not np.all(np.isfinite(v)) for v in x.values()):
             raise FloatingPointError(
                 "the solution contains NaN or inf: the system is too ill-conditioned (extreme "
@@ -474,8 +490,9 @@ class Analysis:
         if self.scene.interface is not None:
             self.scene.interface.v.x.array[:] = x[self.scene.interface.block]
         for z in self.zones:
-            if z.block in x:
-                z.contact.w.x.array[:] = x[z.block][z.dofs]
+            for side, (block, dofs) in zip(z.sides, z.parts, strict=True):
+                if block in x:
+                    side.w.x.array[:] = x[block][dofs]
 
     def state_now(self) -> dict[str, np.ndarray]:
         """This rank's view of every block at the current time (subdomains, surfaces)."""
