@@ -105,3 +105,84 @@ def test_the_contact_patch_test_holds_on_non_matching_surfaces(cells, options, s
         force = problem.contact_forces()[pair.name]
         assert np.abs(force - [0.0, 0.0, -PRESSURE * SIDE**2]).max() < 1e-8 * PRESSURE
         assert problem.changes["gamma"] == 0  # touching from the start, pressed throughout
+
+
+# -- every algorithm on a pair whose contact state changes ----------------------------------
+GAP, TILT = 1.0e-4, 3.0e-4
+
+
+def _tilted_scene(split: bool, **pair_options):
+    """B a gap above A, its top pressed down by TILT * x: the contact closes on one side."""
+    cells = ("hexahedron", (4, 4, 2)), ("tetrahedron", (3, 3, 2))
+    subdomains, interface, a, b, B = _blocks(*cells, split, gap=GAP)
+    B.fix(_at(2, H_A + GAP + H_B), [2], lambda x: np.stack([0 * x[0], 0 * x[0], -TILT * x[0]]))
+    pair = dc.ContactPair(a, b, **pair_options)
+    return dc.Scene(MPI.COMM_WORLD, subdomains, interface, [pair]), pair
+
+
+def _solution(scene, algorithm):
+    with dc.StaticProblem(scene, algorithm=algorithm) as problem:
+        problem.solve()
+        fields = [s.u.x.array.copy() for s in scene.subdomains]
+        fields += [c.w.x.array.copy() for c in scene.contacts]
+        records = [(r.block, r.kind) for r in problem.work.records]
+        return fields, dict(problem.changes), records
+
+
+@pytest.mark.parametrize(("split", "orders"), [(False, ["w-u"]), (True, ["v-w-u", "w-v-u"])])
+def test_every_algorithm_agrees_with_full_on_a_pair_that_changes_state(split, orders):
+    scene, pair = _tilted_scene(split)
+    full, changes, _ = _solution(scene, "FULL")
+    assert changes["gamma"] >= 2 and changes[pair.name] == changes["gamma"]
+    size = max(np.abs(f).max() for f in full)
+    for order in orders:
+        fields, order_changes, records = _solution(_tilted_scene(split)[0], order)
+        assert order_changes == changes
+        assert max(np.abs(f - g).max() for f, g in zip(fields, full, strict=True)) < 1e-9 * size
+        # a change re-factorises the pair's group (and what it is eliminated into), never a
+        # subdomain: each subdomain once, the pair's group once more per change
+        sparse = [b for b, kind in records if kind == "sparse_factor"]
+        assert sorted(sparse) == sorted(s.block for s in scene.subdomains)
+        group = "+".join(sorted(["w:bottom_of_B", "w:top_of_A"]))
+        dense = [b for b, kind in records if kind == "dense_factor"]
+        assert dense.count(group) == 1 + changes["gamma"]
+        if order == "w-v-u":  # the pair's group is the last level: nothing else again
+            assert dense.count("v:interface") == 1
+
+
+# -- scenes refused ----------------------------------------------------------------------
+CELLS = ("hexahedron", (2, 2, 2)), ("hexahedron", (3, 3, 2))
+
+
+def test_self_contact_is_refused_and_said_to_be_out_of_scope():
+    subdomains, _, a, _, _ = _blocks(*CELLS, split=False)
+    bottom = dc.ContactInterface.from_boundary(subdomains[0], _at(2, 0.0), None, name="base")
+    for other in (a, bottom):
+        with pytest.raises(dc.InputError, match="self-contact .* is not supported"):
+            dc.ContactPair(a, other)
+
+
+def test_a_pair_side_must_be_a_contact_interface_without_an_obstacle():
+    subdomains, _, a, b, _ = _blocks(*CELLS, split=False)
+    wall = dc.ContactInterface.from_boundary(
+        subdomains[1], _at(2, H_A + H_B), dc.Plane([0, 0, 2], [0, 0, -1]), name="lid"
+    )
+    with pytest.raises(dc.InputError, match="without an obstacle, got ContactInterface"):
+        dc.ContactPair(a, wall)
+    with pytest.raises(dc.InputError, match="'top_of_A' has no obstacle and is in no ContactPair"):
+        dc.Scene(MPI.COMM_WORLD, subdomains, None, [a])
+
+
+def test_surfaces_that_do_not_face_each_other_are_refused():
+    subdomains, _, a, _, B = _blocks(*CELLS, split=False)
+    lid = dc.ContactInterface.from_boundary(B, _at(2, H_A + H_B), None, name="lid")
+    scene = dc.Scene(MPI.COMM_WORLD, subdomains, None, [dc.ContactPair(a, lid)])
+    with pytest.raises(dc.InputError, match="'top_of_A' and 'lid' do not face each other"):
+        dc.StaticProblem(scene)
+
+
+def test_surfaces_that_overlap_at_the_start_are_refused():
+    subdomains, _, a, b, _ = _blocks(*CELLS, split=False, gap=-0.01)
+    scene = dc.Scene(MPI.COMM_WORLD, subdomains, None, [dc.ContactPair(a, b)])
+    with pytest.raises(dc.InputError, match=r"overlap by 0\.01 .* at most touch at the start"):
+        dc.StaticProblem(scene)
