@@ -114,8 +114,9 @@ def _with_mass(model: Model, scene: Scene, mass_kind: str, massless: bool) -> No
     """
     if massless:
         for z in model.zones:
-            block = z.contact.subdomain.block
-            model.mass[block] = massless_walls(model.mass[block], z.wall)
+            for block, wall in z.wall_parts:
+                if block in model.mass:  # owned here (a pair's other side may not be)
+                    model.mass[block] = massless_walls(model.mass[block], wall)
     if mass_kind == "consistent":
         return
     for sub in scene.subdomains:

@@ -275,7 +275,7 @@ class ContactZone:
         """The subdomains whose bodies this zone's points hold."""
         return [side.subdomain for side in self.sides]
 
-    def gather(self, x: Mapping[str, np.ndarray]) -> np.ndarray:
+    def gather(self, x: BlockKeyed[np.ndarray]) -> np.ndarray:
         """The zone's surface displacement (contact matrix numbering) from the blocks ``x``."""
         parts = self.parts
         if len(parts) == 1:
@@ -291,6 +291,11 @@ class ContactZone:
             np.add.at(out[block], dofs, vector[start : start + len(dofs)])
             start += len(dofs)
         return out
+
+    @property
+    def wall_parts(self) -> list[tuple[Block, np.ndarray]]:
+        """``(subdomain block, wall dofs)`` of each side: the dofs its contact acts through."""
+        return [(self.contact.subdomain.block, self.wall)]
 
     def published(self) -> np.ndarray:
         """The surface displacement last published in the sides' Functions."""
@@ -323,6 +328,12 @@ class PairZone(ContactZone):
 
     partner: Block = field(default_factory=lambda: Block("w", ""))
     partner_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    walls: list[np.ndarray] = field(default_factory=list)
+
+    @property
+    def wall_parts(self) -> list[tuple[Block, np.ndarray]]:
+        """Each side's subdomain and the dofs of the facets it is tied to."""
+        return [(s.subdomain.block, w) for s, w in zip(self.sides, self.walls, strict=True)]
 
     @property
     def parts(self) -> list[tuple[Block, np.ndarray]]:
@@ -457,11 +468,11 @@ def resolution_warning(
 
 def _contact_zone(
     scene: Scene, system: BlockSystem, contact: ContactInterface | ContactBoundary, k: int
-) -> tuple[ContactZone | None, np.ndarray | None, float]:
+) -> tuple[ContactZone | None, np.ndarray | None, tuple[float, np.ndarray]]:
     """Tie a contact interface (or map a contact boundary) into the system.
 
     Returns its zone (``None`` for a side of a contact pair: the pair makes the zone), its
-    cells' coverage and the height of the cells behind it.
+    cells' coverage, and the height of the cells behind it with the wall's dofs.
     """
     sub = scene.subdomains[k]
     u = sub.block
@@ -486,7 +497,7 @@ def _contact_zone(
         nodes = dolfinx.fem.locate_dofs_topological(sub.V, 2, ops.facets)
         wall = (3 * nodes[:, None] + np.arange(3)).ravel()
     if contact.obstacle is None:  # a side of a pair
-        return None, coverage, height
+        return None, coverage, (height, wall)
     eps_c = contact.contact_penalty.epsilon_for(height, sub.material.E)
     system.penalties[(sub.name, f"contact:{contact.name}")] = eps_c
     operator = ContactOperator(contact_points(contact.V, contact.points), contact.obstacle, eps_c)
@@ -499,19 +510,24 @@ def _contact_zone(
     length = mean_cell_size(contact.mesh)
     zone = ContactZone(contact, block, dofs, operator, free, prescribed, length, recovery, wall)
     zone.warned = reported  # the pressure-swing check need not say it again
-    return zone, coverage, height
+    return zone, coverage, (height, wall)
 
 
-def _pair_zone(system: BlockSystem, pair: ContactPair, heights: dict[str, float]) -> PairZone:
-    """The zone of a contact pair: its penalty from the stiffer side (E / h), its operator."""
+def _pair_zone(system: BlockSystem, pair: ContactPair, tied: dict[str, tuple]) -> PairZone:
+    """The zone of a contact pair: its penalty from the stiffer side (E / h), its operator.
+
+    ``tied``: each side tied on this rank's (height, wall dofs); the others' are found here.
+    """
 
     def stiffness(side: ContactInterface) -> float:
-        if side.name not in heights:  # tied on another rank: its height measured here too
-            heights[side.name] = _tie_operators(side, side.subdomain, "contact interface").height
-        return side.subdomain.material.E / heights[side.name]
+        if side.name not in tied:  # tied on another rank: its height and wall found here too
+            ops = _tie_operators(side, side.subdomain, "contact interface")
+            nodes = dolfinx.fem.locate_dofs_topological(side.subdomain.V, 2, ops.facets)
+            tied[side.name] = (ops.height, (3 * nodes[:, None] + np.arange(3)).ravel())
+        return side.subdomain.material.E / tied[side.name][0]
 
     stiffer = max(pair.sides, key=stiffness)
-    eps = pair.contact_penalty.epsilon_for(heights[stiffer.name], stiffer.subdomain.material.E)
+    eps = pair.contact_penalty.epsilon_for(tied[stiffer.name][0], stiffer.subdomain.material.E)
     a, b = pair.sides
     system.penalties[(a.subdomain.name, f"contact:{pair.name}")] = eps
     operator = pair_operator(pair, eps)
@@ -526,6 +542,7 @@ def _pair_zone(system: BlockSystem, pair: ContactPair, heights: dict[str, float]
         mean_cell_size(a.mesh),
         partner=b.block,
         partner_dofs=np.arange(b.num_dofs),
+        walls=[tied[side.name][1] for side in pair.sides],
     )
 
 
@@ -562,17 +579,17 @@ def assemble(scene: Scene) -> Model:
             coverage = np.maximum(coverage, ops.covered_area / ops.cell_area)
     if tied:
         _check_covered(iface, "interface", coverage, scene.comm)
-    heights: dict[str, float] = {}
+    walls: dict[str, tuple] = {}
     for c in scene.contacts:
         k = scene.index(c.subdomain)
         if scene.owner(k) != rank:
             continue
-        zone, cover, heights[c.name] = _contact_zone(scene, system, c, k)
+        zone, cover, walls[c.name] = _contact_zone(scene, system, c, k)
         if cover is not None:
             _check_covered(c, "contact interface", cover, None)
         if zone is not None:
             model.zones.append(zone)
     for pair in scene.pairs:
         if scene.contact_owner(pair) == rank:
-            model.zones.append(_pair_zone(system, pair, heights))
+            model.zones.append(_pair_zone(system, pair, walls))
     return model

@@ -10,7 +10,7 @@ stands for its transpose too lives in its methods only.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -24,6 +24,7 @@ __all__ = [
     "ContactRegion",
     "StiffTie",
     "refuse_unsolvable",
+    "split_by_blocks",
 ]
 
 #: Kinds of unknowns: subdomain, interface, contact-interface displacement.
@@ -122,17 +123,28 @@ class ContactRegion:
         self, matrix: sp.sparray, sizes: Mapping[Block, int]
     ) -> dict[tuple[Block, Block], sp.csr_array]:
         """The contact matrix (surface numbering) as the block pairs it fills, block numbered."""
-        coo = sp.coo_array(matrix)
-        starts = np.cumsum([0] + [len(dofs) for _, dofs in self.parts])
-        out = {}
-        for i, (a, da) in enumerate(self.parts):
-            rows = (coo.row >= starts[i]) & (coo.row < starts[i + 1])
-            for j, (b, db) in enumerate(self.parts):
-                keep = rows & (coo.col >= starts[j]) & (coo.col < starts[j + 1])
-                r, c = da[coo.row[keep] - starts[i]], db[coo.col[keep] - starts[j]]
-                piece = sp.csr_array((coo.data[keep], (r, c)), shape=(sizes[a], sizes[b]))
-                out[(a, b)] = piece
-        return out
+        return split_by_blocks(self.parts, matrix, sizes)
+
+
+def split_by_blocks(
+    parts: Sequence[tuple[Block, np.ndarray]], matrix: sp.sparray, sizes: BlockKeyed[int]
+) -> dict[tuple[Block, Block], sp.csr_array]:
+    """A matrix numbered ``parts``' dofs one block after the other, as block pairs.
+
+    ``parts``: ``(block, dofs)`` in the matrix's order (a contact region's); each piece is
+    block numbered, of the blocks' ``sizes``.
+    """
+    coo = sp.coo_array(matrix)
+    starts = np.cumsum([0] + [len(dofs) for _, dofs in parts])
+    out = {}
+    for i, (a, da) in enumerate(parts):
+        rows = (coo.row >= starts[i]) & (coo.row < starts[i + 1])
+        for j, (b, db) in enumerate(parts):
+            keep = rows & (coo.col >= starts[j]) & (coo.col < starts[j + 1])
+            r, c = da[coo.row[keep] - starts[i]], db[coo.col[keep] - starts[j]]
+            shape = (sizes[a], sizes[b])
+            out[(a, b)] = sp.csr_array((coo.data[keep], (r, c)), shape=shape)
+    return out
 
 
 def refuse_unsolvable(regions: Iterable[ContactRegion]) -> None:

@@ -188,3 +188,42 @@ def test_surfaces_that_overlap_at_the_start_are_refused():
     scene = dc.Scene(MPI.COMM_WORLD, subdomains, None, [dc.ContactPair(a, b)])
     with pytest.raises(dc.InputError, match=r"overlap by 0\.01 .* at most touch at the start"):
         dc.StaticProblem(scene)
+
+
+# -- two bars striking end to end ----------------------------------------------------------
+def _bar(x0: float, name: str, velocity: float) -> dc.Subdomain:
+    bar = dc.Subdomain(
+        meshes.box(MPI.COMM_SELF, [x0, 0, 0], [x0 + 1.0, 0.1, 0.1], [20, 1, 1]),
+        dc.Material(1.0, 0.0, 1.0),
+        name,
+    )
+    bar.fix(_at(1, 0.0), [1]).fix(_at(2, 0.0), [2])  # lateral faces on rollers
+    bar.velocity.interpolate(
+        lambda x: np.vstack([np.full(x.shape[1], velocity), 0 * x[0], 0 * x[0]])
+    )
+    return bar
+
+
+@pytest.mark.parametrize("algorithm", ["FULL", "w-u"])
+def test_two_bars_striking_never_create_energy_and_exchange_velocities(algorithm):
+    gap, speed, length = 0.001, 0.01, 1.0  # c = 1: contact lasts 2 L / c = 2
+    left, right = _bar(0.0, "left", speed), _bar(length + gap, "right", -speed)
+    a = dc.ContactInterface.from_boundary(left, _at(0, length), None, name="left_end")
+    b = dc.ContactInterface.from_boundary(right, _at(0, length + gap), None, name="right_end")
+    pair = dc.ContactPair(a, b)
+    scene = dc.Scene(MPI.COMM_WORLD, [left, right], None, [pair])
+    dt = 1.0 / 20 / 4
+    with dc.TransientProblem(scene, dt, algorithm=algorithm) as problem:
+        start = problem.energy()["total"]
+        energies, touching = [], []
+        for _ in range(int((gap / (2 * speed) + 2.3) / dt)):
+            record = problem.advance()
+            energies.append(problem.energy()["total"] / start)
+            touching.append(record["active"][pair.name] > 0)
+        assert max(energies) < 1 + 1e-9  # never created
+        assert energies[-1] > 0.999
+        duration = dt * np.count_nonzero(touching)
+        assert abs(duration - 2.0 * length) < 0.01
+        assert problem.changes["gamma"] <= 4
+    for bar, sign in ((left, -1.0), (right, 1.0)):  # the velocities exchanged
+        assert abs(bar.velocity.x.array.reshape(-1, 3)[:, 0].mean() / (sign * speed) - 1) < 0.02
