@@ -125,6 +125,20 @@ def _with_mass(model: Model, scene: Scene, mass_kind: str, massless: bool) -> No
             model.mass[sub.block] = forms.mass_of_kind(model.mass[sub.block], degree, mass_kind)
 
 
+def _refuse_split_pairs(scene: Scene) -> None:
+    """Energy-safe releases of a pair need both its walls on its rank: refuse the others."""
+    for pair in scene.pairs:
+        owners = {scene.owner(scene.index(side.subdomain)) for side in pair.sides}
+        if len(owners) > 1:
+            raise NotImplementedError(
+                f"contact pair {pair.name!r}: its subdomains are owned by ranks "
+                f"{sorted(owners)}; the energy-safe release of a pair needs both on one rank "
+                "(not built yet): run on fewer ranks, order the subdomains so that both land "
+                "on one rank (subdomain k is owned by rank k % size), or pass "
+                "energy_safe_contact=False"
+            )
+
+
 def _contact_dofs(zones) -> dict[Block, np.ndarray]:
     """Block -> dofs any contact term of ``zones`` may act on."""
     out: dict[Block, np.ndarray] = {}
@@ -173,6 +187,8 @@ class Analysis:
         self.options_prefix = check_options_prefix(options_prefix)
         condensation = available_condensation(condensation)
         valid = check_algorithm(scene, algorithm, expected)
+        if mass_coefficient and massless_walls:
+            _refuse_split_pairs(scene)
         self.scene, self.comm = scene, scene.comm
         #: What this analysis's ranks exchanged (:mod:`dd_contact.parallel`).
         self.traffic = Traffic()

@@ -227,3 +227,15 @@ def test_two_bars_striking_never_create_energy_and_exchange_velocities(algorithm
         assert problem.changes["gamma"] <= 4
     for bar, sign in ((left, -1.0), (right, 1.0)):  # the velocities exchanged
         assert abs(bar.velocity.x.array.reshape(-1, 3)[:, 0].mean() / (sign * speed) - 1) < 0.02
+
+
+@pytest.mark.mpi
+def test_an_energy_safe_pair_across_ranks_is_refused_and_says_what_to_do():
+    if MPI.COMM_WORLD.size == 1:
+        pytest.skip("two ranks: the bars' subdomains land on different ranks")
+    left, right = _bar(0.0, "left", 0.01), _bar(1.001, "right", -0.01)
+    a = dc.ContactInterface.from_boundary(left, _at(0, 1.0), None, name="left_end")
+    b = dc.ContactInterface.from_boundary(right, _at(0, 1.001), None, name="right_end")
+    scene = dc.Scene(MPI.COMM_WORLD, [left, right], None, [dc.ContactPair(a, b)])
+    with pytest.raises(NotImplementedError, match=r"ranks \[0, 1\].*energy_safe_contact=False"):
+        dc.TransientProblem(scene, 0.0125)
