@@ -54,7 +54,7 @@ class RunState:
 
     def _surfaces(self) -> dict[str, np.ndarray]:
         """The surfaces' displacement arrays by checkpoint key (written in place)."""
-        out = {f"w/{z.contact.name}": z.contact.w.x.array for z in self.zones}
+        out = {f"w/{side.name}": side.w.x.array for z in self.zones for side in z.sides}
         if self.interface is not None:
             out[f"v/{self.interface.name}"] = self.interface.v.x.array
         return out
