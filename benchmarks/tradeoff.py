@@ -11,8 +11,8 @@ timing's noise; each run in its own process) and writes
 * ``benchmarks/results/tradeoff_<scene>.png``: the Pareto chart.
 
 See docs/tradeoff.md. Usage: python benchmarks/tradeoff.py [--scenes hertz bar-impact]
-[--budget SECONDS] (per scene, default 720) [--charts] (redraw the charts from the JSON)
-[--table] (print the runs as Markdown).
+[--budget SECONDS] (per scene, default 720) [--charts] (fronts, verdicts and charts again
+from the JSON's runs) [--table] (print the runs as Markdown).
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from pathlib import Path
 
 from dd_contact.paper.tradeoff import SCENES, run_study, scene
 from dd_contact.paper.tradeoff.chart import draw_front
+from dd_contact.paper.tradeoff.study import refresh
 
 RESULTS = Path(__file__).parent / "results"
 
@@ -31,7 +32,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--scenes", nargs="+", default=list(SCENES), choices=list(SCENES))
     parser.add_argument("--budget", type=float, default=720.0, help="seconds per scene")
-    parser.add_argument("--charts", action="store_true", help="redraw the charts only")
+    parser.add_argument("--charts", action="store_true", help="fronts and charts again")
     parser.add_argument("--table", action="store_true", help="print the runs as Markdown")
     args = parser.parse_args()
     RESULTS.mkdir(exist_ok=True)
@@ -41,6 +42,8 @@ def main() -> None:
         if args.charts or args.table:
             doc = json.loads(json_path.read_text())
             if args.charts:
+                doc = refresh(doc, scene(name))
+                json_path.write_text(json.dumps(doc, indent=1))
                 draw_front(doc, plot_path)
             else:
                 print(markdown(doc))

@@ -31,7 +31,7 @@ from dd_contact.paper.tradeoff.design import (
 )
 from dd_contact.paper.tradeoff.scenes import TradeScene
 
-__all__ = ["BudgetExceeded", "Runner", "run_in_process", "run_study"]
+__all__ = ["BudgetExceeded", "Runner", "refresh", "run_in_process", "run_study"]
 
 #: ``(scene name, settings, timeout seconds or None) -> measured dict`` (see :mod:`.worker`).
 Runner = Callable[[str, dict[str, Any], float | None], dict[str, Any]]
@@ -173,6 +173,7 @@ class _Study:
             "front_cpu": [self.records.index(p) for p in front_cpu],
             "default_verdict": default_verdict(points),
             "default_verdict_cpu": default_verdict(points, "cpu_seconds"),
+            "default_verdict_best_of_two": _best_of_two(points, self.records),
             "noise": _noise(self.records),
         }
 
@@ -183,6 +184,31 @@ class _Study:
             tmp.write_text(json.dumps(doc, indent=1))
             os.replace(tmp, self.json_path)  # a killed study leaves the last whole file
         return doc
+
+
+def _best_of_two(points: list[dict], records: list[dict]) -> dict[str, Any] | None:
+    """The default's verdicts with it timed as the lesser of its run and its repeat.
+
+    Other jobs on the machine only ever add time: the lesser of two measurements of one
+    run is the nearer to its own cost.
+    """
+    repeat = next((r for r in records if r["phase"] == "repeat" and r["seconds"]), None)
+    if repeat is None:
+        return None
+    timed = []
+    for p in points:
+        if p["phase"] == "default" and p["seconds"]:
+            p = {**p, **{k: min(p[k], repeat[k]) for k in ("seconds", "cpu_seconds")}}
+        timed.append(p)
+    return {"wall": default_verdict(timed), "cpu": default_verdict(timed, "cpu_seconds")}
+
+
+def refresh(doc: dict[str, Any], scene: TradeScene) -> dict[str, Any]:
+    """``doc`` (a study's JSON) with its fronts and verdicts computed again from its runs."""
+    study = _Study(scene, doc["budget_seconds"], None)
+    study.records, study.stopped = doc["runs"], doc["stopped"]
+    study.load = doc["machine"]["load_average_1min"]
+    return {**study.document(), "elapsed_seconds": doc["elapsed_seconds"]}
 
 
 def _noise(records: list[dict]) -> dict[str, Any] | None:

@@ -40,6 +40,7 @@ def bar_impact(
     kappa: float | None = None,
     degree: int = 1,
     interface_resolution: tuple[int, int] = (1, 1),
+    across: int = 1,
 ) -> dict:
     """Bar impact on a rigid wall: contact duration, rebound velocity, energy and force.
 
@@ -62,18 +63,17 @@ def bar_impact(
         kappa: Tie penalty of the interface (with ``split``).
         degree: Lagrange degree of the bar (2 needs ``contact="interface"``).
         interface_resolution: Interface cells across the section (with ``split``).
+        across: Elements across the section, each way (nu = 0: the answer stays 1-D).
 
     Returns:
         duration, rebound (mean velocity after / -v0), energy ratio after/before, changes,
         factorisations, steps, the contact force of every step (``forces``), its largest
-        (``peak_force``) and its median while in contact (``plateau_force``) against
-        ``force_ref`` = rho c v0 A; what a user reads at the end face
-        (:meth:`_EndFaceWatch.summary`: ``face_tracking``, ``face_speed``,
-        ``kinetic_error``).
+        (``peak_force``) and its median while pressing (``plateau_force``), ``force_ref`` =
+        rho c v0 A; what a user reads at the end face (:meth:`_EndFaceWatch.summary`).
     """
     L, a, v0 = BAR_IMPACT["length"], BAR_IMPACT["section"], BAR_IMPACT["v0"]
     material = Material(1.0, 0.0, 1.0)
-    parts, interface = _impact_bar(n, split, material, kappa, degree, interface_resolution)
+    parts, interface = _impact_bar(n, split, material, kappa, degree, interface_resolution, across)
     zone = _end_contact(parts[0], contact, contact_kappa)
     dt = cfl * L / n
     problem = TransientProblem(
@@ -125,13 +125,16 @@ def _impact_bar(
     kappa: float | None = None,
     degree: int = 1,
     resolution: tuple[int, int] = (1, 1),
+    across: int = 1,
 ) -> tuple[list[Subdomain], Interface | None]:
     """The bar of :func:`bar_impact` flying at -v0 along x: whole, or halves and their tie."""
     L, a, v0 = BAR_IMPACT["length"], BAR_IMPACT["section"], BAR_IMPACT["v0"]
     cuts = [0.0, L / 2, L] if split else [0.0, L]
     parts = [
         Subdomain(
-            meshes.box(MPI.COMM_SELF, [x0, 0, 0], [x1, a, a], [round(n * (x1 - x0) / L), 1, 1]),
+            meshes.box(
+                MPI.COMM_SELF, [x0, 0, 0], [x1, a, a], [round(n * (x1 - x0) / L), across, across]
+            ),
             material,
             f"bar{k}" if split else "bar",
             degree=degree,
