@@ -208,9 +208,9 @@ def test_a_budget_stop_still_writes_valid_json_and_the_chart(tmp_path):
     run_study(trade, 1e9, out, png, runner=_fake_runner(3), say=lines.append)
     doc = json.loads(out.read_text())
     assert doc["stopped"] == "budget"
-    assert [r["phase"] for r in doc["runs"]] == ["default"] + ["one knob"] * 3
+    assert [r["phase"] for r in doc["runs"]] == ["warm-up", "default", "one knob", "one knob"]
     assert doc["runs"][3]["stopped"] == "budget" and doc["runs"][3]["error"] is None
-    assert doc["front"] == [0, 1, 2] and doc["runs"][0]["default"] is True
+    assert doc["front"] == [1, 2] and doc["runs"][1]["default"] is True  # not the warm-up
     assert png.read_bytes()[:4] == b"\x89PNG"
     assert "stopped by the budget" in lines[-1]
     # a budget spent before the first run: no run, a valid document all the same
@@ -229,13 +229,14 @@ def test_a_tiny_real_study_against_the_closed_form(tmp_path, capsys):
     trade = scene("bar-impact").with_defaults(n=20, across=1).only(["mass"])
     doc = run_study(trade, 600, tmp_path / "s.json", None, combined_limit=0)
     assert [r["changed"] for r in doc["runs"]] == [
+        "default, warm-up",
         "default",
         "mass=lumped",
         "mass=averaged",
         "default, repeated",
     ]
-    default, _, averaged, repeat = doc["runs"]
-    assert repeat["error"] == default["error"]  # the same run: the same answer
+    warm, default, _, averaged, repeat = doc["runs"]
+    assert repeat["error"] == default["error"] == warm["error"]  # one run: one answer
     for run in doc["runs"]:
         parts = run["parts"]
         assert abs(parts["duration"]) < 0.03  # 2L/c
@@ -287,12 +288,13 @@ def test_a_study_runs_cheap_runs_then_costly_ones():
     phases = [r["phase"] for r in runs]
     costly = [is_costly(COSTLY, r["changes"]) for r in runs]
     first_costly = costly.index(True)
-    assert phases[:4] == ["default", "one knob", "one knob", "one knob"]
+    assert phases[:5] == ["warm-up", "default", "one knob", "one knob", "one knob"]
     assert phases[first_costly : first_costly + 2] == ["one knob", "one knob"]
     assert not any(costly[:first_costly])  # every cheap run before the first costly one
     assert "combined" in phases[4:first_costly]  # cheap combined runs before the costly ones
     assert phases[-1] == "repeat" and runs[-1]["error"] == runs[0]["error"]
-    assert doc["default_verdict_best_of_two"]["cpu"] == default_verdict(runs[:-1], "cpu_seconds")
+    measured = [r for r in runs if r["phase"] not in ("warm-up", "repeat")]
+    assert doc["default_verdict_best_of_two"]["cpu"] == default_verdict(measured, "cpu_seconds")
     assert refresh(doc, trade)["front"] == doc["front"]
     verdict = doc["default_verdict"]  # k=2: as fast, more accurate; good by the 10 % rule
     assert (verdict["on_front"], verdict["good"], verdict["time_ratio"]) == (False, True, 1.0)

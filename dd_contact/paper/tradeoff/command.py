@@ -55,7 +55,7 @@ def _tradeoff(args: argparse.Namespace) -> int:
         scene(args.scene), args.budget, json_path, plot_path, combined_limit=args.combined
     )
     verdict = doc["default_verdict"]
-    front = ", ".join(doc["runs"][i]["changed"] for i in doc["front"])
+    front = " | ".join(doc["runs"][i]["changed"] for i in doc["front"])
     print(f"front ({len(doc['front'])} of {len(doc['runs'])} runs): {front}")
     if verdict.get("good") is not None:
         where = "on the front" if verdict["on_front"] else "off the front"

@@ -40,6 +40,10 @@ Runner = Callable[[str, dict[str, Any], float | None], dict[str, Any]]
 _LAUNCHER_PREFIXES = ("PMI_", "PMIX_", "OMPI_", "HYDRA_", "HYDI_", "MPIR_", "I_MPI_")
 
 
+#: The default's extra runs, off the front, and their labels.
+_EXTRA = {"warm-up": "default, warm-up", "repeat": "default, repeated"}
+
+
 class BudgetExceeded(Exception):
     """A run was stopped because the study's budget ran out."""
 
@@ -129,7 +133,7 @@ class _Study:
     def record(self, run: Run, result: dict[str, Any]) -> dict:
         rec: dict[str, Any] = {
             "settings": run.settings,
-            "changed": "default, repeated" if run.phase == "repeat" else run.changed,
+            "changed": _EXTRA.get(run.phase, run.changed),
             "changes": run.changes,
             "phase": run.phase,
             "kind": run.kind,
@@ -144,8 +148,8 @@ class _Study:
         return rec
 
     def measured(self) -> list[dict]:
-        """The records that compete for the front (not the default's repeat)."""
-        return [r for r in self.records if r["phase"] != "repeat"]
+        """The records that compete for the front (not the default's warm-up and repeat)."""
+        return [r for r in self.records if r["phase"] not in _EXTRA]
 
     def document(self) -> dict[str, Any]:
         points = self.measured()
@@ -270,13 +274,14 @@ def _run_phases(study: _Study, limit: int, runner: Runner, say: Callable[[str], 
     first = first_design(knobs)
     going = _run_all(study, [r for r in first if not r.costly], runner, say)
     if going:
-        plan = combined_design(knobs, study.records, limit)
+        plan = combined_design(knobs, study.measured(), limit)
         going = _run_all(study, [r for r in plan if not r.costly], runner, say)
     if going:
         going = _run_all(study, [r for r in first if r.costly], runner, say)
     if going:
         done = sum(r["phase"] == "combined" for r in study.records)
-        going = _run_all(study, combined_design(knobs, study.records, limit - done), runner, say)
+        plan = combined_design(knobs, study.measured(), limit - done)
+        going = _run_all(study, plan, runner, say)
     return going
 
 
@@ -287,6 +292,7 @@ def run_study(
     plot_path: str | Path | None = None,
     combined_limit: int = 16,
     repeat_default: bool = True,
+    warm_up: bool = True,
     runner: Runner = run_in_process,
     say: Callable[[str], None] = print,
 ) -> dict[str, Any]:
@@ -299,18 +305,20 @@ def run_study(
         plot_path: Where the Pareto chart is drawn at the end.
         combined_limit: Most combined runs after the one-knob runs.
         repeat_default: Run the default once more at the end (the noise of the timing).
+        warm_up: Run the default once first, off the front: the first run of a study
+            reads the libraries and compiled forms from disk (seen: 2-3x the wall time).
         runner: How one run is done (default: in a worker process).
         say: Where progress lines go.
     """
     study = _Study(scene, budget, Path(json_path) if json_path is not None else None)
     say(f"trade study of {scene.name}: error = {scene.error.split(':')[0]}")
     previous = _catch_sigterm()
+    base = first_design(scene.knobs)[0].settings
     try:
-        going = _run_phases(study, combined_limit, runner, say)
+        going = not warm_up or _run_all(study, [Run(base, {}, "warm-up", "warm-up")], runner, say)
+        going = going and _run_phases(study, combined_limit, runner, say)
         if going and repeat_default:
-            first = study.records[0]
-            repeat = Run(dict(first["settings"]), {}, "repeat", "repeat")
-            _run_all(study, [repeat], runner, say)
+            _run_all(study, [Run(dict(base), {}, "repeat", "repeat")], runner, say)
     except _Terminated:
         study.stopped = "SIGTERM"
         say("stopped by SIGTERM")
