@@ -7,6 +7,8 @@
   paper's parameter studies. See ``docs/cost.md``.
 * ``dd-contact calibrate``: measure this machine's rates for the timing model behind
   ``algorithm="auto"`` (``dd_contact.timing``) and cache them; ``--show`` prints them.
+* ``dd-contact tradeoff SCENE``: the speed/accuracy trade of a scene (``hertz``,
+  ``bar-impact``) measured, a Pareto front of its settings. See ``docs/tradeoff.md``.
 """
 
 from __future__ import annotations
@@ -25,6 +27,7 @@ from tqdm import tqdm
 from dd_contact import __version__, timing
 from dd_contact.paper import flops
 from dd_contact.paper.flops import PAPER_BAR
+from dd_contact.paper.tradeoff.command import add_command as _add_tradeoff
 from dd_contact.paper.verify import CASES, run_cases
 
 __all__ = ["main"]
@@ -405,6 +408,7 @@ def main(argv: list[str] | None = None) -> int:
         "--show", action="store_true", help="print the cached rates (measure if none)"
     )
     calibrate.set_defaults(run=_calibrate)
+    _add_tradeoff(sub)
     args = parser.parse_args(argv)
     args.comm = MPI.COMM_WORLD  # a command runs on every rank that mpiexec starts
     return args.run(args)

@@ -37,6 +37,10 @@ def bar_impact(
     mass: str = "consistent",
     scheme: str = "trapezoidal",
     rho_infinity: float | None = None,
+    kappa: float | None = None,
+    degree: int = 1,
+    interface_resolution: tuple[int, int] = (1, 1),
+    across: int = 1,
 ) -> dict:
     """Bar impact on a rigid wall: contact duration, rebound velocity, energy and force.
 
@@ -56,18 +60,20 @@ def bar_impact(
         mass: See :class:`dd_contact.TransientProblem`.
         scheme: See :class:`dd_contact.TransientProblem`.
         rho_infinity: See :class:`dd_contact.TransientProblem`.
+        kappa: Tie penalty of the interface (with ``split``).
+        degree: Lagrange degree of the bar (2 needs ``contact="interface"``).
+        interface_resolution: Interface cells across the section (with ``split``).
+        across: Elements across the section, each way (nu = 0: the answer stays 1-D).
 
     Returns:
         duration, rebound (mean velocity after / -v0), energy ratio after/before, changes,
         factorisations, steps, the contact force of every step (``forces``), its largest
-        (``peak_force``) and its median while in contact (``plateau_force``) against
-        ``force_ref`` = rho c v0 A; what a user reads at the end face
-        (:meth:`_EndFaceWatch.summary`: ``face_tracking``, ``face_speed``,
-        ``kinetic_error``).
+        (``peak_force``) and its median while pressing (``plateau_force``), ``force_ref`` =
+        rho c v0 A; what a user reads at the end face (:meth:`_EndFaceWatch.summary`).
     """
     L, a, v0 = BAR_IMPACT["length"], BAR_IMPACT["section"], BAR_IMPACT["v0"]
     material = Material(1.0, 0.0, 1.0)
-    parts, interface = _impact_bar(n, split, material)
+    parts, interface = _impact_bar(n, split, material, kappa, degree, interface_resolution, across)
     zone = _end_contact(parts[0], contact, contact_kappa)
     dt = cfl * L / n
     problem = TransientProblem(
@@ -81,18 +87,12 @@ def bar_impact(
     )
     watch = _EndFaceWatch(problem, parts, n)
     g = _run_tracking_penetration(problem, zone, round(end_time / dt), comm, watch)
-    duration = _contact_duration(g, dt)
     momentum, total_mass = _axial_momentum_and_mass(problem, parts, comm)
     work = problem.work_summary()  # collective: every rank's work, merged
     energy0 = 0.5 * total_mass * v0**2
-    forces = np.array([np.linalg.norm(r["force"]["end"]) for r in problem.history])
-    pressing = forces[forces > 0]
     return {
-        "forces": forces.tolist(),
-        "peak_force": float(forces.max()),
-        "plateau_force": float(np.median(pressing)) if len(pressing) else 0.0,
-        "force_ref": material.rho * np.sqrt(material.E / material.rho) * v0 * a * a,
-        "duration": float(duration),
+        **_forces(problem, material.rho * np.sqrt(material.E / material.rho) * v0 * a * a),
+        "duration": float(_contact_duration(g, dt)),
         "duration_ref": 2.0 * L,
         "rebound": momentum / total_mass / v0,
         "energy_ratio": problem.energy()["total"] / energy0,
@@ -106,17 +106,38 @@ def bar_impact(
     }
 
 
+def _forces(problem: TransientProblem, reference: float) -> dict:
+    """The end's contact force of every step, its largest and its median while pressing."""
+    forces = np.array([np.linalg.norm(r["force"]["end"]) for r in problem.history])
+    pressing = forces[forces > 0]
+    return {
+        "forces": forces.tolist(),
+        "peak_force": float(forces.max()),
+        "plateau_force": float(np.median(pressing)) if len(pressing) else 0.0,
+        "force_ref": reference,
+    }
+
+
 def _impact_bar(
-    n: int, split: bool, material: Material
+    n: int,
+    split: bool,
+    material: Material,
+    kappa: float | None = None,
+    degree: int = 1,
+    resolution: tuple[int, int] = (1, 1),
+    across: int = 1,
 ) -> tuple[list[Subdomain], Interface | None]:
     """The bar of :func:`bar_impact` flying at -v0 along x: whole, or halves and their tie."""
     L, a, v0 = BAR_IMPACT["length"], BAR_IMPACT["section"], BAR_IMPACT["v0"]
     cuts = [0.0, L / 2, L] if split else [0.0, L]
     parts = [
         Subdomain(
-            meshes.box(MPI.COMM_SELF, [x0, 0, 0], [x1, a, a], [round(n * (x1 - x0) / L), 1, 1]),
+            meshes.box(
+                MPI.COMM_SELF, [x0, 0, 0], [x1, a, a], [round(n * (x1 - x0) / L), across, across]
+            ),
             material,
             f"bar{k}" if split else "bar",
+            degree=degree,
         )
         for k, (x0, x1) in enumerate(itertools.pairwise(cuts))
     ]
@@ -126,7 +147,9 @@ def _impact_bar(
         )
     bar = parts[0]
     interface = (
-        Interface.from_boundary(bar, locator(0, L / 2), parts, resolution=(1, 1)) if split else None
+        Interface.from_boundary(bar, locator(0, L / 2), parts, resolution=resolution, kappa=kappa)
+        if split
+        else None
     )
     return parts, interface
 

@@ -185,6 +185,10 @@ def hertz(
     contact: str = "boundary",
     contact_kappa: float | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
+    kappa: float | None = None,
+    degree: int = 1,
+    grading: float = 0.1,
+    algorithm: str = "FULL",
 ) -> dict:
     """Elastic hemisphere on a rigid plane against Hertz's closed form.
 
@@ -199,6 +203,10 @@ def hertz(
             ``"interface"`` (a contact interface, a copy of the cap's facets, tied to it).
         contact_kappa: Dimensionless contact penalty.
         comm: Communicator of the analysis.
+        kappa: Tie penalty of the contact interface (``contact="interface"`` only).
+        degree: Lagrange degree of the ball (2 needs ``contact="interface"``).
+        grading: Growth of the mesh size away from the pole (``meshes.hemisphere``).
+        algorithm: Elimination order (``"w-u"`` fits ``contact="interface"``).
 
     Returns:
         force, contact radius (``a``: radius of the circle with the active area; ``a_edge``:
@@ -206,8 +214,9 @@ def hertz(
         state changes, dofs, and the pressure profile (r, p) at the contact points.
     """
     R, E, nu = HERTZ["radius"], HERTZ["E"], HERTZ["nu"]
-    mesh, tags = meshes.hemisphere(MPI.COMM_SELF, R, 0.18 * R, h_contact, HERTZ["h_far"] * R)
-    ball = Subdomain(mesh, Material(E, nu), "ball")
+    far = HERTZ["h_far"] * R
+    mesh, tags = meshes.hemisphere(MPI.COMM_SELF, R, 0.18 * R, h_contact, far, grading=grading)
+    ball = Subdomain(mesh, Material(E, nu), "ball", degree=degree)
     ball.fix((tags, meshes.HEMISPHERE_TOP), components=[2], value=[0, 0, -HERTZ["approach"]])
     ball.fix((tags, meshes.HEMISPHERE_SYMMETRY_X), components=[0])
     ball.fix((tags, meshes.HEMISPHERE_SYMMETRY_Y), components=[1])
@@ -222,8 +231,8 @@ def hertz(
     if contact == "boundary":
         zone = ContactBoundary(ball, near, plane, **kwargs)
     else:
-        zone = ContactInterface.from_boundary(ball, near, plane, **kwargs)
-    problem = StaticProblem(Scene(comm, [ball], contacts=[zone]))
+        zone = ContactInterface.from_boundary(ball, near, plane, kappa=kappa, **kwargs)
+    problem = StaticProblem(Scene(comm, [ball], contacts=[zone]), algorithm=algorithm)
     problem.solve()
     force = 4.0 * problem.contact_forces()["cap"][2]  # quarter model
     E_star = E / (1.0 - nu**2)
