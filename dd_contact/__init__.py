@@ -1,15 +1,15 @@
 """dd_contact: fast 3-D contact analysis by domain/boundary decomposition in dolfinx.
 
 The public API is the list ``__all__`` below, and only it: the scene (``Scene``,
-``Subdomain``, ``Interface``, ``ContactInterface``, ``ContactBoundary``, ``Material``, the
-obstacles), the problems (``StaticProblem``, ``TransientProblem``), their settings, errors
-and warnings, and the four modules a user calls beside them (``meshes``: mesh builders;
-``io``: output files; ``post``: results derived from a solution; ``viz``: pictures), each
-with an ``__all__`` of its own, and ``load_results``, which reads a run's output back. The
-other modules are the library these are built from. ``dd_contact.paper`` is the paper's
-reproduction on top of the library (its operation-count model, its two examples, the
-verification cases against closed forms, the algorithm comparison); no module of the library
-imports it, only the ``dd-contact`` command (``cli``).
+``Subdomain``, ``Interface``, ``ContactInterface``, ``ContactBoundary``, ``ContactPair``,
+``Material``, the obstacles), the problems (``StaticProblem``, ``TransientProblem``), their
+settings, errors and warnings, and the four modules a user calls beside them (``meshes``:
+mesh builders; ``io``: output files; ``post``: results derived from a solution; ``viz``:
+pictures), each with an ``__all__`` of its own, and ``load_results``, which reads a run's
+output back. The other modules are the library these are built from. ``dd_contact.paper`` is
+the paper's reproduction on top of the library (its operation-count model, its two examples,
+the verification cases against closed forms, the algorithm comparison); no module of the
+library imports it, only the ``dd-contact`` command (``cli``).
 """
 
 from mpi4py import MPI as _MPI  # noqa: F401  (loads libmpi before petsc4py)
@@ -38,6 +38,7 @@ from dd_contact.scene import (
     KAPPA_VERIFIED,
     ContactBoundary,
     ContactInterface,
+    ContactPair,
     Interface,
     Penalty,
     Scene,
@@ -57,6 +58,7 @@ __all__ = [
     "ContactCycleWarning",
     "ContactInterface",
     "ContactIterationError",
+    "ContactPair",
     "ContactSettings",
     "Cylinder",
     "EnergyGrowthWarning",

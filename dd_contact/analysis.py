@@ -22,12 +22,13 @@ import dolfinx.fem as fem
 import numpy as np
 
 from dd_contact import forms, timing
-from dd_contact.assembly import Model, assemble
+from dd_contact.assembly import Model, PairZone, assemble
 from dd_contact.blocks import Block
 from dd_contact.contact import check_contact_geometry
 from dd_contact.errors import InputError, SingularMatrixError, warn
 from dd_contact.impact import massless_walls
 from dd_contact.iteration import ContactIteration, ContactSettings
+from dd_contact.pairs import PairOperator, check_pair_geometry
 from dd_contact.parallel import (
     Traffic,
     allgather_blocks,
@@ -113,14 +114,38 @@ def _with_mass(model: Model, scene: Scene, mass_kind: str, massless: bool) -> No
     """
     if massless:
         for z in model.zones:
-            block = z.contact.subdomain.block
-            model.mass[block] = massless_walls(model.mass[block], z.wall)
+            for block, wall in z.wall_parts:
+                if block in model.mass:  # owned here (a pair's other side may not be)
+                    model.mass[block] = massless_walls(model.mass[block], wall)
     if mass_kind == "consistent":
         return
     for sub in scene.subdomains:
         if sub.block in model.mass:  # owned here
             degree = sub.V.element.basix_element.degree
             model.mass[sub.block] = forms.mass_of_kind(model.mass[sub.block], degree, mass_kind)
+
+
+def _refuse_split_pairs(scene: Scene) -> None:
+    """Energy-safe releases of a pair need both its walls on its rank: refuse the others."""
+    for pair in scene.pairs:
+        owners = {scene.owner(scene.index(side.subdomain)) for side in pair.sides}
+        if len(owners) > 1:
+            raise NotImplementedError(
+                f"contact pair {pair.name!r}: its subdomains are owned by ranks "
+                f"{sorted(owners)}; the energy-safe release of a pair needs both on one rank "
+                "(not built yet): run on fewer ranks, order the subdomains so that both land "
+                "on one rank (subdomain k is owned by rank k % size), or pass "
+                "energy_safe_contact=False"
+            )
+
+
+def _contact_dofs(zones) -> dict[Block, np.ndarray]:
+    """Block -> dofs any contact term of ``zones`` may act on."""
+    out: dict[Block, np.ndarray] = {}
+    for z in zones:
+        for block, dofs in z.parts:
+            out[block] = np.union1d(out[block], dofs) if block in out else dofs
+    return out
 
 
 class Analysis:
@@ -162,6 +187,8 @@ class Analysis:
         self.options_prefix = check_options_prefix(options_prefix)
         condensation = available_condensation(condensation)
         valid = check_algorithm(scene, algorithm, expected)
+        if mass_coefficient and massless_walls:
+            _refuse_split_pairs(scene)
         self.scene, self.comm = scene, scene.comm
         #: What this analysis's ranks exchanged (:mod:`dd_contact.parallel`).
         self.traffic = Traffic()
@@ -204,7 +231,7 @@ class Analysis:
                 system.sizes,
                 None
                 if self.settings.residual_tolerance is None
-                else ResidualCheck(self.comm, system, {z.block: z.dofs for z in self.zones}),
+                else ResidualCheck(self.comm, system, _contact_dofs(self.zones)),
                 held=[] if mass_coefficient else scene.bodies(),
             )
         self._closed = False
@@ -324,6 +351,12 @@ class Analysis:
     def _check_contact_geometry(self, t: float = 0.0) -> None:
         """Refuse an obstacle that overlaps the body or whose normal points into it."""
         for z in self.zones:
+            if isinstance(z, PairZone):
+                tolerance = self.settings.penetration_tolerance
+                size = 1e-3 * z.length if tolerance is None else tolerance
+                assert isinstance(z.operator, PairOperator)
+                check_pair_geometry(z.operator, z.contact.name, size)
+                continue
             check_contact_geometry(
                 z.operator,
                 z.contact.mesh,
@@ -448,7 +481,7 @@ class Analysis:
             sub.u.x.array[:] = x[sub.block]
         self.publish_surfaces(x)
         for z in self.zones:
-            z.contact.pressure.x.array[:] = z.pressure(x[z.block][z.dofs])
+            z.publish(x)
         if any(not np.all(np.isfinite(v)) for v in x.values()):
             raise FloatingPointError(
                 "the solution contains NaN or inf: the system is too ill-conditioned (extreme "
@@ -474,8 +507,9 @@ class Analysis:
         if self.scene.interface is not None:
             self.scene.interface.v.x.array[:] = x[self.scene.interface.block]
         for z in self.zones:
-            if z.block in x:
-                z.contact.w.x.array[:] = x[z.block][z.dofs]
+            for side, (block, dofs) in zip(z.sides, z.parts, strict=True):
+                if block in x:
+                    side.w.x.array[:] = x[block][dofs]
 
     def state_now(self) -> dict[str, np.ndarray]:
         """This rank's view of every block at the current time (subdomains, surfaces)."""

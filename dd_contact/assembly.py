@@ -13,6 +13,7 @@ surface displacement lives in, so every solver can add P_C where it belongs.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 from mpi4py import MPI
@@ -25,7 +26,7 @@ from scipy.sparse.linalg import splu
 from scipy.spatial import cKDTree
 
 from dd_contact import coupling, forms
-from dd_contact.blocks import Block, BlockSystem, ContactRegion, StiffTie
+from dd_contact.blocks import Block, BlockKeyed, BlockSystem, ContactRegion, StiffTie
 from dd_contact.contact import (
     ContactOperator,
     contact_points,
@@ -34,6 +35,7 @@ from dd_contact.contact import (
     patch_average,
 )
 from dd_contact.errors import InputError, PenaltyRangeWarning, SurfaceResolutionWarning, warn
+from dd_contact.pairs import PairOperator, pair_operator
 from dd_contact.parallel import elementwise_max
 from dd_contact.scene import (
     KAPPA_ASSEMBLED,
@@ -41,10 +43,11 @@ from dd_contact.scene import (
     KAPPA_VERIFIED,
     ContactBoundary,
     ContactInterface,
+    ContactPair,
     Scene,
 )
 
-__all__ = ["ContactZone", "Lifting", "Model", "assemble"]
+__all__ = ["ContactZone", "Lifting", "Model", "PairZone", "assemble"]
 
 
 def _tie_operators(surface, sub, what: str) -> coupling.TieOperators:
@@ -191,7 +194,7 @@ class ContactZone:
             curved wall is reported at assembly in any problem (:func:`resolution_warning`).
     """
 
-    contact: ContactInterface | ContactBoundary
+    contact: ContactInterface | ContactBoundary | ContactPair
     block: Block
     dofs: np.ndarray
     operator: ContactOperator
@@ -257,6 +260,51 @@ class ContactZone:
         d = p - R @ p
         return float(np.abs(d - R @ d)[inside].max() / p.max()) if inside.any() else 0.0
 
+    @property
+    def parts(self) -> list[tuple[Block, np.ndarray]]:
+        """``(block, dofs)`` of the surface displacement, in the contact matrix's order."""
+        return [(self.block, self.dofs)]
+
+    @property
+    def sides(self) -> list:
+        """The contact surfaces whose displacement this zone reads (one; a pair's two)."""
+        return [self.contact]
+
+    @property
+    def subdomains(self) -> list:
+        """The subdomains whose bodies this zone's points hold."""
+        return [side.subdomain for side in self.sides]
+
+    def gather(self, x: BlockKeyed[np.ndarray]) -> np.ndarray:
+        """The zone's surface displacement (contact matrix numbering) from the blocks ``x``."""
+        parts = self.parts
+        if len(parts) == 1:
+            return x[parts[0][0]][parts[0][1]]
+        return np.concatenate([x[block][dofs] for block, dofs in parts])
+
+    def scatter(self, vector: np.ndarray, sizes: BlockKeyed[int]) -> dict[str, np.ndarray]:
+        """A vector in contact matrix numbering as block vectors (zero elsewhere)."""
+        out: dict[str, np.ndarray] = {}
+        start = 0
+        for block, dofs in self.parts:
+            out[block] = np.zeros(sizes[block])
+            np.add.at(out[block], dofs, vector[start : start + len(dofs)])
+            start += len(dofs)
+        return out
+
+    @property
+    def wall_parts(self) -> list[tuple[Block, np.ndarray]]:
+        """``(subdomain block, wall dofs)`` of each side: the dofs its contact acts through."""
+        return [(self.contact.subdomain.block, self.wall)]
+
+    def published(self) -> np.ndarray:
+        """The surface displacement last published in the sides' Functions."""
+        return np.concatenate([side.w.x.array[: side.num_dofs] for side in self.sides])
+
+    def publish(self, x: Mapping[str, np.ndarray]) -> None:
+        """Put the nodal contact pressure of the solution ``x`` in the sides' Functions."""
+        self.sides[0].pressure.x.array[:] = self.pressure(self.gather(x))
+
     def contribution(self, active: np.ndarray) -> tuple[sp.csr_array, np.ndarray]:
         """Contact matrix and right-hand side in surface dof numbering (prescribed dofs out)."""
         C = self.operator.matrix(active)
@@ -268,6 +316,50 @@ class ContactZone:
     def region(self) -> ContactRegion:
         """What a solver reserves for this zone: its block, dofs and matrix pattern."""
         return ContactRegion(self.contact.name, self.block, self.dofs, self.operator.pattern())
+
+
+@dataclass
+class PairZone(ContactZone):
+    """A contact pair as the solvers see it: one region over the two sides' w blocks.
+
+    ``block``/``dofs`` are side a's, ``partner``/``partner_dofs`` side b's; the operator
+    (:class:`~dd_contact.pairs.PairOperator`) acts on ``[w_a; w_b]``.
+    """
+
+    partner: Block = field(default_factory=lambda: Block("w", ""))
+    partner_dofs: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    walls: list[np.ndarray] = field(default_factory=list)
+
+    @property
+    def wall_parts(self) -> list[tuple[Block, np.ndarray]]:
+        """Each side's subdomain and the dofs of the facets it is tied to."""
+        return [(s.subdomain.block, w) for s, w in zip(self.sides, self.walls, strict=True)]
+
+    @property
+    def parts(self) -> list[tuple[Block, np.ndarray]]:
+        """Side a's block and dofs, then side b's."""
+        return [(self.block, self.dofs), (self.partner, self.partner_dofs)]
+
+    @property
+    def sides(self) -> list:
+        """The pair's two contact interfaces."""
+        assert isinstance(self.contact, ContactPair)
+        return list(self.contact.sides)
+
+    def publish(self, x: Mapping[str, np.ndarray]) -> None:
+        """Each side's nodal contact pressure (the sinking check as for an obstacle)."""
+        z = self.gather(x)
+        self.pressure(z)  # warns once if the penalty lets the surfaces sink
+        assert isinstance(self.operator, PairOperator)
+        for side, p in zip(self.sides, self.operator.side_pressures(z), strict=True):
+            side.pressure.x.array[:] = p
+
+    @property
+    def region(self) -> ContactRegion:
+        """The region of both blocks: its matrix is numbered a's dofs, then b's."""
+        pattern = self.operator.pattern()
+        a, b = self.block, self.partner
+        return ContactRegion(self.contact.name, a, self.dofs, pattern, b, self.partner_dofs)
 
 
 @dataclass
@@ -376,8 +468,12 @@ def resolution_warning(
 
 def _contact_zone(
     scene: Scene, system: BlockSystem, contact: ContactInterface | ContactBoundary, k: int
-) -> tuple[ContactZone, np.ndarray | None]:
-    """Tie a contact interface (or map a contact boundary) into the system; its zone."""
+) -> tuple[ContactZone | None, np.ndarray | None, tuple[float, np.ndarray]]:
+    """Tie a contact interface (or map a contact boundary) into the system.
+
+    Returns its zone (``None`` for a side of a contact pair: the pair makes the zone), its
+    cells' coverage, and the height of the cells behind it with the wall's dofs.
+    """
     sub = scene.subdomains[k]
     u = sub.block
     if isinstance(contact, ContactBoundary):
@@ -400,6 +496,8 @@ def _contact_zone(
         reported = ops.projected and resolution_warning(contact, sub.mesh, ops.facets)
         nodes = dolfinx.fem.locate_dofs_topological(sub.V, 2, ops.facets)
         wall = (3 * nodes[:, None] + np.arange(3)).ravel()
+    if contact.obstacle is None:  # a side of a pair
+        return None, coverage, (height, wall)
     eps_c = contact.contact_penalty.epsilon_for(height, sub.material.E)
     system.penalties[(sub.name, f"contact:{contact.name}")] = eps_c
     operator = ContactOperator(contact_points(contact.V, contact.points), contact.obstacle, eps_c)
@@ -412,7 +510,40 @@ def _contact_zone(
     length = mean_cell_size(contact.mesh)
     zone = ContactZone(contact, block, dofs, operator, free, prescribed, length, recovery, wall)
     zone.warned = reported  # the pressure-swing check need not say it again
-    return zone, coverage
+    return zone, coverage, (height, wall)
+
+
+def _pair_zone(system: BlockSystem, pair: ContactPair, tied: dict[str, tuple]) -> PairZone:
+    """The zone of a contact pair: its penalty from the stiffer side (E / h), its operator.
+
+    ``tied``: each side tied on this rank's (height, wall dofs); the others' are found here.
+    """
+
+    def stiffness(side: ContactInterface) -> float:
+        if side.name not in tied:  # tied on another rank: its height and wall found here too
+            ops = _tie_operators(side, side.subdomain, "contact interface")
+            nodes = dolfinx.fem.locate_dofs_topological(side.subdomain.V, 2, ops.facets)
+            tied[side.name] = (ops.height, (3 * nodes[:, None] + np.arange(3)).ravel())
+        return side.subdomain.material.E / tied[side.name][0]
+
+    stiffer = max(pair.sides, key=stiffness)
+    eps = pair.contact_penalty.epsilon_for(tied[stiffer.name][0], stiffer.subdomain.material.E)
+    a, b = pair.sides
+    system.penalties[(a.subdomain.name, f"contact:{pair.name}")] = eps
+    operator = pair_operator(pair, eps)
+    n = operator.num_dofs
+    return PairZone(
+        pair,
+        a.block,
+        np.arange(a.num_dofs),
+        operator,
+        np.ones(n, bool),
+        np.zeros(n),
+        mean_cell_size(a.mesh),
+        partner=b.block,
+        partner_dofs=np.arange(b.num_dofs),
+        walls=[tied[side.name][1] for side in pair.sides],
+    )
 
 
 def assemble(scene: Scene) -> Model:
@@ -448,12 +579,17 @@ def assemble(scene: Scene) -> Model:
             coverage = np.maximum(coverage, ops.covered_area / ops.cell_area)
     if tied:
         _check_covered(iface, "interface", coverage, scene.comm)
+    walls: dict[str, tuple] = {}
     for c in scene.contacts:
         k = scene.index(c.subdomain)
         if scene.owner(k) != rank:
             continue
-        zone, cover = _contact_zone(scene, system, c, k)
+        zone, cover, walls[c.name] = _contact_zone(scene, system, c, k)
         if cover is not None:
             _check_covered(c, "contact interface", cover, None)
-        model.zones.append(zone)
+        if zone is not None:
+            model.zones.append(zone)
+    for pair in scene.pairs:
+        if scene.contact_owner(pair) == rank:
+            model.zones.append(_pair_zone(system, pair, walls))
     return model

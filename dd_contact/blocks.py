@@ -10,7 +10,7 @@ stands for its transpose too lives in its methods only.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -24,6 +24,7 @@ __all__ = [
     "ContactRegion",
     "StiffTie",
     "refuse_unsolvable",
+    "split_by_blocks",
 ]
 
 #: Kinds of unknowns: subdomain, interface, contact-interface displacement.
@@ -82,6 +83,8 @@ class ContactRegion:
         dofs: Dof in ``block`` of every surface dof (3 per surface node).
         pattern: Sparsity pattern of the contact matrix in surface dof numbering.
         partner: The other block a contact pair's matrix couples (``None``: an obstacle).
+        partner_dofs: Dof in ``partner`` of each of its surface dofs; a pair's matrix is
+            numbered ``dofs`` first, then ``partner_dofs``.
         symmetric: Whether the contact matrix is symmetric (friction's slip is not).
         history: Whether the region carries state from step to step (friction's traction).
     """
@@ -91,6 +94,7 @@ class ContactRegion:
     dofs: np.ndarray
     pattern: sp.csr_array
     partner: Block | None = None
+    partner_dofs: np.ndarray | None = None
     symmetric: bool = True
     history: bool = False
 
@@ -99,23 +103,60 @@ class ContactRegion:
         """The blocks the contact matrix couples: one for an obstacle, two for a pair."""
         return (self.block,) if self.partner is None else (self.block, self.partner)
 
-    def shifted(self, offset: int) -> ContactRegion:
-        """The same region with its dofs moved by ``offset`` (a block's place in a matrix)."""
-        return replace(self, dofs=self.dofs + offset)
+    @property
+    def parts(self) -> list[tuple[Block, np.ndarray]]:
+        """``(block, dofs)`` of each block, in the order the contact matrix numbers them."""
+        if self.partner is None or self.partner_dofs is None:
+            return [(self.block, self.dofs)]
+        return [(self.block, self.dofs), (self.partner, self.partner_dofs)]
+
+    def shifted(self, offsets: int | Mapping[str, int]) -> ContactRegion:
+        """The region in one matrix holding each block at ``offsets[block]`` (or ``offsets``).
+
+        Its ``dofs`` are the places of all its surface dofs there (a pair's both blocks).
+        """
+        at = (lambda b: offsets) if isinstance(offsets, int) else offsets.__getitem__
+        places = np.concatenate([dofs + at(block) for block, dofs in self.parts])
+        return replace(self, dofs=places, partner_dofs=None)
+
+    def in_blocks(
+        self, matrix: sp.sparray, sizes: Mapping[Block, int]
+    ) -> dict[tuple[Block, Block], sp.csr_array]:
+        """The contact matrix (surface numbering) as the block pairs it fills, block numbered."""
+        return split_by_blocks(self.parts, matrix, sizes)
+
+
+def split_by_blocks(
+    parts: Sequence[tuple[Block, np.ndarray]], matrix: sp.sparray, sizes: BlockKeyed[int]
+) -> dict[tuple[Block, Block], sp.csr_array]:
+    """A matrix numbered ``parts``' dofs one block after the other, as block pairs.
+
+    ``parts``: ``(block, dofs)`` in the matrix's order (a contact region's); each piece is
+    block numbered, of the blocks' ``sizes``.
+    """
+    coo = sp.coo_array(matrix)
+    starts = np.cumsum([0] + [len(dofs) for _, dofs in parts])
+    out = {}
+    for i, (a, da) in enumerate(parts):
+        rows = (coo.row >= starts[i]) & (coo.row < starts[i + 1])
+        for j, (b, db) in enumerate(parts):
+            keep = rows & (coo.col >= starts[j]) & (coo.col < starts[j + 1])
+            r, c = da[coo.row[keep] - starts[i]], db[coo.col[keep] - starts[j]]
+            shape = (sizes[a], sizes[b])
+            out[(a, b)] = sp.csr_array((coo.data[keep], (r, c)), shape=shape)
+    return out
 
 
 def refuse_unsolvable(regions: Iterable[ContactRegion]) -> None:
     """Raise NotImplementedError for a region the solvers cannot solve yet.
 
-    A contact pair couples two blocks (its seam: the schedule's region groups and the
-    surface's contact matrices by block pair), an unsymmetric contact block needs an LU
-    factorisation (its seam: the surface's dense factor), a region with history needs it
+    A contact pair's two blocks are solved (the schedule's groups, the surface's contact
+    matrices by block pair, FULL's dofs over both blocks); an unsymmetric contact block
+    needs an LU factorisation (its seam: the surface's dense factor), a region with history needs it
     checkpointed (its seam: the run state).
     """
     for region in regions:
-        if region.partner is not None:
-            what = "couples two blocks (a contact pair)"
-        elif not region.symmetric:
+        if not region.symmetric:
             what = "has an unsymmetric matrix (friction)"
         elif region.history:
             what = "carries history from step to step (friction)"

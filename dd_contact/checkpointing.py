@@ -20,11 +20,11 @@ from mpi4py import MPI
 import numpy as np
 
 from dd_contact.assembly import ContactZone
-from dd_contact.errors import InputError
+from dd_contact.errors import InputError, OutputError
 from dd_contact.iteration import ContactIteration
 from dd_contact.parallel import ROOT, allgathered, bcast_from_root
 from dd_contact.subdomains import Subdomain
-from dd_contact.writing import TEMPORARY, failure, logger, set_aside
+from dd_contact.writing import TEMPORARY, failure, logger, make_durable, set_aside
 
 __all__ = ["Checkpoint", "RunState"]
 
@@ -54,7 +54,7 @@ class RunState:
 
     def _surfaces(self) -> dict[str, np.ndarray]:
         """The surfaces' displacement arrays by checkpoint key (written in place)."""
-        out = {f"w/{z.contact.name}": z.contact.w.x.array for z in self.zones}
+        out = {f"w/{side.name}": side.w.x.array for z in self.zones for side in z.sides}
         if self.interface is not None:
             out[f"v/{self.interface.name}"] = self.interface.v.x.array
         return out
@@ -191,13 +191,18 @@ class Checkpoint:
         arrays = {**arrays, "ranks": np.array(self.comm.size)}
         if self.comm.rank == ROOT:
             arrays["history"] = np.frombuffer(json.dumps(history).encode(), dtype=np.uint8)
+        what = f"the checkpoint of step {int(arrays['step'])} ({self.pending.name})"
         try:
+            make_durable(what=what)  # the steps it says are done are on the disk before it
             with open(self.pending, "wb") as f:
                 np.savez(f, **arrays)  # type: ignore[arg-type]
+                f.flush()
+                os.fsync(f.fileno())
         except BaseException as error:
             self.discard()
+            if isinstance(error, OutputError):
+                raise
             if isinstance(error, OSError):
-                what = f"the checkpoint of step {int(arrays['step'])} ({self.pending.name})"
                 raise failure(error, what, self.directory) from error
             raise
 
@@ -210,6 +215,10 @@ class Checkpoint:
         if self.path.exists():
             os.replace(self.path, self.previous)
         os.replace(self.pending, self.path)
+        try:  # rank-local, after every rank wrote: a late error here must not split the ranks
+            make_durable(self.directory, what="the checkpoint's renames")
+        except OutputError as error:
+            logger.warning("%s (a crash of the machine may keep the previous checkpoint)", error)
 
     def load(self) -> tuple[dict[str, np.ndarray], list[dict] | None]:
         """Collective: this rank's arrays at :attr:`step` and the history on every rank.

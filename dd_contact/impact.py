@@ -57,7 +57,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import spsolve
 
 from dd_contact.assembly import ContactZone
-from dd_contact.blocks import Block, BlockKeyed, BlockSystem
+from dd_contact.blocks import Block, BlockKeyed, BlockSystem, split_by_blocks
 
 __all__ = [
     "GEOMETRIC_STEPS",
@@ -217,16 +217,22 @@ class StartForces:
                 continue
             both = {name: self.start[name] & active[name]}
             remaining = self._point_forces(z, np.where(leaving, kept, 0))
-            shift = self.x[z.block] - self._surface_at_start(z, both, remaining)
+            start = z.gather(self.x) - self._surface_at_start(z, both, remaining)
+            shift = z.scatter(start, self.system.sizes)
             if self.system.stiff_ties:
-                u = z.contact.subdomain.block
-                rhs[u] = rhs.get(u, 0.0) + sp.csr_array(self.system.block(u, z.block)) @ shift
+                for side, (w, _) in zip(z.sides, z.parts, strict=True):
+                    u = side.subdomain.block
+                    tie = sp.csr_array(self.system.block(u, w))
+                    rhs[u] = rhs.get(u, 0.0) + tie @ shift[w]
                 continue
             matrix, _ = z.contribution(active[name])
-            w_rows = self.system.block(z.block, z.block) @ shift
-            w_rows[z.dofs] += matrix @ shift[z.dofs]
-            rhs[z.block] = rhs.get(z.block, 0.0) - w_rows
-            shifts[z.block] = shift
+            pieces = split_by_blocks(z.parts, matrix, self.system.sizes)
+            for w, _ in z.parts:
+                w_rows = self.system.block(w, w) @ shift[w]
+                for c, _ in z.parts:
+                    w_rows += pieces[(w, c)] @ shift[c]
+                rhs[w] = rhs.get(w, 0.0) - w_rows
+                shifts[w] = shift[w]
         rhs = {block: self.weight * vector * self.free(block) for block, vector in rhs.items()}
         return rhs, {block: self.weight * shift for block, shift in shifts.items()}
 
@@ -245,8 +251,8 @@ class StartForces:
                 continue
             leaving = self.start[name] & ~active[name]
             k = z.operator.points.weight / z.operator.epsilon
-            g0 = np.maximum(z.operator.penetration(self.x[z.block][z.dofs]), 0.0)
-            g1 = np.minimum(z.operator.penetration(x[z.block][z.dofs]), 0.0)
+            g0 = np.maximum(z.operator.penetration(z.gather(self.x)), 0.0)
+            g1 = np.minimum(z.operator.penetration(z.gather(x)), 0.0)
             change = np.abs(_discrete_gradient(g0, g1) - self.kept[name])
             if not (change[leaving] > RELEASE_TOLERANCE * self.kept[name][leaving]).any():
                 continue
@@ -266,8 +272,8 @@ class StartForces:
         out = {}
         for z in self.zones:
             name = z.contact.name
-            g0 = np.maximum(z.operator.penetration(self.x[z.block][z.dofs]), 0.0)
-            g1 = z.operator.penetration(x[z.block][z.dofs])
+            g0 = np.maximum(z.operator.penetration(z.gather(self.x)), 0.0)
+            g1 = z.operator.penetration(z.gather(x))
             deeper = self.start[name] & (g1 > g0)
             k = z.operator.points.weight / z.operator.epsilon
             created = k[deeper] @ (g1[deeper] * (g1[deeper] - g0[deeper]))
@@ -316,8 +322,8 @@ class StartForces:
         """The theta to use next: 1 before any solution, then towards the last solution's."""
         if x is None:
             return np.ones(z.operator.num_points)
-        g0 = np.maximum(z.operator.penetration(self.x[z.block][z.dofs]), 0.0)
-        theta = _discrete_gradient(g0, z.operator.penetration(x[z.block][z.dofs]))
+        g0 = np.maximum(z.operator.penetration(z.gather(self.x)), 0.0)
+        theta = _discrete_gradient(g0, z.operator.penetration(z.gather(x)))
         previous = self.kept.get(z.contact.name)
         if previous is not None and self._calls > GEOMETRIC_STEPS:
             return np.minimum(theta, previous)  # unsettled so far: the smaller force is safe
@@ -328,39 +334,46 @@ class StartForces:
     def _point_forces(self, z: ContactZone, factor: np.ndarray) -> np.ndarray:
         """``factor`` times each point's penalty force at ``t_n``, on the zone's dofs."""
         op = z.operator
-        pen = op.penetration(self.x[z.block][z.dofs])
+        pen = op.penetration(z.gather(self.x))
         return z.free * (op.G.T @ (factor * op.points.weight / op.epsilon * pen))
 
     def _surface_at_start(
         self, z: ContactZone, active: Mapping[str, np.ndarray], forces: np.ndarray
     ) -> np.ndarray:
-        """The massless w of ``z`` in equilibrium at ``t_n`` with ``active`` and ``forces``."""
-        w = z.block
+        """The massless w of ``z`` (a pair's two) in equilibrium at t_n with ``active``, ``forces``.
+
+        In contact matrix numbering: a contact interface's dofs are its w block's, whole.
+        """
+        blocks = [w for w, _ in z.parts]
         matrix, vector = z.contribution(active[z.contact.name])
-        C = sp.coo_array(matrix)  # the contact block placed on the zone's dofs of w
-        A = self.system.block(w, w)
-        assert A is not None  # w's own block
-        placed = sp.csr_array((C.data, (z.dofs[C.row], z.dofs[C.col])), shape=A.shape)
-        A = A + placed
-        b = -self.system.row_product(w, {k: v for k, v in self.x.items() if k != w})
-        np.add.at(b, z.dofs, vector - forces)
-        return spsolve(sp.csc_array(A), b)
+        A = sp.block_array([[self.system.block(a, b) for b in blocks] for a in blocks])
+        A = sp.csc_array(A + matrix)  # the zone's dofs are its blocks', in order
+        rest = {k: v for k, v in self.x.items() if k not in blocks}
+        b = np.concatenate([-self.system.row_product(w, rest) for w in blocks])
+        return spsolve(A, b + vector - forces)
 
 
 def _massless_dofs(
     z: ContactZone, free: Callable[[Block], np.ndarray]
 ) -> list[tuple[Block, np.ndarray]]:
-    """The free massless dofs of a contact: its wall, and a contact interface's surface."""
-    sub = z.contact.subdomain.block
-    rows = [(sub, z.wall[free(sub)[z.wall] != 0])]
-    if z.block != sub:
-        rows.append((z.block, z.dofs[z.free]))
+    """The free massless dofs of a contact: its walls, and a contact interface's surface."""
+    rows = [(sub, wall[free(sub)[wall] != 0]) for sub, wall in z.wall_parts]
+    if z.block.kind != "u":
+        rows += [
+            (block, dofs[z.free[start : start + len(dofs)]]) for block, dofs, start in _spans(z)
+        ]
     return rows
+
+
+def _spans(z: ContactZone) -> list[tuple[Block, np.ndarray, int]]:
+    """``(block, dofs, start in the contact matrix numbering)`` of each part of ``z``."""
+    starts = np.cumsum([0] + [len(dofs) for _, dofs in z.parts])
+    return [(b, d, int(start)) for (b, d), start in zip(z.parts, starts, strict=False)]
 
 
 def _holds_rows(system: BlockSystem, z: ContactZone, x: Mapping[Block, np.ndarray]) -> bool:
     """Whether ``x`` holds every block the rows of ``z``'s massless dofs read."""
-    rows = {z.contact.subdomain.block, z.block}
+    rows = {sub for sub, _ in z.wall_parts} | {block for block, _ in z.parts}
     return all(c in x for b in rows for c, _ in system.block_row(b))
 
 
@@ -392,26 +405,22 @@ def _in_equilibrium(
     """The blocks of ``z``'s massless dofs with those in equilibrium, the rest of x held."""
     rows = _massless_dofs(z, free)
     op = z.operator
-    contact = sp.coo_array(op.matrix(active))
-    size = system.sizes[z.block]
-    placed = sp.csr_array(
-        (contact.data, (z.dofs[contact.row], z.dofs[contact.col])), shape=(size, size)
-    )
-    force = np.zeros(size)  # the contact's force at x, on its block
-    np.add.at(force, z.dofs, op.rhs(active) - op.matrix(active) @ x[z.block][z.dofs])
+    placed = split_by_blocks(z.parts, op.matrix(active), system.sizes)
+    # the contact's force at x, on its blocks
+    force = z.scatter(op.rhs(active) - op.matrix(active) @ z.gather(x), system.sizes)
     residual, matrix = [], []
     for b, i in rows:
         r = -system.row_product(b, x)
         r -= offset.get(b, 0.0)
         r += loads.get(b, 0.0)
-        if b == z.block:
-            r += force
+        if b in force:
+            r += force[b]
         residual.append(r[i])
         line = []
         for c, j in rows:
             A = _stiffness(system, b, c)
-            if b == c == z.block:
-                A = placed if A is None else A + placed
+            if (b, c) in placed:
+                A = placed[(b, c)] if A is None else A + placed[(b, c)]
             line.append(sp.csr_array((len(i), len(j))) if A is None else A[i][:, j])
         matrix.append(line)
     delta = spsolve(sp.csc_array(sp.block_array(matrix)), np.concatenate(residual))

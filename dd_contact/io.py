@@ -32,6 +32,7 @@ from dd_contact.series import SeriesWriter
 from dd_contact.writing import (
     append_or_undo,
     logger,
+    make_durable,
     remove_temporary,
     replace_atomically,
 )
@@ -357,6 +358,11 @@ class RunOutput:
         self.checkpointed = int(state["step"])
         self._attempt(lambda: self.history.save(history))
 
+    def _save_durably(self, history: list[dict]) -> None:
+        """The final history, and the whole run on the disk when it returns."""
+        self.history.save(history)
+        make_durable()
+
     def close(self, history: list[dict], error: BaseException | None = None) -> None:
         """The final ``history.json`` (unless a write failed); closed field files.
 
@@ -370,7 +376,7 @@ class RunOutput:
         if self._failed:
             return
         if error is None:
-            self._attempt(lambda: self.history.save(history))
+            self._attempt(lambda: self._save_durably(history))
             return
         try:
             self.history.save(history)

@@ -188,7 +188,7 @@ class ContactIteration:
         held: Sequence[Body] = (),
     ):
         self.comm, self.zones, self.settings = comm, zones, settings
-        self.sizes = {z.block: int(sizes[z.block]) for z in zones}
+        self.sizes = {b: int(sizes[b]) for z in zones for b, _ in z.parts}
         self.check = check if settings.residual_tolerance is not None else None
         self.held = [body for body in held if body.free.shape[1]]
         #: Estimated residuals of the last solve (``None`` before one, or unchecked).
@@ -200,7 +200,8 @@ class ContactIteration:
             for z in zones
         }
         #: This rank's right-hand side (contact terms included) and contact matrices
-        #: ``(block, dofs, matrix)`` of the last solve: what its residual is checked against.
+        #: ``(parts, matrix)`` of the last solve (``parts``: ``(block, dofs)`` in the matrix's
+        #: numbering): what its residual is checked against.
         self.last_solve: tuple[dict, list] = ({}, [])
         self.active: dict[str, np.ndarray] = {}
         self.gamma = 0
@@ -329,7 +330,7 @@ class ContactIteration:
         new = {}
         for z in self.zones:
             name = z.contact.name
-            g = z.operator.penetration(end[z.block][z.dofs])
+            g = z.operator.penetration(z.gather(end))
             # a penetration within round-off of zero is no evidence: the point keeps its state
             undecided = np.abs(g) <= STATE_BAND * z.length
             new[name] = np.where(undecided, self.active[name], g > 0.0)
@@ -432,7 +433,7 @@ class ContactIteration:
         for body in self.held:
             local = []
             for z in self.zones:
-                if any(z.contact.subdomain is s for s in body.subdomains):
+                if any(t is s for t in z.subdomains for s in body.subdomains):
                     active = self.active[z.contact.name]
                     r = (z.operator.points.x[active] - body.centre) / body.size
                     local.append(rigid_motion_rows(r, z.operator.normal[active]) @ body.free)
@@ -453,16 +454,15 @@ class ContactIteration:
     def _solve_once(self, solver: ContactSolver, rhs: dict[str, np.ndarray], where: str):
         self._check_held(where)
         # the contact terms are added in place: only their blocks are copied
-        zoned = {z.block for z in self.zones}
+        zoned = {b for z in self.zones for b, _ in z.parts}
         rhs = {name: v.copy() if name in zoned else v for name, v in rhs.items()}
         contact = []
         for z in self.zones:
             matrix, vector = z.contribution(self.active[z.contact.name])
             solver.set_contact(z.contact.name, matrix)
-            contact.append((z.block, z.dofs, matrix))
-            if z.block not in rhs:
-                rhs[z.block] = np.zeros(self.sizes[z.block])
-            np.add.at(rhs[z.block], z.dofs, vector)
+            contact.append((z.parts, matrix))
+            for key, part in z.scatter(vector, self.sizes).items():
+                rhs[key] = rhs[key] + part if key in rhs else part
         if self._correction is not None:
             extra, self._shift = self._correction.correction(self.active, self._last)
             for block, vector in extra.items():

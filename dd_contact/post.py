@@ -100,7 +100,7 @@ def energy(
     for block, v in velocities.items():
         if block in model.mass:
             kinetic += 0.5 * float(v @ (model.mass[block] @ v))
-    contact = float(sum(z.operator.energy(z.contact.w.x.array) for z in zones))
+    contact = float(sum(z.operator.energy(z.published()) for z in zones))
     return {"kinetic": kinetic, "elastic": elastic, "contact": contact}
 
 
@@ -306,14 +306,14 @@ class Results:
         for z in self.zones:
             name = z.contact.name
             local[("alpha", name)] = alpha[name]
-            local[("force", name)] = z.operator.force(x[z.block][z.dofs]).tolist()
+            local[("force", name)] = z.operator.force(z.gather(x)).tolist()
             local[("active", name)] = int(active[name].sum())
             local[("contact_area", name)] = contact_area(z, active[name])
-            local[("carrying", name)] = carrying_points(z, x[z.block][z.dofs], active[name])
+            local[("carrying", name)] = carrying_points(z, z.gather(x), active[name])
         for block, reaction in self.reactions.of(x, loads, accelerations).items():
             local[("reaction", self.names[block])] = reaction.tolist()
         agreed = gathered(self.comm, local)
-        contacts = [c.name for c in self.scene.contacts]
+        contacts = [c.name for c in self.scene.regions]
         self.alpha = {n: agreed[("alpha", n)] for n in contacts}
         self.carrying = {n: agreed[("carrying", n)] for n in contacts}
         out = {

@@ -63,10 +63,12 @@ class AnalysisReadout:
     def contact_forces(self) -> dict[str, np.ndarray]:
         """Total force of each obstacle on the body at the last solve [N], per region.
 
+        A contact pair's is the force its side ``b`` exerts on its side ``a``.
+
         Rank-local: every rank holds every region's force (agreed at the end of each
         solve); zero before the first solve.
         """
-        return self.analysis.agreed.vectors("force", [c.name for c in self.scene.contacts])
+        return self.analysis.agreed.vectors("force", [c.name for c in self.scene.regions])
 
     @property
     def reactions(self) -> dict[str, np.ndarray]:

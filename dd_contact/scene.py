@@ -34,6 +34,7 @@ __all__ = [
     "DEFAULT_KAPPA",
     "ContactBoundary",
     "ContactInterface",
+    "ContactPair",
     "Interface",
     "Penalty",
     "Scene",
@@ -233,7 +234,9 @@ class _ContactBase:
         )
         if mesh.geometry.cmaps[0].degree != 1:
             raise InputError(f"contact {name!r}: the surface mesh must be first order")
-        if not isinstance(obstacle, Obstacle):
+        if obstacle is None and isinstance(self, ContactInterface):
+            pass  # a side of a ContactPair: the Scene checks that it is in one
+        elif not isinstance(obstacle, Obstacle):
             raise InputError(
                 f"contact {name!r}: obstacle must be a dd_contact.obstacles.Obstacle (Plane, "
                 f"Sphere, Cylinder or UserObstacle), got {type(obstacle).__name__}"
@@ -264,13 +267,15 @@ class ContactInterface(_ContactBase):
     """A contact interface Gamma_C^(k): an independent surface mesh with displacement w.
 
     It is tied to ``subdomain`` by a penalty eps_CI (eqs. 7, 9, 11) and pressed against a
-    rigid ``obstacle`` by the exterior penalty eps_C (eq. 5).
+    rigid ``obstacle`` by the exterior penalty eps_C (eq. 5), or, with ``obstacle=None``,
+    against another body's contact interface through a :class:`ContactPair`.
 
     Args:
         mesh: A first-order surface mesh in 3-D on a communicator of size one, lying on the
             subdomain's boundary.
         subdomain: The subdomain it is tied to.
-        obstacle: The rigid obstacle (:mod:`dd_contact.obstacles`).
+        obstacle: The rigid obstacle (:mod:`dd_contact.obstacles`), or ``None`` for a side
+            of a :class:`ContactPair`.
         kappa: Dimensionless tie penalty h / (E eps_CI) (default :data:`DEFAULT_KAPPA`).
         epsilon: Absolute tie penalty eps_CI instead of kappa.
         contact_kappa: Dimensionless contact penalty h / (E eps_C) (default DEFAULT_KAPPA).
@@ -378,6 +383,66 @@ class ContactBoundary(_ContactBase):
         return self.subdomain.block
 
 
+class ContactPair:
+    """Contact between two deformable bodies: two contact interfaces pressed on each other.
+
+    Each side is a :class:`ContactInterface` with ``obstacle=None`` tied to its subdomain;
+    the pair penalises the gap between them, integrated over the surfaces' intersection
+    (segment to segment), with normals, projection and gap of the undeformed geometry
+    (docs/contact.md, "Contact between bodies"). Self-contact is not supported.
+
+    Args:
+        a: The first side (the slave: its points are projected onto ``b``).
+        b: The second side, a contact interface of another subdomain.
+        kappa: Dimensionless contact penalty h / (E eps_C), h and E of the stiffer side
+            (default :data:`DEFAULT_KAPPA`).
+        epsilon: Absolute contact penalty eps_C instead.
+        points: ``"nodes"`` (the gap weighted over each node of ``a``, mortar style) or
+            ``"quadrature"`` (the intersection's Gauss points).
+        unbiased: Both ways (a onto b, b onto a), half the penalty each: no master/slave.
+        tolerance: Largest initial gap at which points of the two surfaces face each other
+            (default: the mean cell size of ``a``); farther apart they never touch.
+        name: Name in messages and output (default ``"<a>-<b>"``).
+    """
+
+    def __init__(
+        self,
+        a: ContactInterface,
+        b: ContactInterface,
+        kappa: float | None = None,
+        epsilon: float | None = None,
+        points: str = "nodes",
+        unbiased: bool = False,
+        tolerance: float | None = None,
+        name: str | None = None,
+    ):
+        name = f"{getattr(a, 'name', '?')}-{getattr(b, 'name', '?')}" if name is None else name
+        arguments.name(name, "ContactPair")
+        for side in (a, b):
+            if not isinstance(side, ContactInterface) or side.obstacle is not None:
+                raise InputError(
+                    f"ContactPair {name!r}: both sides must be ContactInterfaces without an "
+                    f"obstacle, got {type(side).__name__}; build each with ContactInterface."
+                    "from_boundary(subdomain, where, None) (contact boundaries cannot pair yet)"
+                )
+        if a is b or a.subdomain is b.subdomain:
+            raise InputError(
+                f"ContactPair {name!r}: both sides belong to subdomain {a.subdomain.name!r}; "
+                "self-contact (a body touching itself) is not supported: pair surfaces of two "
+                "different subdomains"
+            )
+        if points not in CONTACT_POINTS:
+            raise InputError(
+                f"ContactPair {name!r}: points must be one of {CONTACT_POINTS}, got {points!r}"
+            )
+        arguments.tolerance(tolerance, f"ContactPair {name!r}")
+        self.a, self.b, self.name, self.points = a, b, name, points
+        self.unbiased, self.tolerance = bool(unbiased), tolerance
+        self.contact_penalty = Penalty(kappa=kappa, epsilon=epsilon)
+
+        self.subdomain, self.sides = a.subdomain, (a, b)  # owned by side a's rank
+
+
 class Scene:
     """Subdomains and (optionally) one interface: everything the solvers need.
 
@@ -389,8 +454,9 @@ class Scene:
         comm: Communicator of the analysis.
         subdomains: The subdomains, in order.
         interface: The interface, if the body is decomposed.
-        contacts: Contact interfaces and contact boundaries; each belongs to one subdomain
-            and is owned by that subdomain's rank.
+        contacts: Contact interfaces, contact boundaries and contact pairs; each belongs to
+            one subdomain and is owned by that subdomain's rank (a pair and both its sides:
+            by the rank of its side ``a``). A pair's sides need not be listed apart.
     """
 
     def __init__(
@@ -398,7 +464,7 @@ class Scene:
         comm: MPI.Comm,
         subdomains: Sequence[Subdomain],
         interface: Interface | None = None,
-        contacts: Sequence[ContactInterface | ContactBoundary] = (),
+        contacts: Sequence[ContactInterface | ContactBoundary | ContactPair] = (),
     ):
         arguments.instance(comm, MPI.Comm, "Scene: comm")
         if isinstance(subdomains, Subdomain) or len(subdomains) == 0:
@@ -410,7 +476,10 @@ class Scene:
         if isinstance(contacts, _ContactBase):
             raise InputError("Scene: contacts must be a list, e.g. contacts=[zone]")
         for c in contacts:
-            arguments.instance(c, (ContactInterface, ContactBoundary), "Scene: contacts")
+            arguments.instance(
+                c, (ContactInterface, ContactBoundary, ContactPair), "Scene: contacts"
+            )
+        contacts, self.pairs = _split_pairs(contacts)
         names = [s.name for s in subdomains]
         if len(set(names)) != len(names):
             raise InputError(f"Scene: subdomain names must be unique, got {names}")
@@ -421,7 +490,7 @@ class Scene:
                         f"Scene: interface {interface.name!r} ties subdomain {s.name!r}, "
                         "which is not in the scene's subdomain list"
                     )
-        contact_names = [c.name for c in contacts]
+        contact_names = [c.name for c in contacts] + [p.name for p in self.pairs]
         if len(set(contact_names)) != len(contact_names):
             raise InputError(f"Scene: contact names must be unique, got {contact_names}")
         for c in contacts:
@@ -463,9 +532,17 @@ class Scene:
         """Position of a subdomain in the scene."""
         return next(k for k, s in enumerate(self.subdomains) if s is subdomain)
 
-    def contact_owner(self, contact: ContactInterface | ContactBoundary) -> int:
-        """Rank that owns a contact region: its subdomain's owner."""
+    def contact_owner(self, contact: ContactInterface | ContactBoundary | ContactPair) -> int:
+        """Rank that owns a contact region: its subdomain's owner (a pair's, for its sides)."""
+        for pair in self.pairs:
+            if contact is pair.b:
+                return self.contact_owner(pair)
         return self.owner(self.index(contact.subdomain))
+
+    @property
+    def regions(self) -> list[ContactInterface | ContactBoundary | ContactPair]:
+        """The contact regions: the contacts with an obstacle, then the pairs."""
+        return [c for c in self.contacts if c.obstacle is not None] + list(self.pairs)
 
     def owner(self, k: int) -> int:
         """Rank that owns subdomain ``k``."""
@@ -504,3 +581,18 @@ def _mesh_digest(mesh) -> tuple[int, int, str]:
     cells = np.ascontiguousarray(mesh.geometry.dofmaps[0])
     digest = hashlib.sha256(x.tobytes() + cells.tobytes()).hexdigest()
     return cells.shape[0], x.shape[0], digest
+
+
+def _split_pairs(contacts) -> tuple[list, list[ContactPair]]:
+    """The contact surfaces (a pair's sides once) and the pairs; refuse a surface left alone."""
+    pairs = [c for c in contacts if isinstance(c, ContactPair)]
+    surfaces = [c for c in contacts if not isinstance(c, ContactPair)]
+    for pair in pairs:
+        surfaces += [side for side in pair.sides if all(side is not c for c in surfaces)]
+    for c in surfaces:
+        if c.obstacle is None and all(c is not side for p in pairs for side in p.sides):
+            raise InputError(
+                f"Scene: contact interface {c.name!r} has no obstacle and is in no ContactPair; "
+                "give it an obstacle or put it in a ContactPair in the scene's contacts"
+            )
+    return surfaces, pairs

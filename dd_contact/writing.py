@@ -10,6 +10,11 @@ The output of a run is written so that this damages nothing written before:
 * a write that fails raises :class:`~dd_contact.errors.OutputError` naming the directory and
   what was being written, with nothing of it left behind (no temporary file, no half row).
 
+A crash of the machine (power loss) loses what the operating system had not yet put on
+the disk. A checkpoint is therefore a barrier (:func:`make_durable`): every file written
+since the last one is synced to the disk before the checkpoint that says those steps are
+done, and the checkpoint itself before it replaces the previous one.
+
 What a resumed run finds damaged anyway (a file cut by a crash of the machine, a temporary
 file of a killed process) it repairs or sets aside (:func:`set_aside`) and says so, one line
 per file, through the ``dd_contact.io`` logger (shown on stderr unless configured).
@@ -17,6 +22,7 @@ per file, through the ``dd_contact.io`` logger (shown on stderr unless configure
 
 from __future__ import annotations
 
+import ctypes
 import errno as errnos
 import logging
 import os
@@ -31,6 +37,7 @@ __all__ = [
     "append_or_undo",
     "failure",
     "logger",
+    "make_durable",
     "remove_temporary",
     "replace_atomically",
     "set_aside",
@@ -41,6 +48,62 @@ TEMPORARY = ".tmp"
 
 #: What repairs say they did (one line each); a handler of the user's may take them.
 logger = logging.getLogger("dd_contact.io")
+
+
+#: Files written since the last :func:`make_durable` (this process's).
+_unsynced: set[Path] = set()
+
+
+def make_durable(*paths: Path, what: str = "the output") -> None:
+    """Sync every file written since the last call, and ``paths``, to the disk.
+
+    Their directories too (their renames): a barrier before a checkpoint. One ``syncfs``
+    per file system where the C library has it (Linux: a sync of each file costs a
+    journal commit each, 5-40 ms), each file's ``fsync`` elsewhere.
+
+    Raises :class:`OutputError` if the disk refuses (it reports late write errors here).
+    """
+    files = sorted(_unsynced | set(paths))
+    _unsynced.clear()
+    if not files:
+        return
+    try:
+        if _syncfs is None:
+            for path in files + sorted({p.parent for p in files}):
+                _on_descriptor(path, os.fsync)
+            return
+        devices: dict[int, Path] = {}
+        for path in files:
+            devices.setdefault(os.stat(path.parent).st_dev, path.parent)
+        for directory in devices.values():
+            _on_descriptor(directory, _syncfs_or_raise)
+    except OSError as error:
+        raise failure(error, what, files[0].parent) from error
+
+
+def _on_descriptor(path: Path, call: Callable[[int], object]) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        call(fd)
+    finally:
+        os.close(fd)
+
+
+def _find_syncfs() -> Callable[[int], int] | None:
+    try:
+        return ctypes.CDLL(None, use_errno=True).syncfs
+    except (OSError, AttributeError):
+        return None
+
+
+_syncfs = _find_syncfs()
+
+
+def _syncfs_or_raise(fd: int) -> None:
+    assert _syncfs is not None
+    if _syncfs(fd) != 0:
+        code = ctypes.get_errno()
+        raise OSError(code, os.strerror(code))
 
 
 def failure(error: BaseException, what: str, directory: Path) -> OutputError:
@@ -66,6 +129,7 @@ def replace_atomically(
         with open(tmp, "wb") as f:
             write(f)
         os.replace(tmp, path)
+        _unsynced.add(path)
     except BaseException as error:
         tmp.unlink(missing_ok=True)
         if isinstance(error, OSError):
@@ -82,6 +146,7 @@ def append_or_undo(path: Path, data: bytes, what: str) -> None:
         size = os.fstat(fd).st_size
         if os.write(fd, data) != len(data):  # a short write: the disk is full
             raise OSError(errnos.ENOSPC, os.strerror(errnos.ENOSPC))
+        _unsynced.add(path)
     except BaseException as error:
         if fd is not None:
             os.ftruncate(fd, size)

@@ -110,6 +110,16 @@ class _ScriptedZone:
     def contribution(self, active):
         return None, np.zeros(len(self.dofs))
 
+    @property
+    def parts(self):
+        return [(self.block, self.dofs)]
+
+    def gather(self, x):
+        return x[self.block][self.dofs]
+
+    def scatter(self, vector, sizes):
+        return {self.block: vector}
+
 
 class _ScriptedSolver:
     def __init__(self, answers):

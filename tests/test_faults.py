@@ -45,6 +45,27 @@ def _run(problem, out, steps=12, **options):
     return problem.run(steps, output=out, **kwargs)
 
 
+# -- what "the same run" means --------------------------------------------------------------------
+def test_resumed_runs_are_judged_bit_for_bit_except_full_on_several_ranks_to_round_off():
+    fi = _fault_injection()
+    assert [fi.reproducible(c, r) for c, r in [("flying:FULL", 1), ("flying:w-v-u", 2)]] == [
+        True,
+        True,
+    ]
+    assert fi.reproducible("flying:FULL", 2) is False
+    u = np.array([1.0, -2.0, 3.0])
+    nudged = u + np.array([0.0, 3e-13, 0.0])  # what two launches of FULL on 2 ranks differ by
+    assert fi._agree(nudged, u, exact=True) is False
+    assert fi._agree(nudged, u, exact=False) is True
+    assert fi._agree(u + np.array([0.0, 1e-7, 0.0]), u, exact=False) is False
+    record = {"step": 3, "changes": 1, "force": {"end": [33.0, -0.0]}, "energy": {"total": 1.0}}
+    near = {"step": 3, "changes": 1, "force": {"end": [33.0, 1e-15]}, "energy": {"total": 1.0}}
+    assert fi._records_agree([near], [record], exact=False) is True
+    assert fi._records_agree([near], [record], exact=True) is False
+    assert fi._records_agree([{**near, "changes": 2}], [record], exact=False) is False
+    assert fi._records_agree([near], [record, record], exact=False) is False
+
+
 # -- a hard kill -----------------------------------------------------------------------------------
 @pytest.mark.parametrize(("case", "ranks"), [("pressed:w-u", 1), ("flying:w-v-u", 2)])
 def test_a_run_killed_by_sigkill_resumes_bit_for_bit(tmp_path, case, ranks):
@@ -251,3 +272,62 @@ def test_pyvista_and_meshio_open_every_field_at_every_step(tmp_path, falling_bar
             for k in range(5):
                 t, nodal, cells = series.read_data(k)
                 assert t == pytest.approx(0.1 * k) and sorted({*nodal, *cells}) == names
+
+
+def test_a_checkpoint_is_synced_to_the_disk_after_every_file_of_the_steps_it_covers(
+    tmp_path, falling_bar, monkeypatch
+):
+    """A crash of the machine keeps what a checkpoint says is done: each file written before
+    the checkpoint is synced before the checkpoint itself, which is synced before it counts."""
+    import os
+
+    import dd_contact.checkpointing as checkpointing
+    import dd_contact.writing as writing
+
+    synced: list[str] = []
+    real = os.fsync
+
+    def fsync(fd):
+        synced.append(os.readlink(f"/proc/self/fd/{fd}"))
+        real(fd)
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    monkeypatch.setattr(writing, "_syncfs", None)  # each file's fsync: what was synced is seen
+    commits = []
+    commit = checkpointing.Checkpoint.commit
+    monkeypatch.setattr(
+        checkpointing.Checkpoint, "commit", lambda self: (commits.append(len(synced)), commit(self))
+    )
+    out = tmp_path / "run"
+    _run(falling_bar()[1], out, steps=8)  # checkpoints at steps 4 and 8
+    assert len(commits) == 2
+    files = [p for p in out.rglob("*") if p.is_file() and "checkpoint" not in p.name]
+    first = synced[: commits[0]]
+    checkpoint = str(out / "checkpoint.rank0.npz.tmp")
+    assert first[-1] == checkpoint  # the checkpoint last, before it replaces the previous one
+    step_4 = [p for p in files if p.suffix == ".h5" and p.stem.isdigit() and int(p.stem) <= 4]
+    assert len(step_4) >= 5 and all(str(p) in first[:-1] for p in step_4)
+    assert str(out / "history.csv") in first and str(out / "history.json") in first
+    assert str(out) in synced  # the renames
+    after = synced[commits[1] :]  # the renames, then what the run's end wrote
+    assert after[:2] == [str(out), str(out.parent)] and str(out / "history.json") in after
+    assert set(map(str, files)) <= set(synced)
+    assert writing._unsynced == set()
+
+
+def test_one_syncfs_per_file_system_makes_the_output_durable(tmp_path, monkeypatch):
+    import dd_contact.writing as writing
+
+    if writing._syncfs is None:
+        pytest.skip("no syncfs in this C library: each file is synced")
+    calls = []
+    real = writing._syncfs
+    monkeypatch.setattr(writing, "_syncfs", lambda fd: calls.append(fd) or real(fd))
+    for k in range(3):
+        writing.replace_atomically(tmp_path / f"{k}.h5", lambda f: f.write(b"x"), "a step")
+    writing.append_or_undo(tmp_path / "history.csv", b"1,2\n", "a row")
+    assert len(writing._unsynced) == 4
+    writing.make_durable(tmp_path / "checkpoint.npz")
+    assert len(calls) == 1 and writing._unsynced == set()
+    writing.make_durable()
+    assert len(calls) == 1  # nothing new: no sync

@@ -120,7 +120,8 @@ def _surface(name, n, seed):
 
 
 def _zones(seed):
-    return [SimpleNamespace(contact=SimpleNamespace(name="end", w=_surface("w", 4, seed)))]
+    end = SimpleNamespace(name="end", w=_surface("w", 4, seed))
+    return [SimpleNamespace(contact=end, sides=[end])]
 
 
 def _interface(seed):

@@ -53,17 +53,30 @@ def test_a_region_of_no_block_is_refused():
         region_blocks(())
 
 
+def test_a_pair_region_splits_its_matrix_into_the_block_pairs_it_fills():
+    a, b = Block("w", "a"), Block("w", "b")
+    region = ContactRegion("pair", a, np.array([0, 2]), sp.eye_array(3).tocsr(), b, np.array([1]))
+    assert region.blocks == (a, b)
+    matrix = sp.csr_array(np.arange(9.0).reshape(3, 3))
+    pieces = region.in_blocks(matrix, {a: 3, b: 2})
+    assert sorted(pieces) == [(a, a), (a, b), (b, a), (b, b)]
+    assert pieces[(a, a)].toarray().tolist() == [[0, 0, 1], [0, 0, 0], [3, 0, 4]]
+    assert pieces[(a, b)].toarray().tolist() == [[0, 2], [0, 0], [0, 5]]
+    assert pieces[(b, b)].toarray().tolist() == [[0, 0], [0, 8]]
+    assert region.shifted({a: 10, b: 20}).dofs.tolist() == [10, 12, 21]
+    refuse_unsolvable([region])  # solved now: nothing raised
+
+
 @pytest.mark.parametrize(
     ("seam", "what"),
     [
-        ({"partner": Block("w", "b")}, "couples two blocks"),
         ({"symmetric": False}, "unsymmetric"),
         ({"history": True}, "carries history"),
     ],
 )
 def test_both_solvers_refuse_a_region_they_cannot_solve_yet(seam, what):
     region = ContactRegion("pad", Block("w", "a"), np.arange(3), sp.eye_array(3).tocsr(), **seam)
-    assert region.blocks == (Block("w", "a"), *([seam["partner"]] if "partner" in seam else []))
+    assert region.blocks == (Block("w", "a"),)
     with pytest.raises(NotImplementedError, match=f"'pad' .*{what}"):
         refuse_unsolvable([region])
     system = BlockSystem({Block("w", "a"): 3}, {Block("w", "a"): 0})

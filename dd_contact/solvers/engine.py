@@ -37,7 +37,7 @@ import scipy.sparse as sp
 
 from dd_contact.blocks import Block, BlockSystem, ContactRegion, refuse_unsolvable
 from dd_contact.parallel import ROOT, allgathered, any_rank, bcast_array, gather_to_root, gathered
-from dd_contact.solvers.linalg import coo_of, dense_threads
+from dd_contact.solvers.linalg import dense_threads
 from dd_contact.solvers.schedule import (
     Schedule,
 )
@@ -145,8 +145,9 @@ class BlockEliminationSolver:
             for part in pieces:
                 for r, c, A in part:
                     self.surface.add_base(r, c, A)
-        self._contact: dict[Block, sp.csr_array] = {}  # latest contact matrix of each w block
-        self._pending_contact: dict[Block, sp.csr_array] = {}  # changed since the last solve
+        #: Latest contact matrix of each region, by the block pairs it fills.
+        self._contact: dict[str, dict[tuple[Block, Block], sp.csr_array]] = {}
+        self._pending_contact: set[tuple[Block, Block]] = set()  # changed since the last solve
         # The surface blocks side by side in one vector, in the same order on every rank: what
         # the ranks sum (right-hand side) and what rank 0 broadcasts (solution).
         sizes = self.schedule.surface
@@ -165,17 +166,25 @@ class BlockEliminationSolver:
 
     def set_contact(self, key: str, matrix: sp.csr_array) -> None:
         """Replace the contact matrix of region ``key`` (surface dof numbering)."""
-        block, dofs = self._regions[key].block, self._regions[key].dofs
-        if block in self.subdomains:
-            self.subdomains[block].matrix.set_contact(key, matrix)
+        region = self._regions[key]
+        if region.block in self.subdomains:
+            self.subdomains[region.block].matrix.set_contact(key, matrix)
             return
-        n = self.system.sizes[block]
-        if not np.array_equal(dofs, np.arange(n)):  # to block numbering
-            r, c, v = coo_of(matrix)
-            matrix = sp.csr_array((v, (dofs[r], dofs[c])), shape=(n, n))
-        old = self._contact.get(block)
-        if old is None or (old != matrix).nnz:
-            self._contact[block] = self._pending_contact[block] = matrix
+        old = self._contact.get(key, {})
+        pieces = region.in_blocks(matrix, self.system.sizes)  # a pair's: four pieces
+        for pair, piece in pieces.items():
+            if pair not in old or (old[pair] != piece).nnz:
+                self._pending_contact.add(pair)
+        self._contact[key] = pieces
+
+    def _changed_contact(self) -> dict[tuple[Block, Block], sp.csr_array]:
+        """The contact pieces changed since the last solve, summed over the regions."""
+        out: dict[tuple[Block, Block], sp.csr_array] = {}
+        for pieces in self._contact.values():
+            for pair in self._pending_contact & pieces.keys():
+                out[pair] = out[pair] + pieces[pair] if pair in out else pieces[pair]
+        self._pending_contact = set()
+        return out
 
     def solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Solve with this rank's right-hand-side contributions (collective).
@@ -187,8 +196,7 @@ class BlockEliminationSolver:
             return self._solve(rhs)
 
     def _solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        changed: dict[str, dict[Block, Any]] = {"Z": {}, "contact": self._pending_contact}
-        self._pending_contact = {}
+        changed: dict[str, dict[Any, Any]] = {"Z": {}, "contact": self._changed_contact()}
         g = np.zeros(self._surface_size)  # this rank's part of the surface right-hand side
         for block, sub in self.subdomains.items():
             if sub.changing:
@@ -215,8 +223,8 @@ class BlockEliminationSolver:
                 for _, part in parts:
                     for block, Z in part["Z"].items():
                         surface.set_condensed(block, Z)
-                    for block, matrix in part["contact"].items():
-                        surface.set_contact((block, block), matrix)
+                    for pair, matrix in part["contact"].items():
+                        surface.set_contact(pair, matrix)
                 surface.factorise()
                 solved = surface.solve({b: g[w].copy() for b, w in self._where.items()}, complete)
             x = self._packed(solved)

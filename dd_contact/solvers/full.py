@@ -65,7 +65,7 @@ class MonolithicSolver:
             self.local_size,
             self.size,
             base,
-            [region.shifted(self.offsets[region.block]) for region in contacts],
+            [region.shifted(self.offsets) for region in contacts],
         )
         self._factor: SparseCholesky | None = None
         self._last: dict[str, np.ndarray] = {}

@@ -92,7 +92,7 @@ def exact_residual(
     system: BlockSystem,
     rhs: Mapping[str, np.ndarray],
     x: Mapping[str, np.ndarray],
-    contact: Sequence[tuple[Block, np.ndarray, sp.sparray]] = (),
+    contact: Sequence[tuple[Sequence[tuple[Block, np.ndarray]], sp.sparray]] = (),
 ) -> Residual:
     """The residuals :class:`ResidualCheck` estimates, exactly (one rank; for verification).
 
@@ -103,10 +103,13 @@ def exact_residual(
         r[block] += vector
     for row, col, A in system.all_blocks():
         r[row] -= A @ x[col]
-    for block, dofs, matrix in contact:
-        r[block][dofs] -= matrix @ x[block][dofs]
+    for parts, matrix in contact:
+        y = matrix @ np.concatenate([x[block][dofs] for block, dofs in parts])
+        for block, dofs in parts:
+            r[block][dofs] -= y[: len(dofs)]
+            y = y[len(dofs) :]
     b = np.linalg.norm(np.concatenate([rhs.get(k, np.zeros(n)) for k, n in system.sizes.items()]))
-    free = free_rows(system, {block: dofs for block, dofs, _ in contact})
+    free = free_rows(system, {block: dofs for parts, _ in contact for block, dofs in parts})
     on_free = np.concatenate([r[k][f] for k, f in free.items()] or [np.zeros(0)])
     whole = float(np.linalg.norm(np.concatenate(list(r.values()))) / b)
     return Residual(whole, float(np.linalg.norm(on_free) / b) if on_free.size else None)
@@ -165,15 +168,16 @@ class ResidualCheck:
         self,
         rhs: Mapping[str, np.ndarray],
         x: Mapping[str, np.ndarray],
-        contact: Sequence[tuple[str, np.ndarray, sp.sparray]] = (),
+        contact: Sequence[tuple[Sequence[tuple[str, np.ndarray]], sp.sparray]] = (),
     ) -> Residual:
         """Collective: the estimated residuals of ``x``.
 
         Args:
             rhs: This rank's right-hand-side contributions, contact terms included.
             x: The solution: every surface block and this rank's subdomains (at least).
-            contact: This rank's contact matrices ``(block, dofs, matrix)`` (surface dof
-                numbering) that were added to ``A`` for this solve.
+            contact: This rank's contact matrices ``(parts, matrix)`` (``parts``: the
+                ``(block, dofs)`` of the matrix's surface numbering) added to ``A`` for this
+                solve.
         """
         k = self.probes
         finite = all(np.all(np.isfinite(v)) for v in x.values())
@@ -189,8 +193,9 @@ class ResidualCheck:
                 zr -= az.T @ x[block]
             for block, az in self._az_free.items():
                 zr_free -= az.T @ x[block]
-            for block, dofs, matrix in contact:  # free rows have no contact term
-                zr -= self.probe(block)[dofs].T @ (matrix @ x[block][dofs])
+            for parts, matrix in contact:  # free rows have no contact term
+                y = matrix @ np.concatenate([x[block][dofs] for block, dofs in parts])
+                zr -= np.vstack([self.probe(block)[dofs] for block, dofs in parts]).T @ y
         local = np.concatenate([zb, zr, zr_free, [0.0 if finite else 1.0]])
         sums = np.array(sum_over_ranks(self.comm, local))
         if sums[-1] > 0:
