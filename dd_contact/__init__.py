@@ -16,6 +16,7 @@ from mpi4py import MPI as _MPI  # noqa: F401  (loads libmpi before petsc4py)
 
 from dd_contact import io, meshes, post, viz
 from dd_contact.errors import (
+    CoarseContactWarning,
     CoarseTimeStepWarning,
     ContactCycleWarning,
     ContactIterationError,
@@ -51,6 +52,7 @@ __all__ = [
     "ALGORITHMS",
     "DEFAULT_KAPPA",
     "KAPPA_VERIFIED",
+    "CoarseContactWarning",
     "CoarseTimeStepWarning",
     "ContactBoundary",
     "ContactCycleWarning",

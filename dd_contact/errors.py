@@ -10,6 +10,7 @@ import warnings
 from pathlib import Path
 
 __all__ = [
+    "CoarseContactWarning",
     "CoarseTimeStepWarning",
     "ContactCycleWarning",
     "ContactIterationError",
@@ -63,6 +64,10 @@ class EnergyGrowthWarning(UserWarning):
 
 class CoarseTimeStepWarning(UserWarning):
     """A contact episode lasted too few time steps for an accurate rebound (energy is kept)."""
+
+
+class CoarseContactWarning(UserWarning):
+    """A contact's force was carried by too few contact points for an accurate contact."""
 
 
 class OutputError(OSError):

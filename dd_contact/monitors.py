@@ -1,8 +1,8 @@
-"""What a transient run watches: its energy balance and its contact episodes.
+"""What a run watches: its energy balance, its contact episodes and how its contacts are carried.
 
-Each monitor reads the records a :class:`~dd_contact.problem.TransientProblem` agrees at the
-end of a step and warns once when the run loses accuracy or creates energy; neither changes
-the results. Both are independent of the problem and testable alone.
+Each monitor reads the records a problem agrees at the end of a step (or a static solve) and
+warns once when the run loses accuracy or creates energy; none changes the results. Each is
+independent of the problem and testable alone.
 """
 
 from __future__ import annotations
@@ -14,11 +14,25 @@ from mpi4py import MPI
 import numpy as np
 
 from dd_contact.blocks import Block
-from dd_contact.errors import CoarseTimeStepWarning, EnergyGrowthWarning, warn
+from dd_contact.errors import (
+    CoarseContactWarning,
+    CoarseTimeStepWarning,
+    EnergyGrowthWarning,
+    warn,
+)
 from dd_contact.impact import RELEASE_TOLERANCE
 from dd_contact.parallel import any_rank, sum_over_ranks
 
-__all__ = ["ENERGY_GROWTH_TOLERANCE", "MIN_CONTACT_STEPS", "ContactEpisodes", "EnergyBalance"]
+__all__ = [
+    "ENERGY_GROWTH_TOLERANCE",
+    "MINOR_EPISODE",
+    "MIN_CONTACT_POINTS",
+    "MIN_CONTACT_STEPS",
+    "ContactEpisodes",
+    "ContactResolution",
+    "EnergyBalance",
+    "EpisodeImpulses",
+]
 
 #: A step whose energy grows by more than this fraction of the largest energy of the run
 #: beyond the loads' work warns (EnergyGrowthWarning), unless energy-safe contact's release
@@ -31,6 +45,54 @@ ENERGY_GROWTH_TOLERANCE = 1e-6
 #: last one leaves) closed in fewer steps than this warns (CoarseTimeStepWarning); the
 #: measurements behind it are in docs/validation.md, "A time step too coarse for the impact".
 MIN_CONTACT_STEPS = 60
+
+#: A contact whose force, at its peak, is carried by fewer effective points than this warns
+#: (CoarseContactWarning): ``(sum f)^2 / sum f^2`` over the points' forces, the count of
+#: active points when they carry alike. The measurements behind it (a Hertz press resolved
+#: by 1 to 400 points, ``benchmarks/coarse_contact.py``) are in docs/contact.md, "A contact
+#: carried by too few points".
+MIN_CONTACT_POINTS = 8
+
+#: An episode whose impulse (its force summed over its steps) is below this share of the
+#: largest impulse of an episode of the run (any region) is minor: neither its time steps
+#: nor its points are judged. The worst errors measured on an unresolved episode (37 % of
+#: its force on 1-3 points, docs/contact.md; the bar's rebound 15 % slow at 8 steps) are then
+#: below 4 % of the run's largest; the pin joint's plates graze a pin between their hits
+#: with 0.3-2 % of a hit's impulse.
+MINOR_EPISODE = 0.1
+
+
+class EpisodeImpulses:
+    """Each region's open contact episode's impulse, and which closed episodes are minor.
+
+    The impulse is the region's force magnitude summed over the episode's steps (times the
+    fixed dt it is the impulse; the ratios below do not need it).
+    """
+
+    def __init__(self) -> None:
+        #: The impulse of each region's open episode (its force summed so far).
+        self.open: dict[str, float] = {}
+        #: The largest impulse of a closed episode of the run.
+        self.largest = 0.0
+
+    def add(self, name: str, force: float) -> None:
+        """One more step of ``name``'s open episode, carrying ``force``."""
+        self.open[name] = self.open.get(name, 0.0) + force
+
+    def close(self, name: str) -> bool:
+        """Close ``name``'s episode; whether it was major (:data:`MINOR_EPISODE`)."""
+        impulse = self.open.pop(name, 0.0)
+        self.largest = max(self.largest, impulse)
+        return impulse >= MINOR_EPISODE * self.largest
+
+    def major(self, name: str) -> bool:
+        """Whether ``name``'s open episode is major so far."""
+        impulse = self.open.get(name, 0.0)
+        return impulse >= MINOR_EPISODE * max(self.largest, impulse)
+
+
+def _force(record: dict, name: str) -> float:
+    return float(np.linalg.norm(record["force"][name]))
 
 
 class EnergyBalance:
@@ -136,8 +198,9 @@ class ContactEpisodes:
 
     An episode is an impact when kinetic energy was at least half of the kinetic and elastic
     energy at the step before it opened (unknown without the energy: then every episode
-    counts); a load that presses and lets go slowly is followed by any dt. The records are
-    agreed on every rank: every rank warns alike.
+    counts); a load that presses and lets go slowly is followed by any dt. A minor episode
+    (a graze between hits: :data:`MINOR_EPISODE`) is not judged. The records are agreed on
+    every rank: every rank warns alike.
 
     Args:
         dt: The run's time step.
@@ -151,6 +214,8 @@ class ContactEpisodes:
         self.impact: dict[str, bool] = {}
         #: Whether the warning was given (it is given once a run).
         self.warned = False
+        #: The episodes' impulses (which are minor).
+        self.impulses = EpisodeImpulses()
 
     def observe(self, record: dict, energy_before: Mapping[str, float] | None) -> None:
         """Follow the episodes through the step of ``record`` (its agreed ``active`` counts).
@@ -168,9 +233,13 @@ class ContactEpisodes:
                         >= 0.5 * (energy_before["kinetic"] + energy_before["elastic"])
                     )
                 self.steps[name] = steps + 1
+                self.impulses.add(name, _force(record, name))
                 continue
             self.steps[name] = 0
-            if not steps or steps >= MIN_CONTACT_STEPS or self.warned:
+            if not steps:
+                continue
+            major = self.impulses.close(name)
+            if steps >= MIN_CONTACT_STEPS or self.warned or not major:
                 continue
             if not self.impact.get(name, True):
                 continue
@@ -187,4 +256,80 @@ class ContactEpisodes:
             f"energy is kept; use a smaller time step, dt <= {duration:.3g} / "
             f"{MIN_CONTACT_STEPS} = {duration / MIN_CONTACT_STEPS:.3g} s",
             CoarseTimeStepWarning,
+        )
+
+
+class ContactResolution:
+    """Warn once per region if a contact's force was carried by too few points.
+
+    A contact's size and pressure are resolved by its points: carried by a handful, its
+    force, radius and pressure are off by up to tens of percent (docs/contact.md). Judged at
+    the contact's peak, where it carries most: a static solve is judged as it is; in time
+    steps, each episode of a region (from the step its first point enters to the step its
+    last one leaves) is judged at its step of largest force when it closes, or when the run
+    ends (:meth:`finish`). Every contact starts with a point or two; only the peak tells.
+    A region pressed whole (every point active, a flat face) has no contact edge for the
+    mesh to resolve and is not judged, nor is a minor episode (a graze between hits:
+    :data:`MINOR_EPISODE`). The records are agreed on every rank: every rank warns alike.
+    """
+
+    def __init__(self) -> None:
+        #: Per region, its open episode's peak: (force, effective points, step, t).
+        self.peak: dict[str, tuple[float, float, int | None, float]] = {}
+        #: Regions warned about (each once a run).
+        self.warned: set[str] = set()
+        #: The episodes' impulses (which are minor).
+        self.impulses = EpisodeImpulses()
+
+    def observe(self, record: dict, carrying: Mapping[str, tuple[float, bool]]) -> None:
+        """Follow the step of ``record`` (its agreed ``force`` and ``active`` per region).
+
+        Args:
+            record: The step's record.
+            carrying: Per region, the effective points and whether all were active
+                (:func:`dd_contact.post.carrying_points`).
+        """
+        for name, points in record["active"].items():
+            if not points:
+                if name in self.peak and self.impulses.close(name):
+                    self._judge(name, self.peak[name])
+                self.peak.pop(name, None)
+                continue
+            force = _force(record, name)
+            self.impulses.add(name, force)
+            effective, whole = carrying[name]
+            if whole:
+                effective = float("inf")
+            if force > self.peak.get(name, (-1.0,))[0]:
+                self.peak[name] = (force, effective, record.get("step"), record["t"])
+
+    def solved(self, record: dict, carrying: Mapping[str, tuple[float, bool]]) -> None:
+        """Judge a static solve's contacts as they are (each solve an episode of its own)."""
+        self.peak.clear()
+        self.impulses = EpisodeImpulses()
+        self.observe(record, carrying)
+        for name, peak in self.peak.items():
+            self._judge(name, peak)
+
+    def finish(self) -> None:
+        """Judge every major open episode at its peak so far (a run's end; they stay open)."""
+        for name, peak in self.peak.items():
+            if self.impulses.major(name):
+                self._judge(name, peak)
+
+    def _judge(self, name: str, peak: tuple[float, float, int | None, float] | None) -> None:
+        if peak is None or name in self.warned or peak[1] >= MIN_CONTACT_POINTS:
+            return
+        self.warned.add(name)
+        force, effective, step, t = peak
+        when = f"at step {step} (t = {t:.6g})" if step is not None else f"at t = {t:.6g}"
+        warn(
+            f"contact {name!r}: its largest force, {force:.4g} N {when}, was carried by "
+            f"{effective:.1f} nodes' worth of contact surface; carried by fewer than "
+            f"{MIN_CONTACT_POINTS}, a contact's force, size and pressure are set by the mesh, "
+            f"not the solution (a Hertz press: up to 45 % off in force and 42 % in contact "
+            f"radius; 3-8 % at 10-14 nodes); refine the body's mesh and the contact surface "
+            f"where it touches, to cells of a third of the contact's radius (half-width) or "
+            f"less (quadrature contact points on the same mesh do not help)",
+            CoarseContactWarning,
         )

@@ -29,6 +29,7 @@ __all__ = [
     "Reactions",
     "Results",
     "boundary_average",
+    "carrying_points",
     "cell_stress",
     "contact_area",
     "energy",
@@ -238,6 +239,28 @@ def contact_area(zone: ContactZone, active: np.ndarray) -> float:
     return float(zone.operator.points.weight[active].sum())
 
 
+def carrying_points(zone: ContactZone, w: np.ndarray, active: np.ndarray) -> tuple[float, bool]:
+    """How many nodes' worth of surface carry a region's force, and whether all points do.
+
+    With the points' pressures ``p`` and areas ``a``, the effective contact area
+    ``(sum p a)^2 / sum p^2 a`` (the active area when the pressure is uniform, less when a
+    few points take most of the force) over the force-weighted lumped area of the nodes
+    that carry it: the count of active nodes when they carry alike, 1 when one carries all,
+    the same for nodal and quadrature contact points. The flag says every point of the
+    region is active (a flat face pressed whole: no contact edge inside the surface).
+    """
+    op = zone.operator
+    p = op.point_pressure(w)
+    force = p * op.points.weight
+    spread = float(np.dot(force, p))
+    if spread <= 0:
+        return 0.0, bool(active.all())
+    nodal = op.points.N.T @ force
+    node_area = float(np.dot(nodal, op.points.lumped)) / float(nodal.sum())
+    area = float(force.sum()) ** 2 / spread
+    return area / node_area, bool(active.all())
+
+
 class Results:
     """The results of each solve, agreed by every rank, so reading them never communicates.
 
@@ -262,6 +285,9 @@ class Results:
         self.alpha = gathered(comm, alpha)
         #: The last solve's record (empty before the first).
         self.latest: dict = {}
+        #: Per region, the last solve's effective number of points carrying its force and
+        #: whether every point was active (:func:`carrying_points`).
+        self.carrying: dict[str, tuple[float, bool]] = {}
 
     def agree(
         self,
@@ -283,11 +309,13 @@ class Results:
             local[("force", name)] = z.operator.force(z.gather(x)).tolist()
             local[("active", name)] = int(active[name].sum())
             local[("contact_area", name)] = contact_area(z, active[name])
+            local[("carrying", name)] = carrying_points(z, z.gather(x), active[name])
         for block, reaction in self.reactions.of(x, loads, accelerations).items():
             local[("reaction", self.names[block])] = reaction.tolist()
         agreed = gathered(self.comm, local)
         contacts = [c.name for c in self.scene.regions]
         self.alpha = {n: agreed[("alpha", n)] for n in contacts}
+        self.carrying = {n: agreed[("carrying", n)] for n in contacts}
         out = {
             k: {n: agreed[(k, n)] for n in contacts} for k in ("force", "active", "contact_area")
         }

@@ -33,6 +33,7 @@ from dd_contact.monitors import (
     ENERGY_GROWTH_TOLERANCE,
     MIN_CONTACT_STEPS,
     ContactEpisodes,
+    ContactResolution,
     EnergyBalance,
 )
 from dd_contact.parallel import (
@@ -107,6 +108,8 @@ class StaticProblem(AnalysisReadout):
         )
         #: Contact iterations of the last solve.
         self.iterations = 0
+        #: How each solve's contacts are carried: a warning if by too few points.
+        self.resolution = ContactResolution()
 
     def solve(self, t: float = 0.0) -> list[fem.Function]:
         """Collective: solve at load time ``t``.
@@ -126,6 +129,7 @@ class StaticProblem(AnalysisReadout):
         x, self.iterations, _ = analysis.solve(t, analysis.rhs(t, loads), f"t = {t}")
         analysis.publish(x)
         record = {"t": t, "iterations": self.iterations, **analysis.agree(x, loads, {})}
+        self.resolution.solved(record, analysis.agreed.carrying)
         analysis.agreed.latest = record
         return analysis.functions()
 
@@ -250,6 +254,8 @@ class TransientProblem(AnalysisReadout):
         )
         #: The contact episodes (with inertia): a warning if one is too short.
         self.episodes = ContactEpisodes(dt)
+        #: How the contacts are carried at their peaks: a warning if by too few points.
+        self.resolution = ContactResolution()
         self._run_state = RunState(self.analysis.owned, self.zones, self.iteration, scene.interface)
         #: Every subdomain's velocity and acceleration, stepped alike on every rank.
         self.kinematics = Kinematics(
@@ -430,6 +436,7 @@ class TransientProblem(AnalysisReadout):
             energy_before = None
         if self.inertia:
             self.episodes.observe(record, energy_before)
+        self.resolution.observe(record, analysis.agreed.carrying)
         analysis.agreed.latest = record
         self.history.append(record)
         return record
@@ -521,6 +528,7 @@ class TransientProblem(AnalysisReadout):
             files.close(self.history)
         if stopped is not None:
             raise_stopped(self.comm, stopped, self.step, self.t, output)
+        self.resolution.finish()
         if summary:
             self._print_summary()
         return self.history

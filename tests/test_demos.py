@@ -94,8 +94,8 @@ PAPER_DEMOS = {
     ),
     "pin_joint": (
         # 3 cells per quarter hole (the model's "tiny" has 2, refused by the contact
-        # geometry check); 260 steps of 2.5 us reach the pins and leave them again.
-        ["--scale", "3,2,1,4", "--steps", "260", "--algorithm", "w-v-u"],
+        # geometry check); 410 steps of 1.6 us reach the pins and leave them again.
+        ["--scale", "3,2,1,4", "--steps", "410", "--algorithm", "w-v-u"],
         [
             "joint_deformed",
             "joint_pressure",

@@ -13,6 +13,7 @@ from dd_contact.errors import CoarseTimeStepWarning, EnergyGrowthWarning, InputE
 from dd_contact.monitors import (
     ENERGY_GROWTH_TOLERANCE,
     MIN_CONTACT_STEPS,
+    MINOR_EPISODE,
     ContactEpisodes,
     EnergyBalance,
 )
@@ -72,12 +73,13 @@ def _energy(kinetic, elastic):
     return {"kinetic": kinetic, "elastic": elastic}
 
 
-def _episode(monitor, steps, energy_before, first_step=1):
+def _episode(monitor, steps, energy_before, first_step=1, force=1.0):
     """``steps`` steps in contact; ``energy_before``: the energy of the step before."""
     for k in range(steps):
-        record = {"step": first_step + k, "t": 0.0, "active": {"end": 4}}
+        record = {"step": first_step + k, "t": 0.0, "active": {"end": 4}, "force": {"end": force}}
         monitor.observe(record, energy_before if k == 0 else None)
-    monitor.observe({"step": first_step + steps, "t": 0.0, "active": {"end": 0}}, None)
+    closing = {"step": first_step + steps, "t": 0.0, "active": {"end": 0}, "force": {"end": 0.0}}
+    monitor.observe(closing, None)
 
 
 def test_a_short_impact_warns_once_and_names_the_time_step():
@@ -85,9 +87,11 @@ def test_a_short_impact_warns_once_and_names_the_time_step():
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         _episode(episodes, MIN_CONTACT_STEPS, _energy(1.0, 0.0))  # long enough
-        _episode(episodes, 5, _energy(0.1, 1.0), first_step=200)  # a load pressed slowly
+        _episode(episodes, 5, _energy(0.1, 1.0), first_step=200, force=2.0)  # a load
+        # a graze: 5 steps, 0.9 MINOR_EPISODE of the long episode's impulse
+        _episode(episodes, 5, _energy(1.0, 0.5), first_step=300, force=0.9 * MINOR_EPISODE * 60 / 5)
     with pytest.warns(CoarseTimeStepWarning, match=r"after only 5 time step\(s\)"):
-        _episode(episodes, 5, _energy(1.0, 0.5), first_step=400)
+        _episode(episodes, 5, _energy(1.0, 0.5), first_step=400, force=1.1 * MINOR_EPISODE * 60 / 5)
     assert episodes.warned
 
 
