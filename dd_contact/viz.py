@@ -142,8 +142,8 @@ def _add_field(plotter, grids: dict, name: str, values: list, unit: str, label: 
         )
 
 
-def _bounds(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
-    x = np.concatenate([s.mesh.geometry.x for s in scene.subdomains])
+def _bounds(scene: Scene, parts=None) -> tuple[np.ndarray, np.ndarray]:
+    x = np.concatenate([s.mesh.geometry.x for s in (scene.subdomains if parts is None else parts)])
     return x.min(axis=0), x.max(axis=0)
 
 
@@ -190,6 +190,7 @@ def deformed_plotter(
     title: str = "",
     stress_unit: str = "Pa",
     obstacles: bool = True,
+    subdomains: Sequence[str] | None = None,
 ):
     """A plotter of the deformed subdomains coloured by von Mises stress.
 
@@ -206,6 +207,8 @@ def deformed_plotter(
         stress_unit: Unit of the model's stresses; ``"Pa"`` (SI input) is shown as kPa,
             MPa or GPa, whichever fits; any other text is shown as it is.
         obstacles: Whether to draw the obstacles.
+        subdomains: The names of the subdomains to draw (default all), framed alone: no
+            interface, contact surface or obstacle.
 
     Returns:
         The :class:`pyvista.Plotter`, off-screen; close it when done. Its actors are named
@@ -215,21 +218,24 @@ def deformed_plotter(
     use_headless_rendering()
     import pyvista
 
-    low, high = _bounds(scene)
+    parts = [s for s in scene.subdomains if subdomains is None or s.name in subdomains]
+    low, high = _bounds(scene, parts)
     if scale is None:
-        umax = max(np.abs(s.u.x.array).max() for s in scene.subdomains)
+        umax = max(np.abs(s.u.x.array).max() for s in parts)
         scale = 0.1 * float((high - low).max()) / umax if umax > 0 else 1.0
     plotter = pyvista.Plotter(off_screen=True, window_size=_WINDOW)  # type: ignore[arg-type]
-    grids = {f"subdomain {s.name}": deformed_grid(s.u, scale) for s in scene.subdomains}
-    stresses = [von_mises(s).x.array for s in scene.subdomains]
+    grids = {f"subdomain {s.name}": deformed_grid(s.u, scale) for s in parts}
+    stresses = [von_mises(s).x.array for s in parts]
     _add_field(plotter, grids, "von Mises", stresses, stress_unit, "von Mises", show_edges=True)
-    if scene.interface is not None:
+    if scene.interface is not None and subdomains is None:
         interface = deformed_grid(scene.interface.v, scale)
         plotter.add_mesh(
             interface, style="wireframe", color="black", line_width=2, name="interface"
         )
     time = scene.subdomains[0].time.value
-    for contact in scene.contacts:
+    for contact in scene.contacts:  # a pair's sides are contacts of their own
+        if subdomains is not None:  # the chosen subdomains alone, their stress unhidden
+            break
         name = contact.name
         if _contact_owned(scene, contact):
             surface = deformed_grid(contact.w, scale)
@@ -237,7 +243,8 @@ def deformed_plotter(
                 surface, style="wireframe", color="red", line_width=2, name=f"contact {name}"
             )
             _add_active_points(plotter, surface, contact.pressure.x.array > 0, name, "red", 8)
-        shape = _obstacle_mesh(contact.obstacle, low, high, float(time)) if obstacles else None
+        drawn = obstacles and contact.obstacle is not None  # a pair's side has none
+        shape = _obstacle_mesh(contact.obstacle, low, high, float(time)) if drawn else None
         if shape is not None:
             plotter.add_mesh(shape, color="grey", opacity=0.35, name=f"obstacle {name}")
     plotter.add_text(f"{title}  (displacement x {scale:.3g})".strip(), font_size=10)
@@ -354,9 +361,11 @@ def plot_deformed(
     title: str = "",
     stress_unit: str = "Pa",
     obstacles: bool = True,
+    subdomains: Sequence[str] | None = None,
 ) -> Path:
     """Save a PNG of :func:`deformed_plotter`'s picture; returns its path."""
-    return _save(deformed_plotter(scene, scale, title, stress_unit, obstacles), filename)
+    plotter = deformed_plotter(scene, scale, title, stress_unit, obstacles, subdomains)
+    return _save(plotter, filename)
 
 
 def plot_contact_pressure(

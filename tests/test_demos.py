@@ -148,3 +148,16 @@ def test_paper_demo_agrees_with_full_and_balances_the_load(tmp_path, name, ranks
         assert min(upper) >= 2 and min(lower) >= 2  # both plates hit their pins and leave
     for picture in pictures:
         assert (out / f"{picture}.png").stat().st_size > 10_000, picture
+
+
+def test_demo_pin_joint_with_elastic_pins_draws_their_stress_and_tends_to_rigid_pins(tmp_path):
+    out = tmp_path / "out"
+    cmd = [sys.executable, ROOT / "demos/demo_pin_joint.py", "--pins", "elastic"]
+    stdout = _run([*cmd, "--scale", "3,2,1,4", "--out", out], tmp_path)
+    assert "pictures in" in stdout
+    for picture in ("pins_von_mises", "joint_elastic_pins"):
+        assert (out / f"{picture}.png").stat().st_size > 10_000
+    summary = json.loads((out / "elastic_pins.json").read_text())
+    assert summary["v-w-u_vs_FULL"] < 1e-5  # 5.9e-6: the plates' offset, docs/contact.md
+    assert [row["factor"] for row in summary["rows"]] == [1.0, 10.0, 100.0]
+    assert abs(summary["rows"][-1]["u_difference"]) < 0.01  # -0.79 % on this coarse mesh

@@ -239,3 +239,15 @@ def test_an_energy_safe_pair_across_ranks_is_refused_and_says_what_to_do():
     scene = dc.Scene(MPI.COMM_WORLD, [left, right], None, [dc.ContactPair(a, b)])
     with pytest.raises(NotImplementedError, match=r"ranks \[0, 1\].*energy_safe_contact=False"):
         dc.TransientProblem(scene, 0.0125)
+
+
+# -- Hertz between two spheres (coarse; the fine case is `dd-contact verify --case pair-spheres`)
+def test_two_spheres_of_unequal_radii_and_materials_follow_hertz_on_a_coarse_mesh():
+    from dd_contact.paper import verify
+
+    r = verify.two_spheres(h_contact=0.04, ratio=0.67, comm=MPI.COMM_SELF)
+    assert r["a_over_h"] > 4.0  # a coarse mesh: 4.4 cells across the contact radius
+    assert abs(r["a"] / r["a_ref"] - 1) < 0.09  # -7.8 % here; -2.4 % at a / h = 8.8
+    for peak in r["p_side_max"]:  # +1.4 %, +2.0 % here
+        assert abs(peak / r["p0_ref"] - 1) < 0.03
+    assert 0 < r["changes"] <= 10

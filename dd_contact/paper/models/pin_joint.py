@@ -35,12 +35,14 @@ from dd_contact.errors import InputError
 from dd_contact.obstacles import Cylinder
 from dd_contact.paper.flops.paper import PinJointLayout
 from dd_contact.paper.models.common import FACE_TAGS, STEEL, block_tags
+from dd_contact.paper.models.elastic_pins import elastic_pins
 from dd_contact.scene import ContactInterface, Interface, Scene
-from dd_contact.subdomains import Subdomain
+from dd_contact.subdomains import Material, Subdomain
 
 __all__ = [
     "LOWER_PLATE_SUPPORTS",
     "PIN_JOINT_SCALES",
+    "PIN_KINDS",
     "PinJointMeshes",
     "pin_joint",
     "pin_joint_layout",
@@ -55,6 +57,8 @@ PIN_JOINT_SCALES = {
 }
 #: mm of PinJointLayout to m.
 MM = 1e-3
+#: The pins: rigid cylinders (the paper's) or elastic subdomains in contact pairs.
+PIN_KINDS = ("rigid", "elastic")
 #: How the lower plate is held: pulled by the upper plate's load reversed, or clamped.
 LOWER_PLATE_SUPPORTS = ("pulled", "clamped")
 
@@ -162,6 +166,8 @@ def pin_joint(
     lower: str = "pulled",
     contact_pins: Sequence[int] | None = None,
     comm: MPI.Comm = MPI.COMM_WORLD,
+    pins: str = "rigid",
+    pin_material: Material = STEEL,
 ) -> Scene:
     """The multi-pin joint: 12 subdomains, 1 interface, 10 contact interfaces, 5 pins.
 
@@ -180,13 +186,20 @@ def pin_joint(
             default all): the paper's "holes in contact" (docs/cost.md), the other holes
             are free.
         comm: Communicator.
+        pins: ``"rigid"`` (the paper's: each hole wall against a :class:`Cylinder`) or
+            ``"elastic"``: each pin a subdomain of ``pin_material`` through both plates, held
+            at its two ends, in a :class:`ContactPair` with each of its hole walls
+            (:mod:`~dd_contact.paper.models.elastic_pins`): 12 + 5 subdomains.
+        pin_material: The elastic pins' material (default steel).
     """
     _check_options(lower, clearance, period)
+    if pins not in PIN_KINDS:
+        raise InputError(f"pin_joint: pins={pins!r} is not one of {PIN_KINDS}")
     model = pin_joint_meshes(scale, wall_cells)
     lay = model.layout
     radius, thick = lay.hole_diameter * MM / 2, lay.thickness * MM
     gaps = _pin_clearances(clearance, lay.n_holes, radius)
-    pins = _holes_in_contact(contact_pins, lay.n_holes)
+    in_contact = _holes_in_contact(contact_pins, lay.n_holes)
     width = lay.n_holes * lay.pitch * MM
     parts = {name: Subdomain(mesh, STEEL, name) for name, (mesh, _) in model.subdomains.items()}
     tags = {name: t for name, (_, t) in model.subdomains.items()}
@@ -194,18 +207,23 @@ def pin_joint(
     interface = Interface(model.interface, list(parts.values()), name="cuts")
     # The wall's nodes lie on the circle, off the plate's facet chords by up to a sagitta.
     sagitta = radius * (1.0 - np.cos(np.pi / (4 * lay.n_circumferential)))
-    contacts = [
-        ContactInterface(
+    walls = {
+        name: ContactInterface(
             model.walls[name],
             parts[name],
-            Cylinder([x, y, 0.0], [0.0, 0.0, 1.0], radius - gaps[_pin(name, model.plates)]),
+            None
+            if pins == "elastic"
+            else Cylinder([x, y, 0.0], [0.0, 0.0, 1.0], radius - gaps[_pin(name, model.plates)]),
             tolerance=2.0 * sagitta,
             name=f"hole_{name}",
         )
         for name, (x, y) in model.holes.items()
-        if _pin(name, model.plates) in pins
-    ]
-    return Scene(comm, list(parts.values()), interface, contacts=contacts)
+        if _pin(name, model.plates) in in_contact
+    }
+    if pins == "rigid":
+        return Scene(comm, list(parts.values()), interface, contacts=list(walls.values()))
+    pin_parts, pairs = elastic_pins(model, walls, in_contact, radius - gaps, pin_material)
+    return Scene(comm, [*parts.values(), *pin_parts], interface, contacts=pairs)
 
 
 def _check_options(lower: str, clearance: float | Sequence[float], period: float) -> None:

@@ -6,6 +6,7 @@ The scene builders are public so tests, demos and benchmarks use the same models
 :mod:`~dd_contact.paper.verify.orders` (the block scenes shared by tests and every order
 against FULL), :mod:`~dd_contact.paper.verify.extremes` (the penalty sweep),
 :mod:`~dd_contact.paper.verify.drops` (3-D bodies dropped on a plane),
+:mod:`~dd_contact.paper.verify.pairs` (contact between two bodies),
 :mod:`~dd_contact.paper.verify.cases` (the registry of ``dd-contact verify``).
 """
 
@@ -45,6 +46,16 @@ from dd_contact.paper.verify.orders import (
     order_scene,
     orders_agreement,
 )
+from dd_contact.paper.verify.pairs import (
+    PAIR_BARS,
+    PAIR_HERTZ,
+    PAIR_PATCHES,
+    hertz_reference,
+    pair_patch,
+    two_bars,
+    two_spheres,
+    two_spheres_scene,
+)
 
 __all__ = [
     "CASES",
@@ -55,6 +66,9 @@ __all__ = [
     "EXTREME_KAPPAS",
     "MODERATE_KAPPA",
     "ORDER_SCENES",
+    "PAIR_BARS",
+    "PAIR_HERTZ",
+    "PAIR_PATCHES",
     "PENALTY_FLOOR",
     "ExtremeCase",
     "PenaltyRecord",
@@ -69,11 +83,16 @@ __all__ = [
     "free_vibration",
     "hemisphere_drop_scene",
     "hertz",
+    "hertz_reference",
     "order_scene",
     "orders_agreement",
+    "pair_patch",
     "patch_test",
     "penalty_tolerance",
     "pressed_scene",
     "run_cases",
     "sphere_drop",
+    "two_bars",
+    "two_spheres",
+    "two_spheres_scene",
 ]

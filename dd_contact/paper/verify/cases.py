@@ -17,6 +17,7 @@ from dd_contact.paper.verify.models import (
     record,
 )
 from dd_contact.paper.verify.orders import orders_agreement
+from dd_contact.paper.verify.pairs import case_pair_bars, case_pair_patch, case_pair_spheres
 
 __all__ = ["CASES", "run_cases"]
 
@@ -190,6 +191,9 @@ CASES: dict[str, Callable[[], list[Record]]] = {
     "free-vibration": _case_free_vibration,
     "orders": _case_orders,
     "extremes": extremes,
+    "pair-patch": case_pair_patch,
+    "pair-spheres": case_pair_spheres,
+    "pair-bars": case_pair_bars,
 }
 
 
