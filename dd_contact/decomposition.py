@@ -22,6 +22,7 @@ from mpi4py import MPI
 import dolfinx.fem as fem
 import dolfinx.mesh
 import numpy as np
+import ufl
 
 from dd_contact import arguments, meshes, partition
 from dd_contact.arguments import Region
@@ -200,7 +201,9 @@ class DecomposedScene(Scene):
 
         A UFL expression lives on one mesh and cannot be carried to the parts.
         """
-        if not (callable(traction) or isinstance(traction, (Sequence, np.ndarray))):
+        if isinstance(traction, ufl.core.expr.Expr) or not (
+            callable(traction) or isinstance(traction, (Sequence, np.ndarray))
+        ):
             raise InputError(
                 "DecomposedScene.add_traction: give the traction as a 3-vector or a callable "
                 f"t -> 3-vector (a UFL expression belongs to one mesh), got {traction!r}"
