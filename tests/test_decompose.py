@@ -270,3 +270,50 @@ def test_untagged_cells_and_a_dirichletbc_are_refused():
     bc = fem.dirichletbc(np.zeros(3), np.array([0], dtype=np.int32), V)
     with pytest.raises(dd.InputError, match="give the region"):
         scene.fix(bc)
+
+
+def _gmsh_bar(comm):
+    """A 10 x 1 x 1 bar of two gmsh volumes (tags 1, 2), ends tagged 11 (x = 0), 12 (x = 10)."""
+    gmsh = pytest.importorskip("gmsh")
+    import dolfinx.io.gmsh
+
+    if comm.rank == 0:
+        gmsh.initialize(readConfigFiles=False, interruptible=False)
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("Mesh.MeshSizeMax", 0.35)
+        gmsh.model.add("bar")
+        a = gmsh.model.occ.addBox(0, 0, 0, 3, 1, 1)
+        b = gmsh.model.occ.addBox(3, 0, 0, 7, 1, 1)
+        gmsh.model.occ.fragment([(3, a)], [(3, b)])
+        gmsh.model.occ.synchronize()
+        for tag, (_, volume) in zip((1, 2), gmsh.model.getEntities(3), strict=True):
+            x = gmsh.model.occ.getCenterOfMass(3, volume)[0]
+            gmsh.model.addPhysicalGroup(3, [volume], 1 if x < 3 else 2)
+        for _, surface in gmsh.model.getEntities(2):
+            x = gmsh.model.occ.getCenterOfMass(2, surface)[0]
+            if np.isclose(x, 0.0) or np.isclose(x, LENGTH):
+                gmsh.model.addPhysicalGroup(2, [surface], 11 if x < 1 else 12)
+        gmsh.model.mesh.generate(3)
+        data = dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, 0, gdim=3)
+        gmsh.finalize()
+    else:
+        data = dolfinx.io.gmsh.model_to_mesh(None, comm, 0, gdim=3)
+    return data.mesh, data.cell_tags, data.facet_tags
+
+
+@pytest.mark.mpi
+def test_a_gmsh_mesh_with_physical_groups_decomposed_by_its_tags():
+    comm = MPI.COMM_WORLD
+    mesh, cells, facets = _gmsh_bar(comm)
+    scene = dd.decompose(mesh, STEEL, parts=cells, kappa=1e8)
+    assert [s.name for s in scene.subdomains] == ["part1", "part2"]
+    total = sum(len(c) for c in scene.decomposition.cells.values())
+    assert total == max_over_ranks(comm, mesh.topology.index_map(3).size_global)
+    scene.fix((facets, 11)).add_traction((facets, 12), LOAD)
+    with dd.StaticProblem(scene) as problem:
+        problem.solve()
+    fields = dd.fields_on_mesh(scene)
+    reference = _one_mesh_solve(mesh)
+    scale = max_over_ranks(comm, float(np.abs(reference.x.array).max()))
+    error = max_over_ranks(comm, float(np.abs(fields.u.x.array - reference.x.array).max()))
+    assert error / scale < 1e-7
