@@ -63,7 +63,11 @@ def _midpoints(mesh: dolfinx.mesh.Mesh) -> np.ndarray:
     return mesh.geometry.x[mesh.geometry.dofmaps[0]].mean(axis=1)
 
 
-def fields_on_mesh(scene: DecomposedScene, out: OneMeshFields | None = None) -> OneMeshFields:
+def fields_on_mesh(
+    scene: DecomposedScene,
+    out: OneMeshFields | None = None,
+    mesh: dolfinx.mesh.Mesh | None = None,
+) -> OneMeshFields:
     """The parts' u, velocity, stress and von Mises stress as Functions on the one mesh.
 
     Rank-local: call it on every rank after a solve (or a time step) to fill the rank's part
@@ -72,9 +76,12 @@ def fields_on_mesh(scene: DecomposedScene, out: OneMeshFields | None = None) -> 
     Args:
         scene: A scene made by :func:`dd_contact.decompose`.
         out: Functions from an earlier call, to be overwritten.
+        mesh: The mesh to fill (default the one mesh, ``scene.decomposition.mesh``); e.g.
+            ``scene.decomposition.whole.mesh``, the whole one mesh on this rank, to draw a
+            distributed mesh's fields on one rank.
 
     Returns:
-        The fields on ``scene.decomposition.mesh``.
+        The fields on the one mesh.
     """
     if not isinstance(scene, DecomposedScene):
         raise InputError(
@@ -83,7 +90,8 @@ def fields_on_mesh(scene: DecomposedScene, out: OneMeshFields | None = None) -> 
         )
     if any(s.V.element.basix_element.degree != 1 for s in scene.subdomains):
         raise InputError("fields_on_mesh: the parts must be of degree 1, as decompose builds them")
-    mesh = scene.decomposition.mesh
+    if mesh is None:
+        mesh = scene.decomposition.mesh if out is None else out.u.function_space.mesh
     fields = _functions(mesh) if out is None else out
     x = fields.u.function_space.tabulate_dof_coordinates()
     size = float(np.linalg.norm(np.ptp(scene.decomposition.whole.mesh.geometry.x, axis=0)))
