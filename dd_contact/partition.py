@@ -67,9 +67,9 @@ class Whole:
         source, mesh = self.source, self.mesh
         nodes = dolfinx.mesh.entities_to_geometry(source, tags.dim, tags.indices)
         ids = source.geometry.input_global_indices[nodes]
-        mine = (np.sort(ids, axis=1), tags.values)
-        keys = np.concatenate([k for k, _ in allgathered(source.comm, mine)])
-        values = np.concatenate([v for _, v in allgathered(source.comm, mine)])
+        everyone = allgathered(source.comm, (np.sort(ids, axis=1), tags.values))
+        keys = np.concatenate([k for k, _ in everyone])
+        values = np.concatenate([v for _, v in everyone])
         mesh.topology.create_connectivity(tags.dim, mesh.topology.dim)
         count = mesh.topology.index_map(tags.dim).size_local
         here = facet_keys(mesh, np.arange(count, dtype=np.int32), tags.dim, global_ids=True)

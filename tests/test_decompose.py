@@ -317,3 +317,37 @@ def test_a_gmsh_mesh_with_physical_groups_decomposed_by_its_tags():
     scale = max_over_ranks(comm, float(np.abs(reference.x.array).max()))
     error = max_over_ranks(comm, float(np.abs(fields.u.x.array - reference.x.array).max()))
     assert error / scale < 1e-7
+
+
+@pytest.mark.parametrize(("parts", "facets"), [(4, 32), (8, 48)])
+def test_parts_meeting_at_an_edge_or_a_corner_tie_exactly(parts, facets):
+    # A cube bisected into 4 columns (meeting along a line) or 8 octants (at a point): the
+    # interface is one surface with edges shared by 4 of its cells.
+    cube = meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [4, 4, 4])
+    scene = dd.decompose(cube, STEEL, parts=parts, kappa=1e8, comm=MPI.COMM_SELF)
+    assert scene.decomposition.interface_facets == facets
+    assert [len(c) for c in scene.decomposition.cells.values()] == [64 // parts] * parts
+    scene.fix(_at(2, 0.0)).add_traction(_at(2, 1.0), (1e6, 0.0, -1e6))
+    with dd.StaticProblem(scene) as problem:
+        problem.solve()
+    u = dd.fields_on_mesh(scene).u.x.array
+    one = dd.decompose(cube, STEEL, parts=1, comm=MPI.COMM_SELF)
+    one.fix(_at(2, 0.0)).add_traction(_at(2, 1.0), (1e6, 0.0, -1e6))
+    with dd.StaticProblem(one) as problem:
+        problem.solve()
+    reference = dd.fields_on_mesh(one).u.x.array
+    assert np.abs(u - reference).max() < 1e-7 * np.abs(reference).max()
+
+
+def test_a_part_that_touches_no_other_part_and_has_no_support_is_refused():
+    # One mesh of two separate blocks: bisection cuts between them, no facet is shared.
+    a = meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [2, 2, 2])
+    points = np.vstack([a.geometry.x, a.geometry.x + np.array([2.0, 0.0, 0.0])])
+    cells = a.geometry.dofmaps[0]
+    cells = np.vstack([cells, cells + len(a.geometry.x)]).astype(np.int64)
+    two = dolfinx.mesh.create_mesh(MPI.COMM_SELF, cells, a.ufl_domain(), points)
+    scene = dd.decompose(two, STEEL, parts=2)
+    assert scene.interface is None and scene.decomposition.interface_facets == 0
+    scene.fix(_at(0, 0.0))  # only the first block is held
+    with pytest.raises(dd.InputError, match="'part1' can move as a rigid body"):
+        dd.StaticProblem(scene)
