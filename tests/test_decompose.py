@@ -62,7 +62,7 @@ def _von_mises(mesh, u):
     return out
 
 
-# Measured (serial and on 2 ranks, max norm relative to max |u|): at the default kappa 1e6,
+# Measured (serial; 2 ranks in docs/decompose.md; max norm relative to max |u|): at kappa 1e6,
 # 1.6e-7 (hex, 2 parts), 4.5e-7 (hex, 4), 8.6e-8 (tet, 2), 5.4e-7 (tet, 4); at kappa 1e8,
 # 2.8e-9, 1.7e-8, 3.8e-8, 1.7e-8. Von Mises (cellwise, relative to its max): the same order.
 @pytest.mark.mpi
