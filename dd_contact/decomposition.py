@@ -13,7 +13,7 @@ user's mesh and carried to the parts (:meth:`DecomposedScene.fix`, ...).
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -23,6 +23,7 @@ import dolfinx.fem as fem
 import dolfinx.mesh
 import numpy as np
 import ufl
+from scipy.spatial import cKDTree
 
 from dd_contact import arguments, meshes, partition
 from dd_contact.arguments import Region
@@ -30,7 +31,7 @@ from dd_contact.errors import InputError, warn
 from dd_contact.obstacles import Obstacle
 from dd_contact.partition import Whole
 from dd_contact.prescribed import Value
-from dd_contact.scene import ContactInterface, Interface, Scene
+from dd_contact.scene import ContactInterface, ContactPair, Interface, Scene
 from dd_contact.subdomains import Material, Subdomain
 
 __all__ = [
@@ -51,25 +52,41 @@ class UnreachableObstacleWarning(UserWarning):
 
 
 class ContactCandidate:
-    """A surface of the one mesh that may touch an obstacle.
+    """A surface of the one mesh that may touch an obstacle, or another surface of it.
 
     Args:
         where: The surface on the one mesh: a locator ``x -> bool``, a facet MeshTags,
             ``(meshtags, value)`` or facet indices (serial meshes only).
         obstacle: The rigid obstacle it may touch (:mod:`dd_contact.obstacles`).
-        name: Name of its contact interface (a part's name is appended if it spans parts).
+        name: Name of its contact interface (a part's name is appended if it spans parts),
+            or of the contact pair (its sides: ``name_a``, ``name_b``).
+        partner: Instead of an obstacle, the surface of another body of the one mesh it may
+            touch: a :class:`~dd_contact.scene.ContactPair` between them.
         **options: Passed to :class:`~dd_contact.scene.ContactInterface` (``contact_kappa``,
-            ``kappa``, ``points``, ...).
+            ``kappa``, ``points``, ...), or to the ContactPair (``kappa``, ``points``,
+            ``unbiased``, ...).
     """
 
-    def __init__(self, where: Region, obstacle: Obstacle, name: str = "contact", **options: Any):
+    def __init__(
+        self,
+        where: Region,
+        obstacle: Obstacle | None = None,
+        name: str = "contact",
+        partner: Region | None = None,
+        **options: Any,
+    ):
         arguments.name(name, "ContactCandidate")
-        if not isinstance(obstacle, Obstacle):
+        if (obstacle is None) == (partner is None):
+            raise InputError(
+                f"ContactCandidate {name!r}: give an obstacle or a partner surface, one of them"
+            )
+        if obstacle is not None and not isinstance(obstacle, Obstacle):
             raise InputError(
                 f"ContactCandidate {name!r}: obstacle must be a dd_contact Obstacle (Plane, "
                 f"Sphere, Cylinder or UserObstacle), got {type(obstacle).__name__}"
             )
         self.where, self.obstacle, self.name, self.options = where, obstacle, name, options
+        self.partner = partner
 
 
 @dataclass(frozen=True)
@@ -100,7 +117,7 @@ class Decomposition:
         whole: The user's mesh whole on this rank (a copy if it is distributed).
         method: ``"tags"``, ``"bisection"``, ``"planes"``, ``"auto"`` or ``"one part"``.
         description: The cut in words.
-        cells: Per part name, its cells as cells of :attr:`whole`.
+        cells: Per part name, its cells as cells of :attr:`whole` (in the part's order).
         nodes: Per part name, its geometry nodes as nodes of :attr:`whole`.
         interface_facets: Facets of the one mesh between parts (0: no interface).
         contacts: Per contact interface built: ``(name, part, facets)``.
@@ -146,7 +163,7 @@ class DecomposedScene(Scene):
         comm: MPI.Comm,
         subdomains: Sequence[Subdomain],
         interface: Interface | None,
-        contacts: Sequence[ContactInterface],
+        contacts: Sequence[ContactInterface | ContactPair],
         decomposition: Decomposition,
     ):
         super().__init__(comm, subdomains, interface, contacts)
@@ -173,7 +190,9 @@ class DecomposedScene(Scene):
     def _exterior(self, sub: Subdomain) -> dict[tuple, int]:
         """A part's exterior facets by their keys (nodes of the whole mesh)."""
         if sub.name not in self._keys:
-            self._keys[sub.name] = _exterior_keys(sub.mesh, self.decomposition.nodes[sub.name])
+            self._keys[sub.name] = partition.exterior_keys(
+                sub.mesh, self.decomposition.nodes[sub.name]
+            )
         return self._keys[sub.name]
 
     def fix(
@@ -226,14 +245,6 @@ class DecomposedScene(Scene):
         return next(s for s in self.subdomains if s.name == name)
 
 
-def _exterior_keys(mesh: dolfinx.mesh.Mesh, nodes: np.ndarray) -> dict[tuple, int]:
-    """A part's exterior facets by their keys: their nodes as nodes of the whole mesh."""
-    mesh.topology.create_connectivity(2, 3)
-    exterior = dolfinx.mesh.exterior_facet_indices(mesh.topology)
-    keys = partition.facet_keys(mesh, exterior, node_map=nodes)
-    return {tuple(k): int(f) for k, f in zip(keys, exterior, strict=True)}
-
-
 def _whole_facets(whole: Whole, where: Region, argument: str) -> np.ndarray:
     """The boundary facets of the whole mesh that a region of the user's mesh selects."""
     if isinstance(where, tuple) and len(where) == 2:
@@ -248,27 +259,73 @@ def _whole_facets(whole: Whole, where: Region, argument: str) -> np.ndarray:
     return arguments.boundary_facets(whole.mesh, where, argument)
 
 
-def _reach(
-    whole: Whole, candidate: ContactCandidate, margin: float, times: Sequence[float]
-) -> tuple[np.ndarray, LeftOut | None]:
-    """The candidate's facets within ``margin`` of its obstacle at some time, and the rest."""
-    facets = _whole_facets(whole, candidate.where, f"ContactCandidate {candidate.name!r}")
-    nodes = dolfinx.mesh.entities_to_geometry(whole.mesh, 2, facets)
-    x = whole.mesh.geometry.x
-    gap = np.min([candidate.obstacle.gap_normal(x, t)[0] for t in times], axis=0)
-    nearest = gap[nodes].min(axis=1)
-    reach = nearest <= margin
+@dataclass
+class _Reached:
+    """A candidate's facets (of the whole mesh) in reach, its partner's, what is left out."""
+
+    facets: np.ndarray
+    partner: np.ndarray | None = None
+    left: list[LeftOut] = field(default_factory=list)
+
+
+def _left_out(name: str, nearest: np.ndarray, reach: np.ndarray, margin: float, of: str):
+    """The entry of :attr:`Decomposition.left_out` for facets not in ``reach``, or None."""
     if reach.all():
-        return facets, None
+        return None
     far = nearest[~reach]
     what = "none of its facets" if not reach.any() else f"{far.size} of its facets"
-    reason = (
-        f"{what} come within the margin {margin:.4g} of obstacle "
-        f"{type(candidate.obstacle).__name__} at the {len(times)} times checked "
-        f"(nearest of those: gap {far.min():.4g})"
-    )
-    left = LeftOut(candidate.name, int(far.size), len(facets), float(far.min()), reason)
-    return facets[reach], left
+    reason = f"{what} come within the margin {margin:.4g} of {of} (nearest: gap {far.min():.4g})"
+    return LeftOut(name, int(far.size), len(nearest), float(far.min()), reason)
+
+
+def _reach(
+    whole: Whole, candidate: ContactCandidate, margin: float, times: Sequence[float]
+) -> _Reached:
+    """The candidate's facets within ``margin`` of its obstacle at some time, and the rest.
+
+    For a pair: the facets of each side with a node within ``margin`` of a node of the other
+    side (undeformed).
+    """
+    facets = _whole_facets(whole, candidate.where, f"ContactCandidate {candidate.name!r}")
+    x = whole.mesh.geometry.x
+    nodes = dolfinx.mesh.entities_to_geometry(whole.mesh, 2, facets)
+    if candidate.obstacle is None:
+        return _reach_pair(whole, candidate, facets, nodes, margin)
+    used, local = np.unique(nodes, return_inverse=True)
+    obstacle = candidate.obstacle
+    gap = np.min([obstacle.gap_normal(x[used], t)[0] for t in times], axis=0)
+    nearest = gap[local.reshape(nodes.shape)].min(axis=1)
+    reach = nearest <= margin
+    what = f"obstacle {type(obstacle).__name__} at the {len(times)} times checked"
+    left = _left_out(candidate.name, nearest, reach, margin, what)
+    return _Reached(facets[reach], None, [] if left is None else [left])
+
+
+def _reach_pair(
+    whole: Whole, candidate: ContactCandidate, facets: np.ndarray, nodes: np.ndarray, margin
+) -> _Reached:
+    """Both sides of a pair candidate: the facets of each within reach of the other."""
+    name, partner = candidate.name, candidate.partner
+    assert partner is not None  # a pair candidate: the constructor took one of the two
+    other = _whole_facets(whole, partner, f"ContactCandidate {name!r}: partner")
+    if np.intersect1d(facets, other).size:
+        raise InputError(
+            f"ContactCandidate {name!r}: the surface and its partner share facets; name two "
+            "surfaces of different bodies"
+        )
+    x = whole.mesh.geometry.x
+    other_nodes = dolfinx.mesh.entities_to_geometry(whole.mesh, 2, other)
+    sides, left = [], []
+    for side, (mine, theirs, own) in zip(
+        "ab", [(nodes, other_nodes, facets), (other_nodes, nodes, other)], strict=True
+    ):
+        distance, _ = cKDTree(x[np.unique(theirs)]).query(x[mine.ravel()])
+        nearest = distance.reshape(mine.shape).min(axis=1)
+        reach = nearest <= margin
+        sides.append(own[reach])
+        entry = _left_out(f"{name}_{side}", nearest, reach, margin, "the other side")
+        left += [] if entry is None else [entry]
+    return _Reached(sides[0], sides[1], left)
 
 
 def _parts(
@@ -276,6 +333,7 @@ def _parts(
     parts: int | str | dolfinx.mesh.MeshTags | Sequence,
     contact_cells: np.ndarray,
     layers: float,
+    pairs: bool = False,
 ) -> tuple[np.ndarray, list[str], str, str]:
     """The part of each cell, the parts' suffixes, the method and a description."""
     mesh = whole.mesh
@@ -285,11 +343,15 @@ def _parts(
         part, values = partition.by_tags(whole.tags(parts, "decompose: parts"), num)
         return part, [str(v) for v in values], "tags", f"{len(values)} parts by cell tags"
     if isinstance(parts, str):
-        if parts != "auto":
+        if parts not in ("auto", "bodies"):
             raise InputError(
-                f"decompose: parts must be 'auto', a number, cell MeshTags or cut planes, "
-                f"got {parts!r}"
+                f"decompose: parts must be 'auto', 'bodies', a number, cell MeshTags or cut "
+                f"planes, got {parts!r}"
             )
+        if parts == "bodies" or pairs:  # contact between bodies: a part per body
+            part = partition.bodies(mesh)
+            n = int(part.max()) + 1
+            return part, [str(k) for k in range(n)], "bodies", f"{n} parts, one per body"
         if contact_cells.size:
             nodes = mesh.geometry.x[mesh.geometry.dofmaps[0][:num]]
             sizes = np.ptp(nodes, axis=1).mean(axis=0)
@@ -374,23 +436,26 @@ def decompose(
         raise InputError(f"decompose: margin must be >= 0, got {margin}")
     reach = [_reach(whole, c, float(margin), times) for c in contacts]
     _warn_unreachable(contacts, reach)
-    contact_cells = _cells_of(whole.mesh, [f for f, _ in reach])
-    part, suffixes, method, description = _parts(whole, parts, contact_cells, layers)
+    contact_cells = partition.cells_behind(whole.mesh, [r.facets for r in reach])
+    pairs = any(c.partner is not None for c in contacts)
+    part, suffixes, method, description = _parts(whole, parts, contact_cells, layers, pairs)
     decomposition = Decomposition(mesh, whole, method, description, {}, {})
     decomposition.margin, decomposition.times = float(margin), times
-    decomposition.left_out = [o for _, o in reach if o is not None]
+    decomposition.left_out = [o for r in reach for o in r.left]
     subdomains = _subdomains(whole, part, [name + s for s in suffixes], material, decomposition)
     interface = _interface(whole, part, subdomains, kappa, epsilon, decomposition)
-    built = _contacts(whole, subdomains, contacts, [f for f, _ in reach], decomposition)
+    built = _contacts(whole, subdomains, contacts, reach, decomposition)
     return DecomposedScene(comm, subdomains, interface, built, decomposition)
 
 
 def _warn_unreachable(contacts: Sequence[ContactCandidate], reach: list) -> None:
     """Warn about each obstacle that none of its candidate surfaces can reach."""
     obstacles: dict[int, tuple[Obstacle, list[str], int]] = {}
-    for c, (facets, _) in zip(contacts, reach, strict=True):
+    for c, r in zip(contacts, reach, strict=True):
+        if c.obstacle is None:
+            continue  # a pair
         obstacle, names, count = obstacles.get(id(c.obstacle), (c.obstacle, [], 0))
-        obstacles[id(c.obstacle)] = (obstacle, [*names, c.name], count + facets.size)
+        obstacles[id(c.obstacle)] = (obstacle, [*names, c.name], count + r.facets.size)
     for obstacle, names, count in obstacles.values():
         if count == 0:
             warn(
@@ -399,14 +464,6 @@ def _warn_unreachable(contacts: Sequence[ContactCandidate], reach: list) -> None
                 "with it; enlarge margin or times if it should touch",
                 UnreachableObstacleWarning,
             )
-
-
-def _cells_of(mesh: dolfinx.mesh.Mesh, facet_sets: list[np.ndarray]) -> np.ndarray:
-    """The cells behind boundary facets."""
-    facets = np.concatenate([*facet_sets, np.zeros(0, dtype=np.int32)]).astype(np.int32)
-    mesh.topology.create_connectivity(2, 3)
-    f2c = mesh.topology.connectivity(2, 3)
-    return np.unique(f2c.array[f2c.offsets[facets]]).astype(np.int64)
 
 
 def _subdomains(
@@ -418,8 +475,10 @@ def _subdomains(
         cells = np.flatnonzero(part == k).astype(np.int32)
         if cells.size == 0:
             raise InputError(f"decompose: part {name!r} has no cells; use fewer parts")
-        sub_mesh, _, _, nodes = dolfinx.mesh.create_submesh(whole.mesh, 3, cells)
-        d.cells[name], d.nodes[name] = cells, np.asarray(nodes)
+        sub_mesh, cell_map, _, nodes = dolfinx.mesh.create_submesh(whole.mesh, 3, cells)
+        ordered = np.arange(cells.size, dtype=np.int32)
+        d.cells[name] = np.asarray(cell_map.sub_topology_to_topology(ordered, inverse=False))
+        d.nodes[name] = np.asarray(nodes)
         subdomains.append(Subdomain(sub_mesh, material, name))
     return subdomains
 
@@ -444,30 +503,72 @@ def _interface(
     return Interface(surface, [subdomains[k] for k in tied], kappa=kappa, epsilon=epsilon)
 
 
+def _pieces(
+    whole: Whole, subdomains: list[Subdomain], facets: np.ndarray, d: Decomposition
+) -> dict[str, np.ndarray]:
+    """Facets of the whole mesh as facets of the parts that hold them, by part name."""
+    keys = partition.facet_keys(whole.mesh, facets) if facets.size else np.zeros((0, 3))
+    pieces = {}
+    for sub in subdomains:
+        lookup = partition.exterior_keys(sub.mesh, d.nodes[sub.name])
+        found = np.array(sorted(lookup[tuple(k)] for k in keys if tuple(k) in lookup))
+        if found.size:
+            pieces[sub.name] = found.astype(np.int32)
+    return pieces
+
+
 def _contacts(
     whole: Whole,
     subdomains: list[Subdomain],
     candidates: Sequence[ContactCandidate],
-    facets: list[np.ndarray],
+    reach: list[_Reached],
     d: Decomposition,
-) -> list[ContactInterface]:
-    """A contact interface per candidate and part, on the facets in reach."""
-    built: list[ContactInterface] = []
-    for candidate, mine in zip(candidates, facets, strict=True):
-        keys = partition.facet_keys(whole.mesh, mine) if mine.size else np.zeros((0, 3))
-        pieces: Mapping[str, np.ndarray] = {}
-        for sub in subdomains:
-            lookup = _exterior_keys(sub.mesh, d.nodes[sub.name])
-            found = np.array(sorted(lookup[tuple(k)] for k in keys if tuple(k) in lookup))
-            if found.size:
-                pieces = {**pieces, sub.name: found.astype(np.int32)}
+) -> list[ContactInterface | ContactPair]:
+    """A contact interface per candidate and part on the facets in reach; or a pair."""
+    built: list[ContactInterface | ContactPair] = []
+    by_name = {s.name: s for s in subdomains}
+    for candidate, reached in zip(candidates, reach, strict=True):
+        pieces = _pieces(whole, subdomains, reached.facets, d)
+        if reached.partner is not None:
+            if pieces:
+                others = _pieces(whole, subdomains, reached.partner, d)
+                built.append(_pair(candidate, pieces, others, by_name, d))
+            continue
         for part_name, part_facets in pieces.items():
             name = candidate.name if len(pieces) == 1 else f"{candidate.name}_{part_name}"
-            sub = next(s for s in subdomains if s.name == part_name)
             built.append(
                 ContactInterface.from_boundary(
-                    sub, part_facets, candidate.obstacle, name=name, **candidate.options
+                    by_name[part_name],
+                    part_facets,
+                    candidate.obstacle,
+                    name=name,
+                    **candidate.options,
                 )
             )
             d.contacts.append((name, part_name, int(part_facets.size)))
     return built
+
+
+def _pair(
+    candidate: ContactCandidate,
+    pieces: dict[str, np.ndarray],
+    others: dict[str, np.ndarray],
+    by_name: dict[str, Subdomain],
+    d: Decomposition,
+) -> ContactPair:
+    """The contact pair of a candidate whose two sides each lie in one part."""
+    name = candidate.name
+    if len(pieces) != 1 or len(others) != 1 or set(pieces) == set(others):
+        raise InputError(
+            f"ContactCandidate {name!r}: its two sides lie in parts {sorted(pieces)} and "
+            f"{sorted(others)}; a pair needs each side in one part and the two in different "
+            "parts (self-contact is not supported): use parts='bodies' or cell tags"
+        )
+    sides = []
+    for side, found in (("a", pieces), ("b", others)):
+        ((part_name, facets),) = found.items()
+        sides.append(
+            ContactInterface.from_boundary(by_name[part_name], facets, None, name=f"{name}_{side}")
+        )
+        d.contacts.append((f"{name}_{side}", part_name, int(facets.size)))
+    return ContactPair(sides[0], sides[1], name=name, **candidate.options)

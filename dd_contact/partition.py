@@ -19,6 +19,8 @@ import basix.ufl
 import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
+import scipy.sparse
+import scipy.sparse.csgraph
 import ufl
 
 from dd_contact import arguments
@@ -28,10 +30,13 @@ from dd_contact.parallel import allgathered
 __all__ = [
     "Whole",
     "bisection",
+    "bodies",
     "by_planes",
     "by_tags",
     "cell_midpoints",
+    "cells_behind",
     "contact_cut",
+    "exterior_keys",
     "facet_keys",
     "interface_facets",
     "whole_mesh",
@@ -154,6 +159,19 @@ def interface_facets(mesh: dolfinx.mesh.Mesh, part: np.ndarray) -> np.ndarray:
     two = np.flatnonzero(np.diff(offsets) == 2).astype(np.int32)
     a, b = f2c.array[offsets[two]], f2c.array[offsets[two] + 1]
     return two[part[a] != part[b]]
+
+
+def bodies(mesh: dolfinx.mesh.Mesh) -> np.ndarray:
+    """A part per body: the connected components of cells that share a facet."""
+    mesh.topology.create_connectivity(2, 3)
+    f2c = mesh.topology.connectivity(2, 3)
+    offsets = f2c.offsets
+    two = np.flatnonzero(np.diff(offsets) == 2)
+    a, b = f2c.array[offsets[two]], f2c.array[offsets[two] + 1]
+    num = mesh.topology.index_map(3).size_local
+    graph = scipy.sparse.coo_array((np.ones(len(a)), (a, b)), shape=(num, num))
+    _, part = scipy.sparse.csgraph.connected_components(graph, directed=False)
+    return part.astype(np.int64)
 
 
 def by_tags(tags: dolfinx.mesh.MeshTags, num_cells: int) -> tuple[np.ndarray, list[int]]:
@@ -281,3 +299,19 @@ def contact_cut(
     return np.where(small, 0, 1).astype(np.int64), (
         f"contact part {where}: {count} of {len(midpoints)} cells"
     )
+
+
+def exterior_keys(mesh: dolfinx.mesh.Mesh, nodes: np.ndarray) -> dict[tuple, int]:
+    """A part's exterior facets by their keys: their nodes as nodes of the whole mesh."""
+    mesh.topology.create_connectivity(2, 3)
+    exterior = dolfinx.mesh.exterior_facet_indices(mesh.topology)
+    keys = facet_keys(mesh, exterior, node_map=nodes)
+    return {tuple(k): int(f) for k, f in zip(keys, exterior, strict=True)}
+
+
+def cells_behind(mesh: dolfinx.mesh.Mesh, facet_sets: list[np.ndarray]) -> np.ndarray:
+    """The cells behind boundary facets."""
+    facets = np.concatenate([*facet_sets, np.zeros(0, dtype=np.int32)]).astype(np.int32)
+    mesh.topology.create_connectivity(2, 3)
+    f2c = mesh.topology.connectivity(2, 3)
+    return np.unique(f2c.array[f2c.offsets[facets]]).astype(np.int64)

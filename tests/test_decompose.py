@@ -351,3 +351,58 @@ def test_a_part_that_touches_no_other_part_and_has_no_support_is_refused():
     scene.fix(_at(0, 0.0))  # only the first block is held
     with pytest.raises(dd.InputError, match="'part1' can move as a rigid body"):
         dd.StaticProblem(scene)
+
+
+def _stacked_blocks(gap):
+    """One mesh of two 1 x 1 x 1 blocks, the upper one ``gap`` above the lower (z)."""
+    a = meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [3, 3, 2])
+    b = meshes.box(MPI.COMM_SELF, [0, 0, 1 + gap], [1, 1, 2 + gap], [3, 3, 2])
+    points = np.vstack([a.geometry.x, b.geometry.x])
+    cells = np.vstack([a.geometry.dofmaps[0], b.geometry.dofmaps[0] + len(a.geometry.x)])
+    return dolfinx.mesh.create_mesh(MPI.COMM_SELF, cells.astype(np.int64), a.ufl_domain(), points)
+
+
+@pytest.mark.parametrize("algorithm", ["FULL", "w-u"])
+def test_a_pair_between_two_bodies_of_one_mesh_carries_the_load(algorithm):
+    # The blocks touch at z = 1 (coincident nodes of two bodies); the upper one is pressed
+    # down and held in z by contact only: the pair carries the whole load.
+    mesh = _stacked_blocks(0.0)
+    mesh.topology.create_connectivity(2, 3)
+    f2c = mesh.topology.connectivity(2, 3)
+    facets = dolfinx.mesh.locate_entities_boundary(mesh, 2, _at(2, 1.0))
+    below = np.array(
+        [mesh.geometry.x[mesh.geometry.dofmaps[0][f2c.links(f)[0]], 2].mean() < 1 for f in facets]
+    )
+    pair = dd.ContactCandidate(facets[below], name="joint", partner=facets[~below])
+    with pytest.raises(dd.InputError, match="share facets"):
+        dd.decompose(mesh, STEEL, contacts=[dd.ContactCandidate(_at(2, 1), partner=_at(2, 1))])
+    scene = dd.decompose(mesh, STEEL, contacts=[pair], comm=MPI.COMM_SELF)
+    d = scene.decomposition
+    assert d.method == "bodies" and [len(c) for c in d.cells.values()] == [18, 18]
+    assert d.contacts == [("joint_a", "part0", 9), ("joint_b", "part1", 9)]
+    scene.fix(_at(0, 0.0), [0]).fix(_at(1, 0.0), [1]).fix(_at(2, 0.0), [2])
+    scene.add_traction(_at(2, 2.0), (0.0, 0.0, -1e6))
+    with dd.StaticProblem(scene, algorithm=algorithm) as problem:
+        problem.solve()
+        force = problem.contact_forces()["joint"]
+    assert np.abs(force - [0.0, 0.0, -1e6]).max() < 1e-8 * 1e6
+    fields = dd.fields_on_mesh(scene)  # the two bodies' coincident nodes told apart
+    top = fields.u.function_space.tabulate_dof_coordinates()[:, 2] > 1.5
+    uz = fields.u.x.array.reshape(-1, 3)[:, 2]
+    assert uz[top].max() < 0 and np.abs(fields.von_mises.x.array).max() > 0
+
+
+def test_a_pair_candidate_out_of_reach_and_one_inside_a_body():
+    mesh = _stacked_blocks(0.5)  # 0.5 apart: beyond a margin of 0.1
+    pair = dd.ContactCandidate(_at(2, 1.0), name="joint", partner=_at(2, 1.5))
+    scene = dd.decompose(mesh, STEEL, contacts=[pair], margin=0.1, comm=MPI.COMM_SELF)
+    assert scene.contacts == [] and scene.pairs == []
+    assert [(o.name, o.facets) for o in scene.decomposition.left_out] == [
+        ("joint_a", 9),
+        ("joint_b", 9),
+    ]
+    bottom_and_side = dd.ContactCandidate(_at(2, 0.0), name="self", partner=_at(0, 0.0))
+    with pytest.raises(dd.InputError, match="self-contact is not supported"):
+        dd.decompose(mesh, STEEL, contacts=[bottom_and_side], margin=2.0, comm=MPI.COMM_SELF)
+    with pytest.raises(dd.InputError, match="an obstacle or a partner surface"):
+        dd.ContactCandidate(_at(2, 0.0))
