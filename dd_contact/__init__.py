@@ -15,6 +15,7 @@ library imports it, only the ``dd-contact`` command (``cli``).
 from mpi4py import MPI as _MPI  # noqa: F401  (loads libmpi before petsc4py)
 
 from dd_contact import io, meshes, post, viz
+from dd_contact.decomposition import ContactCandidate, DecomposedScene, decompose
 from dd_contact.errors import (
     CoarseContactWarning,
     CoarseTimeStepWarning,
@@ -31,6 +32,7 @@ from dd_contact.errors import (
 )
 from dd_contact.iteration import ContactSettings
 from dd_contact.obstacles import Cylinder, Plane, Sphere, UserObstacle
+from dd_contact.onemesh import OneMeshFields, fields_on_mesh
 from dd_contact.problem import StaticProblem, TransientProblem
 from dd_contact.results import load_results
 from dd_contact.scene import (
@@ -55,17 +57,20 @@ __all__ = [
     "CoarseContactWarning",
     "CoarseTimeStepWarning",
     "ContactBoundary",
+    "ContactCandidate",
     "ContactCycleWarning",
     "ContactInterface",
     "ContactIterationError",
     "ContactPair",
     "ContactSettings",
     "Cylinder",
+    "DecomposedScene",
     "EnergyGrowthWarning",
     "InaccurateSolutionError",
     "InputError",
     "Interface",
     "Material",
+    "OneMeshFields",
     "OutputError",
     "Penalty",
     "PenaltyRangeWarning",
@@ -80,6 +85,8 @@ __all__ = [
     "TransientProblem",
     "UserObstacle",
     "__version__",
+    "decompose",
+    "fields_on_mesh",
     "io",
     "load_results",
     "meshes",

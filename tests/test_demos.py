@@ -161,3 +161,21 @@ def test_demo_pin_joint_with_elastic_pins_draws_their_stress_and_tends_to_rigid_
     assert summary["v-w-u_vs_FULL"] < 1e-5  # 5.9e-6: the plates' offset, docs/contact.md
     assert [row["factor"] for row in summary["rows"]] == [1.0, 10.0, 100.0]
     assert abs(summary["rows"][-1]["u_difference"]) < 0.01  # -0.79 % on this coarse mesh
+
+
+@pytest.mark.parametrize("ranks", [1, 2])
+def test_demo_decompose(tmp_path, ranks):
+    if ranks == 2 and not MPIEXEC.exists():
+        pytest.skip("no mpiexec beside the interpreter")
+    out = tmp_path / "out"
+    cmd = [sys.executable, ROOT / "demos/demo_decompose.py", "--small", "--out", out]
+    stdout = _run(([MPIEXEC, "-n", "2"] if ranks == 2 else []) + cmd, tmp_path)
+    # the hole in a small part, the far end left out, each part factorised once
+    assert re.search(r"contact part x > \S+: (\d+) of (\d+) cells", stdout)
+    small, total = map(int, re.search(r": (\d+) of (\d+) cells", stdout).groups())
+    assert small < total / 2
+    assert "left out of far_end: 22 of 22 facets" in stdout
+    assert "decompositions u:part0: 1" in stdout and "decompositions u:part1: 1" in stdout
+    force = float(re.search(r"pin force on the plate: (\S+) N", stdout).group(1))
+    assert force > 0  # the pin pushes the hole's wall towards +x
+    assert (out / "decompose_plate.png").stat().st_size > 10_000

@@ -205,7 +205,8 @@ def test_complete_examples_in_the_guides_run(tmp_path):
         for block in PYTHON_BLOCK.findall(page.read_text())
         if block.startswith("from mpi4py import MPI")
     ]
-    assert [name for name, _ in blocks] == ["guide.md"]  # the tied cantilever with dolfinx objects
+    # decompose.md: one mesh decomposed; guide.md: the tied cantilever with dolfinx objects
+    assert [name for name, _ in blocks] == ["decompose.md", "guide.md"]
     for name, block in blocks:
         script = tmp_path / "example.py"
         script.write_text(block)
