@@ -286,8 +286,8 @@ class TransientProblem(AnalysisReadout):
 
         collective(self.comm, check_initial_data)
         for sub in owned:
-            fixed = self.analysis.free(sub.block) == 0
-            sub.velocity.x.array[fixed] = 0.0
+            if sub.block not in self.analysis.reduced:  # a reduced one: quasi-static only
+                sub.velocity.x.array[self.analysis.free(sub.block) == 0] = 0.0
         self.iteration.start(self.t0)
         if self.inertia and self.track_energy:
             self.energy_balance.start(self._energy())

@@ -23,7 +23,7 @@ from dd_contact.blocks import Block
 from dd_contact.errors import InputError
 from dd_contact.prescribed import Prescribed, Value
 
-__all__ = ["Material", "Subdomain"]
+__all__ = ["Material", "Reduction", "Subdomain"]
 
 
 @dataclass(frozen=True)
@@ -61,6 +61,19 @@ class Material:
         return self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
 
 
+@dataclass(frozen=True)
+class Reduction:
+    """How a subdomain is reduced (:meth:`Subdomain.reduce`; docs/solvers.md).
+
+    Attributes:
+        modes: Fixed-interface normal modes kept (the lowest).
+        tolerance: SLEPc's relative tolerance on those modes.
+    """
+
+    modes: int
+    tolerance: float = 1e-12
+
+
 class Subdomain:
     """An independently meshed part of the body, Omega^(k).
 
@@ -87,7 +100,8 @@ class Subdomain:
         self.material = material
         self.name = name
         self.V = fem.functionspace(mesh, ("Lagrange", int(degree), (3,)))
-        self.u = fem.Function(self.V, name=f"u_{name}")
+        self._u = fem.Function(self.V, name=f"u_{name}")
+        self._deferred: Callable[[fem.Function], None] | None = None
         #: Velocity: set it (e.g. ``interpolate``) for the initial velocity of a dynamic run.
         self.velocity = fem.Function(self.V, name=f"velocity_{name}")
         self.acceleration = fem.Function(self.V, name=f"acceleration_{name}")
@@ -99,6 +113,52 @@ class Subdomain:
         self._amplitudes: list[tuple[fem.Constant, Callable[[float], float], str]] = []
         #: The Dirichlet conditions (:meth:`fix`): dofs, and values at any time.
         self.prescribed = Prescribed(self.V, f"subdomain {name!r}")
+        #: How the solvers represent it: ``None`` (whole), or a :class:`Reduction`.
+        self.reduction: Reduction | None = None
+
+    @property
+    def u(self) -> fem.Function:
+        """The displacement Function (a reduced subdomain's is expanded here when read)."""
+        if self._deferred is not None:
+            expansion, self._deferred = self._deferred, None
+            expansion(self._u)
+        return self._u
+
+    def defer(self, expansion: Callable[[fem.Function], None] | None) -> None:
+        """Let :attr:`u` be written by ``expansion`` when it is next read (a reduced model).
+
+        ``None`` drops a pending expansion (:attr:`u` holds the latest value itself).
+        """
+        self._deferred = expansion
+
+    def reduce(self, modes: int, tolerance: float = 1e-12) -> Subdomain:
+        """Represent this subdomain by a reduced model (Craig-Bampton; docs/solvers.md).
+
+        The solvers then hold it as a small dense matrix over its boundary dofs (those of
+        its ties and contact interfaces, kept physical), ``modes`` fixed-interface normal
+        modes (the lowest, by SLEPc) and one load mode per load pattern (so that a
+        quasi-static response is exact). Waves above the last mode kept are not carried.
+
+        Args:
+            modes: Number of fixed-interface modes (>= 0; 0: a static reduction).
+            tolerance: SLEPc's relative tolerance on the modes.
+
+        Returns:
+            The subdomain, so calls can be chained.
+        """
+        if isinstance(modes, bool) or not isinstance(modes, int | np.integer) or modes < 0:
+            raise InputError(
+                f"subdomain {self.name!r}: reduce(modes=...) takes a number of modes >= 0, "
+                f"got {modes!r}; e.g. reduce(modes=20)"
+            )
+        tolerance = arguments.real(tolerance, f"subdomain {self.name!r} reduce(tolerance)")
+        if not 0 < tolerance < 1:
+            raise InputError(
+                f"subdomain {self.name!r}: reduce(tolerance=...) must lie in (0, 1), got "
+                f"{tolerance}; e.g. 1e-12"
+            )
+        self.reduction = Reduction(int(modes), tolerance)
+        return self
 
     # -- boundary conditions -------------------------------------------------------------
     def locate_facets(self, where: Region, argument: str = "where") -> np.ndarray:
