@@ -46,7 +46,12 @@ from dd_contact.solvers.engine import BlockEliminationSolver
 from dd_contact.solvers.linalg import release_freed_memory
 from dd_contact.solvers.mumps_schur import layout_known, mumps_version
 from dd_contact.solvers.petsc_options import OPTIONS_PREFIX, check_options_prefix, petsc_options
-from dd_contact.solvers.reduced import expansion, reduce_model, refuse_reduced
+from dd_contact.solvers.reduced_model import (
+    expansion,
+    reduce_model,
+    reduced_states,
+    refuse_reduced,
+)
 from dd_contact.solvers.residual import ResidualCheck
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
 from dd_contact.solvers.stiff_ties import AugmentedTies
@@ -188,7 +193,7 @@ class Analysis:
         self.options_prefix = check_options_prefix(options_prefix)
         condensation = available_condensation(condensation)
         valid = check_algorithm(scene, algorithm, expected)
-        refuse_reduced(scene.subdomains, algorithm, mass_coefficient)
+        refuse_reduced(scene.subdomains, algorithm)
         if mass_coefficient and massless_walls:
             _refuse_split_pairs(scene)
         self.scene, self.comm = scene, scene.comm
@@ -239,10 +244,8 @@ class Analysis:
                 held=[] if mass_coefficient else scene.bodies(),
             )
         self._closed = False
-        #: The reduced coordinates of every reduced subdomain (every rank), as published.
-        self._reduced_state: dict[Block, np.ndarray] = {
-            b: np.zeros(n) for b, n in self.model.system.sizes.items() if b in system.reduced
-        }
+        #: Every reduced subdomain's (q, q', q'') in reduced coordinates (every rank).
+        self.reduced_states = reduced_states(system)
         self._load = {sub.block: forms.SubdomainLoad(sub) for sub in self.owned}
         self._free: dict[str, np.ndarray] = {}  # model.free(block), kept
         with counted(self.traffic):
@@ -490,9 +493,9 @@ class Analysis:
             owners = {s.block: self.scene.owner(k) for k, s in enumerate(self.scene.subdomains)}
             x = {**x, **allgather_blocks(self.comm, x, owners, sizes)}
         for sub in self.scene.subdomains:
-            if sub.block in self.model.system.reduced:
-                self._reduced_state[sub.block] = x[sub.block]
-                sub.defer(expansion(self.reduced.get(sub.block), x[sub.block]))
+            if sub.block in self.reduced_states:
+                self.reduced_states[sub.block][0][:] = x[sub.block]
+                sub.defer(expansion(self.reduced.get(sub.block), x[sub.block].copy()))
             else:
                 sub.u.x.array[:] = x[sub.block]
         self.publish_surfaces(x)
@@ -531,8 +534,8 @@ class Analysis:
         """This rank's view of every block at the current time (subdomains, surfaces)."""
         sizes = self.model.system.sizes
         x: dict[str, np.ndarray] = {
-            s.block: self._reduced_state[s.block]
-            if s.block in self._reduced_state
+            s.block: self.reduced_states[s.block][0]
+            if s.block in self.reduced_states
             else s.u.x.array[: sizes[s.block]]
             for s in self.scene.subdomains
         }

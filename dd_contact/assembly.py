@@ -404,8 +404,8 @@ class Model:
         mass: M_D of every owned subdomain block.
         dirichlet: Prescribed (dofs, values) of every owned subdomain block.
         zones: The owned contact regions.
-        reduced: The owned reduced subdomains' bases (``solvers.reduced.ReducedBasis``),
-            once :func:`~dd_contact.solvers.reduced.reduce_model` replaced their pieces.
+        reduced: The owned reduced subdomains' bases once ``reduce_model`` replaced their
+            pieces; ``massless_reduced`` every reduced block's massless coordinates.
     """
 
     system: BlockSystem
@@ -413,6 +413,7 @@ class Model:
     dirichlet: dict[Block, tuple[np.ndarray, np.ndarray]]
     zones: list[ContactZone]
     reduced: dict[Block, Any] = field(default_factory=dict)
+    massless_reduced: dict[Block, np.ndarray] = field(default_factory=dict)
 
     def lifting(self, mass_coefficient: float) -> Lifting:
         """The right-hand side of prescribed values in :meth:`effective`'s system, for any g."""

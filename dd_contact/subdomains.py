@@ -25,6 +25,8 @@ from dd_contact.prescribed import Prescribed, Value
 
 __all__ = ["Material", "Reduction", "Subdomain"]
 
+_FIELDS = ("u", "velocity", "acceleration")
+
 
 @dataclass(frozen=True)
 class Material:
@@ -100,11 +102,8 @@ class Subdomain:
         self.material = material
         self.name = name
         self.V = fem.functionspace(mesh, ("Lagrange", int(degree), (3,)))
-        self._u = fem.Function(self.V, name=f"u_{name}")
-        self._deferred: Callable[[fem.Function], None] | None = None
-        #: Velocity: set it (e.g. ``interpolate``) for the initial velocity of a dynamic run.
-        self.velocity = fem.Function(self.V, name=f"velocity_{name}")
-        self.acceleration = fem.Function(self.V, name=f"acceleration_{name}")
+        self._fields = {field: fem.Function(self.V, name=f"{field}_{name}") for field in _FIELDS}
+        self._deferred: dict[str, Callable[[fem.Function], None]] = {}
         #: Time t, updated by the solvers before loads are assembled: use it in UFL loads.
         self.time = fem.Constant(mesh, 0.0)
         self.body_force: ufl.core.expr.Expr | None = None
@@ -116,20 +115,33 @@ class Subdomain:
         #: How the solvers represent it: ``None`` (whole), or a :class:`Reduction`.
         self.reduction: Reduction | None = None
 
+    def _field(self, field: str) -> fem.Function:
+        expansion = self._deferred.pop(field, None)
+        if expansion is not None:
+            expansion(self._fields[field])
+        return self._fields[field]
+
     @property
     def u(self) -> fem.Function:
         """The displacement Function (a reduced subdomain's is expanded here when read)."""
-        if self._deferred is not None:
-            expansion, self._deferred = self._deferred, None
-            expansion(self._u)
-        return self._u
+        return self._field("u")
 
-    def defer(self, expansion: Callable[[fem.Function], None] | None) -> None:
-        """Let :attr:`u` be written by ``expansion`` when it is next read (a reduced model).
+    @property
+    def velocity(self) -> fem.Function:
+        """Velocity: set it (e.g. ``interpolate``) for the initial velocity of a dynamic run."""
+        return self._field("velocity")
 
-        ``None`` drops a pending expansion (:attr:`u` holds the latest value itself).
+    @property
+    def acceleration(self) -> fem.Function:
+        """Acceleration (a reduced subdomain's is expanded here when read)."""
+        return self._field("acceleration")
+
+    def defer(self, expansion: Callable[[fem.Function], None], field: str = "u") -> None:
+        """Let ``field`` be written by ``expansion`` when it is next read (a reduced model).
+
+        ``field``: ``"u"``, ``"velocity"`` or ``"acceleration"``.
         """
-        self._deferred = expansion
+        self._deferred[field] = expansion
 
     def reduce(self, modes: int, tolerance: float = 1e-12) -> Subdomain:
         """Represent this subdomain by a reduced model (Craig-Bampton; docs/solvers.md).

@@ -20,7 +20,7 @@ is ``u_i = -A_ii^-1 A_ib u_b + G g``: one substitution, taken only when it is re
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 from mpi4py import MPI
 from petsc4py import PETSc
@@ -28,10 +28,8 @@ from petsc4py import PETSc
 import numpy as np
 import scipy.sparse as sp
 
-from dd_contact import forms
 from dd_contact.blocks import Block, BlockSystem
 from dd_contact.errors import InputError, SingularMatrixError
-from dd_contact.parallel import allgathered
 from dd_contact.solvers.linalg import (
     DenseCholesky,
     PatternedMatrix,
@@ -44,19 +42,7 @@ from dd_contact.solvers.schedule import condensation_chunks
 from dd_contact.solvers.subdomains import coupling_layout
 from dd_contact.solvers.worklog import WorkLog
 
-__all__ = [
-    "REDUCED_ORDERS",
-    "DenseCondensation",
-    "ReducedBasis",
-    "expansion",
-    "fixed_interface_modes",
-    "reduce_model",
-    "reduced_subdomains",
-    "refuse_reduced",
-]
-
-#: The orders that solve reduced subdomains (a small dense block through the subdomain seam).
-REDUCED_ORDERS = ("w-u", "w-v-u")
+__all__ = ["DenseCondensation", "ReducedBasis", "fixed_interface_modes", "reduced_subdomains"]
 
 #: A load mode whose part outside the normal modes (and the earlier load modes) is below
 #: this fraction of itself adds nothing the basis does not hold: it is dropped.
@@ -213,25 +199,16 @@ class ReducedBasis:
         A_ii = sp.csr_array(A[self.i][:, self.i])
         self.factor = SparseCholesky(_petsc(A_ii), log, f"{name} (interior)")
         M_ii = None if M is None else sp.csr_array(sp.csr_array(M)[self.i][:, self.i])
-        Phi = np.zeros((self.i.size, 0))
-        self.omega2 = np.zeros(0)
-        if modes:
-            if M_ii is None:
-                raise InputError(
-                    f"subdomain {name!r}: reduce(modes={modes}) needs a mass matrix (a density "
-                    "and inertia) for its normal modes; use modes=0 for a static reduction"
-                )
-            Mp = _petsc(M_ii)
-            try:
-                self.omega2, Phi = fixed_interface_modes(self.factor, Mp, modes, tolerance, name)
-            finally:
-                Mp.destroy()
+        self.omega2, Phi = self._modes(M_ii, modes, tolerance)
         P = np.column_stack(patterns) if len(patterns) else np.zeros((n, 0))
         P[self.fixed] = 0.0
         raw = self.factor.solve_many(P[self.i], "load modes") if P.shape[1] else P[self.i]
         self.G = _orthonormal(Phi, raw, M_ii)
+        self._M_ii = M_ii
         self.size = self.b.size + self.G.shape[1]
         self.load_on_supports = np.zeros(self.fixed.size)
+        #: Its massless coordinates (contact walls; set by :func:`reduce_model`).
+        self.massless = np.zeros(0, np.int64)
         self.A_r, self.M_r = self._reduced(A, None if M is None else sp.csr_array(M), A_ii, M_ii)
         # T^T p of each pattern (p_b - A_bi A_ii^-1 p_i; G^T p_i), for loads in their span
         self._patterns: np.ndarray = P
@@ -239,6 +216,21 @@ class ReducedBasis:
         if P.shape[1]:
             self._patterns, self._R = np.linalg.qr(P)
         self._F = np.vstack([P[self.b] - self._A_ib.T @ raw, self.G.T @ P[self.i]])
+
+    def _modes(self, M_ii, modes: int, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+        """The ``modes`` lowest fixed-interface modes (none: empty)."""
+        if not modes:
+            return np.zeros(0), np.zeros((self.i.size, 0))
+        if M_ii is None:
+            raise InputError(
+                f"subdomain {self.name!r}: reduce(modes={modes}) needs a mass matrix (a "
+                "density) for its normal modes; use modes=0 for a static reduction"
+            )
+        Mp = _petsc(M_ii)
+        try:
+            return fixed_interface_modes(self.factor, Mp, modes, tolerance, self.name)
+        finally:
+            Mp.destroy()
 
     def _reduced(self, A, M, A_ii, M_ii) -> tuple[np.ndarray, np.ndarray | None]:
         """``T^T A T`` and ``T^T M T``, Psi's columns a block at a time."""
@@ -318,7 +310,7 @@ class ReducedBasis:
             u[self.i] -= self.factor.solve_array(self._A_ib @ q[:nb], what)
         return u
 
-    def coordinates(self, u: np.ndarray, M: sp.sparray | None) -> np.ndarray:
+    def coordinates(self, u: np.ndarray) -> np.ndarray:
         """The reduced coordinates of a full field: ``u_b``, and G's part of the rest.
 
         Exact for a field in the basis's span (``T q``: a rigid motion, the static response
@@ -332,11 +324,10 @@ class ReducedBasis:
         if np.any(q[:nb]):
             rest += self.factor.solve_array(self._A_ib @ q[:nb], "coordinates")
         if self.G.shape[1]:
-            if M is None:
+            if self._M_ii is None:
                 q[nb:] = np.linalg.lstsq(self.G, rest, rcond=None)[0]
             else:
-                M_ii = sp.csr_array(sp.csr_array(M)[self.i][:, self.i])
-                q[nb:] = self.G.T @ (M_ii @ rest)
+                q[nb:] = self.G.T @ (self._M_ii @ rest)
         return q
 
     def destroy(self) -> None:
@@ -360,83 +351,6 @@ class ReducedBasis:
         if self.reaction_mass is not None and acceleration is not None:
             r += self.reaction_mass @ acceleration
         return r
-
-
-# -- the model of a scene with reduced subdomains ----------------------------------------------
-def reduce_model(
-    comm: MPI.Comm, model, subdomains: Sequence, log: WorkLog
-) -> dict[Block, ReducedBasis]:
-    """Collective: each owned subdomain with a reduction replaced in ``model`` by its reduced one.
-
-    ``model`` (an :class:`~dd_contact.assembly.Model` with its mass as the scheme uses it)
-    then holds ``T^T A T`` and ``T^T M T`` for the block, its couplings on the boundary rows,
-    no prescribed dofs of its own, and the block's size is the reduced one on every rank.
-    Returns the bases of this rank's reduced subdomains.
-    """
-    system = model.system
-    bases: dict[Block, ReducedBasis] = {}
-    for sub in subdomains:
-        if sub.reduction is None:
-            continue
-        block = sub.block
-        dofs, values = model.dirichlet[block]
-        if np.any(values):
-            raise NotImplementedError(
-                f"subdomain {sub.name!r}: a reduced subdomain with non-zero prescribed "
-                "displacement is not built yet; prescribe zero there, or do not reduce it"
-            )
-        if any(t.u == block for t in system.stiff_ties):
-            raise NotImplementedError(
-                f"subdomain {sub.name!r}: a reduced subdomain's ties must be below KAPPA_SPLIT "
-                "(stiffer ties are carried by an iteration on the whole field; not built yet)"
-            )
-        _, C = coupling_layout(block, system)
-        boundary = np.unique(sp.csr_array(C).tocoo().row)
-        if np.intersect1d(boundary, dofs).size:
-            raise NotImplementedError(
-                f"subdomain {sub.name!r}: a reduced subdomain's tied dofs must be free (some "
-                "are prescribed); do not reduce it"
-            )
-        A = system.block(block, block)
-        basis = ReducedBasis(
-            A,
-            model.mass.get(block),
-            boundary,
-            dofs,
-            forms.SubdomainLoad(sub).patterns(),
-            sub.reduction.modes,
-            log,
-            sub.name,
-            sub.reduction.tolerance,
-        )
-        _replace(model, block, basis)
-        bases[block] = model.reduced[block] = basis
-    for part in allgathered(comm, {b: basis.size for b, basis in bases.items()}):
-        for block, size in part.items():
-            system.sizes[block] = size
-            system.reduced.add(block)
-    return bases
-
-
-def _replace(model, block: Block, basis: ReducedBasis) -> None:
-    """The block's pieces of ``model`` in reduced coordinates (``T^T A T``, ``T^T A_us``)."""
-    system, extra = model.system, basis.size - basis.b.size
-    for (row, col), A in list(system.matrices.items()):
-        if row == block and col == block:
-            system.matrices[(row, col)] = sp.csr_array(basis.A_r)
-        elif row == block:
-            rows = sp.csr_array(A)[basis.b]
-            system.matrices[(row, col)] = sp.csr_array(
-                sp.vstack([rows, sp.csr_array((extra, A.shape[1]))])
-            )
-        elif col == block:
-            columns = sp.csc_array(A)[:, basis.b]
-            system.matrices[(row, col)] = sp.csr_array(
-                sp.hstack([columns, sp.csr_array((A.shape[0], extra))])
-            )
-    if basis.M_r is not None:
-        model.mass[block] = sp.csr_array(basis.M_r)
-    model.dirichlet[block] = (np.zeros(0, dtype=np.int32), np.zeros(0))
 
 
 class DenseCondensation:
@@ -519,34 +433,3 @@ def reduced_subdomains(
         for block in sorted(system.reduced)
         if system.owners[block] == comm.rank
     }
-
-
-def refuse_reduced(subdomains: Sequence, algorithm: str, mass_coefficient: float) -> None:
-    """Reduced subdomains are solved by w-u and w-v-u, in statics and quasi-statics so far."""
-    reduced = [s.name for s in subdomains if s.reduction is not None]
-    if not reduced:
-        return
-    if algorithm not in REDUCED_ORDERS:
-        raise NotImplementedError(
-            f"subdomain(s) {reduced} are reduced (Subdomain.reduce): algorithm {algorithm!r} "
-            f"does not solve reduced subdomains yet; use {' or '.join(REDUCED_ORDERS)}"
-        )
-    if mass_coefficient:
-        raise NotImplementedError(
-            f"subdomain(s) {reduced} are reduced (Subdomain.reduce): time stepping with "
-            "inertia in reduced coordinates is not built yet; use inertia=False (quasi-static "
-            "steps) or a StaticProblem, or do not reduce them"
-        )
-
-
-def expansion(basis: ReducedBasis | None, q: np.ndarray) -> Callable:
-    """What writes a reduced subdomain's full u from its coordinates q, when u is read.
-
-    ``basis`` ``None``: another rank's subdomain, whose owner expands it (nothing here).
-    """
-
-    def expand(u) -> None:
-        if basis is not None:
-            u.x.array[: basis.n] = basis.expand(q)
-
-    return expand
