@@ -46,6 +46,12 @@ from dd_contact.solvers.engine import BlockEliminationSolver
 from dd_contact.solvers.linalg import release_freed_memory
 from dd_contact.solvers.mumps_schur import layout_known, mumps_version
 from dd_contact.solvers.petsc_options import OPTIONS_PREFIX, check_options_prefix, petsc_options
+from dd_contact.solvers.reduced_model import (
+    expansion,
+    reduce_model,
+    reduced_states,
+    refuse_reduced,
+)
 from dd_contact.solvers.residual import ResidualCheck
 from dd_contact.solvers.schedule import ALGORITHMS, fitting_algorithms
 from dd_contact.solvers.stiff_ties import AugmentedTies
@@ -187,6 +193,7 @@ class Analysis:
         self.options_prefix = check_options_prefix(options_prefix)
         condensation = available_condensation(condensation)
         valid = check_algorithm(scene, algorithm, expected)
+        refuse_reduced(scene.subdomains, algorithm)
         if mass_coefficient and massless_walls:
             _refuse_split_pairs(scene)
         self.scene, self.comm = scene, scene.comm
@@ -204,6 +211,8 @@ class Analysis:
                 z.check_resolution = not mass_coefficient
             if mass_coefficient:
                 _with_mass(self.model, scene, mass_kind, massless_walls)
+            #: This rank's reduced subdomains' bases (``Subdomain.reduce``).
+            self.reduced = reduce_model(self.comm, self.model, self.owned, self.work)
             system = self.model.effective(mass_coefficient)
             system.rhs = {}  # built at every solve: loads and prescribed values at its time
             self._lifting = self.model.lifting(mass_coefficient)
@@ -235,6 +244,8 @@ class Analysis:
                 held=[] if mass_coefficient else scene.bodies(),
             )
         self._closed = False
+        #: Every reduced subdomain's (q, q', q'') in reduced coordinates (every rank).
+        self.reduced_states = reduced_states(system)
         self._load = {sub.block: forms.SubdomainLoad(sub) for sub in self.owned}
         self._free: dict[str, np.ndarray] = {}  # model.free(block), kept
         with counted(self.traffic):
@@ -384,6 +395,8 @@ class Analysis:
         for sub in self.owned:
             sub.set_time(t)
             vector = loads[sub.block] = self._load[sub.block]()
+            if sub.block in self.reduced:  # in reduced coordinates: T^T r
+                loads[sub.block] = self.reduced[sub.block].project_load(vector)
             if not np.all(np.isfinite(vector)):
                 raise InputError(
                     f"subdomain {sub.name!r}: the load at t = {t} contains NaN or inf; check "
@@ -397,6 +410,8 @@ class Analysis:
         A contact boundary on prescribed dofs gets their new values too.
         """
         values = {sub.block: sub.prescribed.values(t) for sub in self.owned}
+        for block, basis in self.reduced.items():  # its prescribed dofs were removed
+            values[block] = basis.prescribed(values[block], t)
         if self._lifted is not None and all(
             np.array_equal(v, values[block]) for block, v in self._lifted[0].items()
         ):
@@ -478,7 +493,11 @@ class Analysis:
             owners = {s.block: self.scene.owner(k) for k, s in enumerate(self.scene.subdomains)}
             x = {**x, **allgather_blocks(self.comm, x, owners, sizes)}
         for sub in self.scene.subdomains:
-            sub.u.x.array[:] = x[sub.block]
+            if sub.block in self.reduced_states:
+                self.reduced_states[sub.block][0][:] = x[sub.block]
+                sub.defer(expansion(self.reduced.get(sub.block), x[sub.block].copy()))
+            else:
+                sub.u.x.array[:] = x[sub.block]
         self.publish_surfaces(x)
         for z in self.zones:
             z.publish(x)
@@ -515,7 +534,10 @@ class Analysis:
         """This rank's view of every block at the current time (subdomains, surfaces)."""
         sizes = self.model.system.sizes
         x: dict[str, np.ndarray] = {
-            s.block: s.u.x.array[: sizes[s.block]] for s in self.scene.subdomains
+            s.block: self.reduced_states[s.block][0]
+            if s.block in self.reduced_states
+            else s.u.x.array[: sizes[s.block]]
+            for s in self.scene.subdomains
         }
         if self.scene.interface is not None:
             x[self.scene.interface.block] = self.scene.interface.v.x.array
@@ -573,4 +595,6 @@ class Analysis:
             return
         self._closed = True
         self.solver.destroy()
+        for basis in self.reduced.values():
+            basis.destroy()
         logger.debug("analysis (%s): freed the solver", self.algorithm)

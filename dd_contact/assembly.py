@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
 from mpi4py import MPI
 
@@ -403,12 +404,16 @@ class Model:
         mass: M_D of every owned subdomain block.
         dirichlet: Prescribed (dofs, values) of every owned subdomain block.
         zones: The owned contact regions.
+        reduced: The owned reduced subdomains' bases once ``reduce_model`` replaced their
+            pieces; ``massless_reduced`` every reduced block's massless coordinates.
     """
 
     system: BlockSystem
     mass: dict[Block, sp.csr_array]
     dirichlet: dict[Block, tuple[np.ndarray, np.ndarray]]
     zones: list[ContactZone]
+    reduced: dict[Block, Any] = field(default_factory=dict)
+    massless_reduced: dict[Block, np.ndarray] = field(default_factory=dict)
 
     def lifting(self, mass_coefficient: float) -> Lifting:
         """The right-hand side of prescribed values in :meth:`effective`'s system, for any g."""

@@ -223,6 +223,8 @@ class BlockSystem:
             assembled.
         stiff_ties: The ties of this rank stiffer than KAPPA_SPLIT: their matrices hold
             kappa = KAPPA_ASSEMBLED, the remainder is here.
+        reduced: The subdomain blocks held as reduced models (small dense matrices over
+            reduced coordinates; :mod:`dd_contact.solvers.reduced`).
     """
 
     sizes: dict[Block, int]
@@ -232,6 +234,7 @@ class BlockSystem:
     penalties: dict[tuple[str, str], float] = field(default_factory=dict)
     kappas: dict[tuple[str, str], float] = field(default_factory=dict)
     stiff_ties: list[StiffTie] = field(default_factory=list)
+    reduced: set[Block] = field(default_factory=set)
 
     def copy(self) -> BlockSystem:
         """A copy whose matrices and vectors can be changed independently."""
@@ -243,6 +246,7 @@ class BlockSystem:
             dict(self.penalties),
             dict(self.kappas),
             list(self.stiff_ties),
+            set(self.reduced),
         )
 
     def add(self, row: Block, col: Block, matrix: sp.sparray) -> None:

@@ -228,6 +228,23 @@ class SubdomainLoad:
         self.assemblies += 1
         return fem.assemble_vector(form).array[: self.num_dofs].copy()
 
+    def patterns(self) -> list[np.ndarray]:
+        """The load's spatial patterns: every load it gives is a combination of these.
+
+        The fixed part, and each scaled term's assembled load per component; a general
+        term (assembled at every call) contributes its load now (a reduced subdomain is then
+        exact for that load only).
+        """
+        out = [self._fixed] if np.any(self._fixed) else []
+        for _, _, packed, _ in self._scaled:
+            for index, values in packed:
+                vector = values.copy() if index is None else np.zeros(self.num_dofs)
+                if index is not None:
+                    vector[index] = values
+                out.append(vector)
+        out += [self._assemble(form) for form in self._general]
+        return out
+
     def _sum_fixed(self) -> np.ndarray:
         return sum((self._assemble(f) for f, _ in self._fixed_terms), np.zeros(self.num_dofs))
 

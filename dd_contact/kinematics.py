@@ -31,8 +31,6 @@ from dd_contact.timestepping import GeneralizedAlpha, Newmark
 
 __all__ = ["Kinematics"]
 
-_FIELDS = ("u", "velocity", "acceleration")
-
 
 class Kinematics:
     """Velocity and acceleration of every subdomain of a scene, on every rank.
@@ -44,6 +42,11 @@ class Kinematics:
         mass: The owned subdomains' mass matrices as the scheme uses them (none: no
             inertia, nothing is massless).
         scheme: The time scheme.
+        reduced: The reduced subdomains' ``(q, q', q'')`` (reduced coordinates), by block:
+            their rates are stepped there (Newmark's on every coordinate: each carries the
+            mass of its mode).
+        walls: The reduced subdomains' massless coordinates (walls), by block: their
+            reported rates are the step's mean, kept apart in :attr:`walls`.
     """
 
     def __init__(
@@ -53,8 +56,16 @@ class Kinematics:
         owners: Mapping[Block, int],
         mass: Mapping[Block, sp.sparray],
         scheme: Newmark | GeneralizedAlpha,
+        reduced: Mapping[Block, tuple[np.ndarray, np.ndarray, np.ndarray]] | None = None,
+        walls: Mapping[Block, np.ndarray] | None = None,
     ):
         self.comm, self.scheme, self.owners = comm, scheme, dict(owners)
+        self.reduced = dict(reduced or {})
+        #: Block -> (massless coordinates, (their velocity, acceleration)) of a reduced one.
+        self.walls = {
+            b: (at, (self.reduced[b][1][at].copy(), np.zeros(len(at))))
+            for b, at in (walls or {}).items()
+        }
         self.owned = [s for s in subdomains if self.owners[s.block] == comm.rank]
         #: The subdomains other ranks own, updated here from their published displacement.
         self.others = [s for s in subdomains if self.owners[s.block] != comm.rank]
@@ -63,16 +74,20 @@ class Kinematics:
             s.block: (
                 np.asarray(mass[s.block].diagonal() == 0)
                 if s.block in mass
-                else np.zeros(s.num_dofs, bool)
+                else np.zeros(len(self.now(s)[0]), bool)
             )
             for s in self.owned
         }
         self._u_before: dict[Block, np.ndarray] = {}
         self._masks_shared = False
 
-    @staticmethod
-    def now(sub) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The owned displacement, velocity and acceleration of a subdomain (views)."""
+    def now(self, sub) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The owned displacement, velocity and acceleration of a subdomain (views).
+
+        A reduced subdomain's are its reduced coordinates (no full field is read).
+        """
+        if sub.block in self.reduced:
+            return self.reduced[sub.block]
         n = sub.num_dofs
         return sub.u.x.array[:n], sub.velocity.x.array[:n], sub.acceleration.x.array[:n]
 
@@ -86,6 +101,17 @@ class Kinematics:
             a[massless] = (v[massless] - velocity[massless]) / dt
         velocity[:] = v
         acceleration[:] = a
+        if sub.block in self.walls:
+            at, (wv, wa) = self.walls[sub.block]
+            mean = (u_new[at] - u[at]) / self.scheme.dt
+            wa[:] = (mean - wv) / self.scheme.dt
+            wv[:] = mean
+
+    def start_walls(self) -> None:
+        """The reduced subdomains' walls start at their coordinates' velocity, at rest."""
+        for block, (at, (wv, wa)) in self.walls.items():
+            wv[:] = self.reduced[block][1][at]
+            wa[:] = 0.0
 
     def step(self, x: Mapping[Block, np.ndarray]) -> None:
         """The owned subdomains' rates at the end of a step whose solution is ``x``.
@@ -95,7 +121,7 @@ class Kinematics:
         """
         for sub in self.owned:
             self._update(sub, x[sub.block], self.now(sub)[0])
-        self._u_before = {s.block: s.u.x.array[: s.num_dofs].copy() for s in self.others}
+        self._u_before = {s.block: self.now(s)[0].copy() for s in self.others}
 
     def follow(self) -> None:
         """The other ranks' subdomains' rates, from the displacement just published."""
@@ -110,7 +136,7 @@ class Kinematics:
         """
         if self.comm.size == 1:
             return
-        sizes = {s.block: s.num_dofs for s in self.owned + self.others}
+        sizes = {s.block: len(self.now(s)[0]) for s in self.owned + self.others}
         if not self._masks_shared:  # every rank takes part, owner of all or of none
             self._masks_shared = True
             shared = allgather_blocks(
@@ -121,8 +147,8 @@ class Kinematics:
             )
             for sub in self.others:
                 self.massless[sub.block] = shared[sub.block] != 0
-        for name in _FIELDS if with_displacement else _FIELDS[1:]:
-            local = {s.block: getattr(s, name).x.array[: s.num_dofs] for s in self.owned}
+        for k in (0, 1, 2) if with_displacement else (1, 2):
+            local = {s.block: self.now(s)[k] for s in self.owned}
             shared = allgather_blocks(self.comm, local, self.owners, sizes)
             for sub in self.others:
-                getattr(sub, name).x.array[: sub.num_dofs] = shared[sub.block]
+                self.now(sub)[k][:] = shared[sub.block]

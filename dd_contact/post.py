@@ -220,7 +220,12 @@ class Reactions:
             accelerations: Acceleration of each owned block (empty for statics).
         """
         out: dict[Block, np.ndarray] = {}
+        for block, basis in self.model.reduced.items():  # in reduced coordinates
+            r = basis.reaction(x[block], accelerations.get(block))
+            out[block] = np.bincount(basis.fixed % 3, weights=r, minlength=3)
         for block, rows in self.rows.items():
+            if block in self.model.reduced:
+                continue
             dofs = self.model.dirichlet[block][0]
             r = -loads[block][dofs] if block in loads else np.zeros(len(dofs))
             for column, A in rows:

@@ -23,7 +23,9 @@ from dd_contact.blocks import Block
 from dd_contact.errors import InputError
 from dd_contact.prescribed import Prescribed, Value
 
-__all__ = ["Material", "Subdomain"]
+__all__ = ["Material", "Reduction", "Subdomain"]
+
+_FIELDS = ("u", "velocity", "acceleration")
 
 
 @dataclass(frozen=True)
@@ -61,6 +63,19 @@ class Material:
         return self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
 
 
+@dataclass(frozen=True)
+class Reduction:
+    """How a subdomain is reduced (:meth:`Subdomain.reduce`; docs/solvers.md).
+
+    Attributes:
+        modes: Fixed-interface normal modes kept (the lowest).
+        tolerance: SLEPc's relative tolerance on those modes.
+    """
+
+    modes: int
+    tolerance: float = 1e-12
+
+
 class Subdomain:
     """An independently meshed part of the body, Omega^(k).
 
@@ -87,10 +102,8 @@ class Subdomain:
         self.material = material
         self.name = name
         self.V = fem.functionspace(mesh, ("Lagrange", int(degree), (3,)))
-        self.u = fem.Function(self.V, name=f"u_{name}")
-        #: Velocity: set it (e.g. ``interpolate``) for the initial velocity of a dynamic run.
-        self.velocity = fem.Function(self.V, name=f"velocity_{name}")
-        self.acceleration = fem.Function(self.V, name=f"acceleration_{name}")
+        self._fields = {field: fem.Function(self.V, name=f"{field}_{name}") for field in _FIELDS}
+        self._deferred: dict[str, Callable[[fem.Function], None]] = {}
         #: Time t, updated by the solvers before loads are assembled: use it in UFL loads.
         self.time = fem.Constant(mesh, 0.0)
         self.body_force: ufl.core.expr.Expr | None = None
@@ -99,6 +112,65 @@ class Subdomain:
         self._amplitudes: list[tuple[fem.Constant, Callable[[float], float], str]] = []
         #: The Dirichlet conditions (:meth:`fix`): dofs, and values at any time.
         self.prescribed = Prescribed(self.V, f"subdomain {name!r}")
+        #: How the solvers represent it: ``None`` (whole), or a :class:`Reduction`.
+        self.reduction: Reduction | None = None
+
+    def _field(self, field: str) -> fem.Function:
+        expansion = self._deferred.pop(field, None)
+        if expansion is not None:
+            expansion(self._fields[field])
+        return self._fields[field]
+
+    @property
+    def u(self) -> fem.Function:
+        """The displacement Function (a reduced subdomain's is expanded here when read)."""
+        return self._field("u")
+
+    @property
+    def velocity(self) -> fem.Function:
+        """Velocity: set it (e.g. ``interpolate``) for the initial velocity of a dynamic run."""
+        return self._field("velocity")
+
+    @property
+    def acceleration(self) -> fem.Function:
+        """Acceleration (a reduced subdomain's is expanded here when read)."""
+        return self._field("acceleration")
+
+    def defer(self, expansion: Callable[[fem.Function], None], field: str = "u") -> None:
+        """Let ``field`` be written by ``expansion`` when it is next read (a reduced model).
+
+        ``field``: ``"u"``, ``"velocity"`` or ``"acceleration"``.
+        """
+        self._deferred[field] = expansion
+
+    def reduce(self, modes: int, tolerance: float = 1e-12) -> Subdomain:
+        """Represent this subdomain by a reduced model (Craig-Bampton; docs/solvers.md).
+
+        The solvers then hold it as a small dense matrix over its boundary dofs (those of
+        its ties and contact interfaces, kept physical), ``modes`` fixed-interface normal
+        modes (the lowest, by SLEPc) and one load mode per load pattern (so that a
+        quasi-static response is exact). Waves above the last mode kept are not carried.
+
+        Args:
+            modes: Number of fixed-interface modes (>= 0; 0: a static reduction).
+            tolerance: SLEPc's relative tolerance on the modes.
+
+        Returns:
+            The subdomain, so calls can be chained.
+        """
+        if isinstance(modes, bool) or not isinstance(modes, int | np.integer) or modes < 0:
+            raise InputError(
+                f"subdomain {self.name!r}: reduce(modes=...) takes a number of modes >= 0, "
+                f"got {modes!r}; e.g. reduce(modes=20)"
+            )
+        tolerance = arguments.real(tolerance, f"subdomain {self.name!r} reduce(tolerance)")
+        if not 0 < tolerance < 1:
+            raise InputError(
+                f"subdomain {self.name!r}: reduce(tolerance=...) must lie in (0, 1), got "
+                f"{tolerance}; e.g. 1e-12"
+            )
+        self.reduction = Reduction(int(modes), tolerance)
+        return self
 
     # -- boundary conditions -------------------------------------------------------------
     def locate_facets(self, where: Region, argument: str = "where") -> np.ndarray:

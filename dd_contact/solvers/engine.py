@@ -38,6 +38,7 @@ import scipy.sparse as sp
 from dd_contact.blocks import Block, BlockSystem, ContactRegion, refuse_unsolvable
 from dd_contact.parallel import ROOT, allgathered, any_rank, bcast_array, gather_to_root, gathered
 from dd_contact.solvers.linalg import dense_threads
+from dd_contact.solvers.reduced import reduced_subdomains
 from dd_contact.solvers.schedule import (
     Schedule,
 )
@@ -130,6 +131,7 @@ class BlockEliminationSolver:
         self._regions = {region.name: region for region in contacts}
         if subdomains is None:
             subdomains = owned_subdomains(comm, system, contacts, log, condensation)
+            subdomains.update(reduced_subdomains(comm, system, log))  # type: ignore[arg-type]
         self.subdomains: Mapping[Block, SubdomainSolver] = subdomains
         layouts = {b: sub.layout for b, sub in self.subdomains.items()}
         self.schedule = order_schedule(comm, system, contacts, order, condensation, layouts)

@@ -260,7 +260,11 @@ def owned_subdomains(
     does a re-factorisation: their copy would set the peak (the peaks with and without this
     rule: docs/benchmarks.md, "Which factorisations compact").
     """
-    owned = [b for b, owner in system.owners.items() if b.kind == "u" and owner == comm.rank]
+    owned = [
+        b
+        for b, owner in system.owners.items()
+        if b.kind == "u" and owner == comm.rank and b not in system.reduced
+    ]
     own_contacts = {b: [r for r in contacts if r.block == b] for b in owned}
     owned.sort(key=lambda b: bool(own_contacts[b]))  # stable: the owners' order otherwise
     return {

@@ -1,0 +1,435 @@
+"""Reduced subdomains: Craig-Bampton with penalty ties (docs/solvers.md, "Reduced subdomains").
+
+A subdomain talks to the rest of the model only through the dofs its tie and contact terms
+act on (the boundary dofs b); call the other free dofs i. With A its stiffness (ties
+included: they act on b only) and M its mass, the subdomain is represented by
+
+* constraint modes ``Psi = [I; -A_ii^-1 A_ib]``, the static response to each boundary dof;
+* m fixed-interface modes ``A_ii phi = omega^2 M_ii phi``, the lowest (SLEPc, shift-invert
+  with the subdomain's own MUMPS factor of ``A_ii``);
+* a load mode ``A_ii^-1 p_i`` per load pattern p (so that quasi-static response is exact),
+
+``T = [Psi, [0; G]]`` with G the modes and load modes M-orthonormalised, and becomes
+``A_r = T^T A T``, ``M_r = T^T M T``: small and dense. ``Psi`` is never formed whole: its
+columns are taken a block at a time (``A_r``'s boundary block is the Schur complement;
+``M_r``'s is ``Y_b - A_bi A_ii^-1 Y_i`` with ``Y = M Psi``, two solves per block). The
+reduced coordinates are ``q = [u_b, g]``: the boundary dofs stay physical. The full field
+is ``u_i = -A_ii^-1 A_ib u_b + G g``: one substitution, taken only when it is read.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+import scipy.sparse as sp
+
+from dd_contact.blocks import Block, BlockSystem
+from dd_contact.errors import InputError, SingularMatrixError
+from dd_contact.solvers.linalg import (
+    DenseCholesky,
+    PatternedMatrix,
+    SparseCholesky,
+    SparseStatistics,
+    coo_of,
+    petsc_matrix,
+)
+from dd_contact.solvers.schedule import condensation_chunks
+from dd_contact.solvers.subdomains import coupling_layout
+from dd_contact.solvers.worklog import WorkLog
+
+__all__ = ["DenseCondensation", "ReducedBasis", "fixed_interface_modes", "reduced_subdomains"]
+
+#: A load mode whose part outside the normal modes (and the earlier load modes) is below
+#: this fraction of itself adds nothing the basis does not hold: it is dropped.
+LOAD_MODE_FLOOR = 1e-10
+
+
+def _petsc(A: sp.sparray) -> PETSc.Mat:
+    rows, cols, values = coo_of(sp.csr_array(A))
+    n = A.shape[0]
+    return petsc_matrix(MPI.COMM_SELF, n, n, rows, cols, values)
+
+
+class _FactorSolve:
+    """A shell preconditioner applying a sparse factor's solve (SLEPc's shift-invert)."""
+
+    def __init__(self, factor: SparseCholesky):
+        self.factor, self.solves = factor, 0
+
+    def apply(self, pc, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        """Y = A^-1 x."""
+        self.factor.ksp.solve(x, y)
+        self.solves += 1
+
+
+def fixed_interface_modes(
+    factor: SparseCholesky, M: PETSc.Mat, count: int, tolerance: float, name: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ``count`` lowest eigenpairs of ``A phi = omega^2 M phi`` (SLEPc, shift-invert at 0).
+
+    The spectral transform's solves are ``factor``'s: SLEPc's operator at shift 0 is A
+    itself, and its KSP applies the factor through a shell preconditioner (SLEPc resets a
+    KSP it is given; this one keeps ``factor`` whole), so nothing is factorised again.
+    Returns ``omega^2`` ascending and the modes, M-orthonormal, as columns.
+    """
+    from slepc4py import SLEPc  # the reduction's only user of SLEPc
+
+    eps = SLEPc.EPS().create(MPI.COMM_SELF)
+    try:
+        eps.setOperators(factor.A, M)
+        eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
+        eps.setDimensions(count)
+        eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
+        eps.setTarget(0.0)
+        st = eps.getST()
+        st.setType(SLEPc.ST.Type.SINVERT)
+        st.setShift(0.0)
+        ksp = st.getKSP()
+        ksp.setType(PETSc.KSP.Type.PREONLY)
+        pc = ksp.getPC()
+        pc.setType(PETSc.PC.Type.PYTHON)
+        shell = _FactorSolve(factor)
+        pc.setPythonContext(shell)
+        eps.setTolerances(tolerance, 1000)
+        start = time.perf_counter()
+        eps.solve()
+        seconds = time.perf_counter() - start
+        n = factor.A.getSize()[0]
+        flops = 4.0 * factor.entries * shell.solves
+        factor.log.add(
+            factor.block, "sparse_solve", n, shell.solves, seconds, flops, "modes", factor.entries
+        )
+        found = eps.getConverged()
+        if found < count:
+            raise SingularMatrixError(
+                f"subdomain {name!r}: SLEPc found {found} of the {count} fixed-interface modes "
+                "asked for; ask for fewer modes (Subdomain.reduce(modes=...)) or a looser "
+                "tolerance"
+            )
+        values = np.empty(found)
+        vectors = np.empty((n, found))
+        x = factor.A.createVecRight()
+        for k in range(found):
+            values[k] = eps.getEigenpair(k, x).real
+            vectors[:, k] = x.getArray()
+        x.destroy()
+    finally:
+        eps.destroy()
+    order = np.argsort(values)[:count]
+    return values[order], vectors[:, order]
+
+
+def _orthonormal(Phi: np.ndarray, L: np.ndarray, M: sp.sparray | None) -> np.ndarray:
+    """``[Phi, L']``: the load modes L made M-orthonormal to Phi and each other.
+
+    Phi is M-orthonormal already; a load mode whose remainder is below LOAD_MODE_FLOOR of
+    itself is dropped. Without a mass matrix the identity is the inner product.
+    """
+
+    def inner(X, y):
+        return X.T @ (y if M is None else M @ y)
+
+    columns = [Phi[:, k] for k in range(Phi.shape[1])]
+    for k in range(L.shape[1]):
+        y = L[:, k].copy()
+        size = np.sqrt(inner(y[:, None], y)[0])
+        for _ in range(2):  # twice is enough (Kahan)
+            if columns:
+                B = np.column_stack(columns)
+                y -= B @ inner(B, y)
+        rest = np.sqrt(max(inner(y[:, None], y)[0], 0.0))
+        if size > 0 and rest > LOAD_MODE_FLOOR * size:
+            columns.append(y / rest)
+    return np.column_stack(columns) if columns else np.zeros((Phi.shape[0], 0))
+
+
+class ReducedBasis:
+    """The Craig-Bampton basis of one subdomain and its reduced matrices.
+
+    Args:
+        A: The subdomain's stiffness with its tie terms (unconstrained, n x n).
+        M: Its mass matrix as the time scheme uses it (``None``: no inertia).
+        boundary: The dofs the tie and contact terms act on (b).
+        fixed: The prescribed dofs (removed).
+        patterns: Load patterns (full vectors): one load mode each.
+        modes: Number of fixed-interface modes m.
+        log: Where the factorisation and solves are recorded.
+        name: The subdomain's name, for the log and messages.
+        tolerance: SLEPc's relative tolerance on the modes.
+
+    Attributes:
+        b, i: The boundary and interior dofs (sorted; the prescribed ones in neither).
+        G: The normal and load modes on the interior, M-orthonormal (n_i x (m + loads)).
+        omega2: The fixed-interface eigenvalues omega^2 found.
+        A_r, M_r: ``T^T A T`` and ``T^T M T`` (dense; ``M_r`` is ``None`` without mass).
+        size: ``n_b + G``'s columns: the reduced coordinates.
+    """
+
+    def __init__(
+        self,
+        A: sp.sparray,
+        M: sp.sparray | None,
+        boundary: np.ndarray,
+        fixed: np.ndarray,
+        patterns: Sequence[np.ndarray],
+        modes: int,
+        log: WorkLog,
+        name: str,
+        tolerance: float = 1e-12,
+    ):
+        n = A.shape[0]
+        self.n, self.name, self.log = n, name, log
+        self.fixed = np.asarray(fixed, dtype=np.int64)
+        free = np.setdiff1d(np.arange(n), self.fixed)
+        self.b = np.intersect1d(np.asarray(boundary, dtype=np.int64), free)
+        self.i = np.setdiff1d(free, self.b)
+        if modes < 0 or modes > self.i.size - 1:
+            raise InputError(
+                f"subdomain {name!r}: reduce(modes={modes}) asks for more fixed-interface modes "
+                f"than its {self.i.size} interior dofs allow; ask for fewer (0 to "
+                f"{max(self.i.size - 1, 0)})"
+            )
+        A = sp.csr_array(A)
+        self._A_ib = sp.csr_array(A[self.i][:, self.b])
+        A_ii = sp.csr_array(A[self.i][:, self.i])
+        self.factor = SparseCholesky(_petsc(A_ii), log, f"{name} (interior)")
+        M_ii = None if M is None else sp.csr_array(sp.csr_array(M)[self.i][:, self.i])
+        self.omega2, Phi = self._modes(M_ii, modes, tolerance)
+        P = np.column_stack(patterns) if len(patterns) else np.zeros((n, 0))
+        P[self.fixed] = 0.0
+        raw = self.factor.solve_many(P[self.i], "load modes") if P.shape[1] else P[self.i]
+        self.G = _orthonormal(Phi, raw, M_ii)
+        self._M_ii = M_ii
+        self.size = self.b.size + self.G.shape[1]
+        self.load_on_supports = np.zeros(self.fixed.size)
+        #: Its massless coordinates (contact walls; set by :func:`reduce_model`).
+        self.massless = np.zeros(0, np.int64)
+        self.A_r, self.M_r = self._reduced(A, None if M is None else sp.csr_array(M), A_ii, M_ii)
+        # T^T p of each pattern (p_b - A_bi A_ii^-1 p_i; G^T p_i), for loads in their span
+        self._patterns: np.ndarray = P
+        self._R: np.ndarray = np.zeros((0, 0))
+        if P.shape[1]:
+            self._patterns, self._R = np.linalg.qr(P)
+        self._F = np.vstack([P[self.b] - self._A_ib.T @ raw, self.G.T @ P[self.i]])
+
+    def _modes(self, M_ii, modes: int, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+        """The ``modes`` lowest fixed-interface modes (none: empty)."""
+        if not modes:
+            return np.zeros(0), np.zeros((self.i.size, 0))
+        if M_ii is None:
+            raise InputError(
+                f"subdomain {self.name!r}: reduce(modes={modes}) needs a mass matrix (a "
+                "density) for its normal modes; use modes=0 for a static reduction"
+            )
+        Mp = _petsc(M_ii)
+        try:
+            return fixed_interface_modes(self.factor, Mp, modes, tolerance, self.name)
+        finally:
+            Mp.destroy()
+
+    def _reduced(self, A, M, A_ii, M_ii) -> tuple[np.ndarray, np.ndarray | None]:
+        """``T^T A T`` and ``T^T M T``, Psi's columns a block at a time."""
+        b, i, G = self.b, self.i, self.G
+        nb, r = b.size, self.size
+        A_r = np.zeros((r, r))
+        M_r = None if M is None else np.zeros((r, r))
+        A_bb, A_bi = A[b][:, b], A[b][:, i]
+        A_r[nb:, nb:] = G.T @ (A_ii @ G)  # (A Psi)_i = 0: no coupling to the interior modes
+        D = self.fixed
+        A_Db, A_Di = A[D][:, b], A[D][:, i]
+        #: ``A[D, :] T`` and ``M[D, :] T``: the supports' rows, for their reactions.
+        self.reaction_rows = np.zeros((D.size, r))
+        self.reaction_rows[:, nb:] = A_Di @ G
+        self.reaction_mass: np.ndarray | None = None
+        if M is not None:
+            self.reaction_mass = np.zeros((D.size, r))
+            self.reaction_mass[:, nb:] = M[D][:, i] @ G
+        if M is not None:
+            assert M_r is not None and M_ii is not None  # with M
+            M_bb, M_bi = M[b][:, b], M[b][:, i]
+            M_r[nb:, nb:] = G.T @ (M_ii @ G)
+        for j0, j1 in condensation_chunks(nb):
+            X = self.factor.solve_many(self._A_ib[:, j0:j1].toarray(), "constraint modes")
+            A_r[:nb, j0:j1] = A_bb[:, j0:j1].toarray() - A_bi @ X
+            self.reaction_rows[:, j0:j1] = A_Db[:, j0:j1].toarray() - A_Di @ X
+            if M is None:
+                continue
+            assert M_r is not None and M_ii is not None  # with M
+            Y_b = M_bb[:, j0:j1].toarray() - M_bi @ X  # Y = M Psi, this block of columns
+            Y_i = M_bi.T[:, j0:j1].toarray() - M_ii @ X
+            W = self.factor.solve_many(Y_i, "constraint modes' mass")
+            M_r[:nb, j0:j1] = Y_b - A_bi @ W
+            M_r[nb:, j0:j1] = G.T @ Y_i
+            M_r[j0:j1, nb:] = M_r[nb:, j0:j1].T
+            assert self.reaction_mass is not None  # with M
+            self.reaction_mass[:, j0:j1] = M[D][:, b][:, j0:j1].toarray() - M[D][:, i] @ X
+        A_r = 0.5 * (A_r + A_r.T)  # symmetric up to round-off; make it exact
+        if M_r is not None:
+            M_r = 0.5 * (M_r + M_r.T)
+        return A_r, M_r
+
+    # -- vectors ---------------------------------------------------------------------------
+    def project(self, v: np.ndarray) -> np.ndarray:
+        """``T^T v`` exactly: one substitution if v has interior entries, none otherwise."""
+        v_i = v[self.i]
+        out = np.empty(self.size)
+        out[: self.b.size] = v[self.b]
+        out[self.b.size :] = self.G.T @ v_i
+        if np.any(v_i):
+            out[: self.b.size] -= self._A_ib.T @ self.factor.solve_array(v_i, "projection")
+        return out
+
+    def project_load(self, v: np.ndarray) -> np.ndarray:
+        """``T^T v``, without a substitution when v is a combination of the load patterns.
+
+        Its entries on the prescribed dofs are kept for the supports' reaction
+        (:attr:`load_on_supports`).
+        """
+        self.load_on_supports = v[self.fixed].copy()
+        if self._patterns.shape[1]:
+            Q = self._patterns
+            c = Q.T @ v
+            rest = v - Q @ c
+            rest[self.fixed] = 0.0
+            if np.linalg.norm(rest) <= 1e-12 * max(np.linalg.norm(v), 1e-300):
+                return self._F @ np.linalg.solve(self._R, c)
+        return self.project(v)
+
+    def expand(self, q: np.ndarray, what: str = "expansion") -> np.ndarray:
+        """The full vector ``T q`` (zero on the prescribed dofs): one substitution."""
+        nb = self.b.size
+        u = np.zeros(self.n)
+        u[self.b] = q[:nb]
+        u[self.i] = self.G @ q[nb:]
+        if np.any(q[:nb]):
+            u[self.i] -= self.factor.solve_array(self._A_ib @ q[:nb], what)
+        return u
+
+    def coordinates(self, u: np.ndarray) -> np.ndarray:
+        """The reduced coordinates of a full field: ``u_b``, and G's part of the rest.
+
+        Exact for a field in the basis's span (``T q``: a rigid motion, the static response
+        to boundary values and the loads); otherwise its M-orthogonal projection (or, without
+        mass, the plain one).
+        """
+        nb = self.b.size
+        q = np.zeros(self.size)
+        q[:nb] = u[self.b]
+        rest = u[self.i].copy()
+        if np.any(q[:nb]):
+            rest += self.factor.solve_array(self._A_ib @ q[:nb], "coordinates")
+        if self.G.shape[1]:
+            if self._M_ii is None:
+                q[nb:] = np.linalg.lstsq(self.G, rest, rcond=None)[0]
+            else:
+                q[nb:] = self.G.T @ (self._M_ii @ rest)
+        return q
+
+    def destroy(self) -> None:
+        """Free the factorisation."""
+        self.factor.A.destroy()
+        self.factor.destroy()
+
+    def prescribed(self, values: np.ndarray, t: float) -> np.ndarray:
+        """The values of its prescribed dofs as the reduced block sees them: none (zero)."""
+        if np.any(values):
+            raise NotImplementedError(
+                f"subdomain {self.name!r}: a reduced subdomain with non-zero prescribed "
+                f"displacement (at t = {t}) is not built yet; prescribe zero there, or do not "
+                "reduce it"
+            )
+        return np.zeros(0)
+
+    def reaction(self, q: np.ndarray, acceleration: np.ndarray | None) -> np.ndarray:
+        """The supports' reaction rows ``A[D] T q + M[D] T a - f_D`` (the last load)."""
+        r = self.reaction_rows @ q - self.load_on_supports
+        if self.reaction_mass is not None and acceleration is not None:
+            r += self.reaction_mass @ acceleration
+        return r
+
+
+class DenseCondensation:
+    """A reduced subdomain in the block elimination: a small dense Cholesky factor.
+
+    The same surface-facing operations as
+    :class:`~dd_contact.solvers.subdomains.SubdomainCondensation`, on the reduced matrix
+    (``c M_r + A_r``, the couplings on its boundary rows): Z = C^T K^-1 C, the surface
+    right-hand side and the reduced coordinates q given the surface solution (eq. 17).
+
+    Args:
+        block: The subdomain's block.
+        system: The block system (this rank holds every piece of the block).
+        log: Where the work is recorded.
+    """
+
+    def __init__(self, block: Block, system: BlockSystem, log: WorkLog):
+        self.block, self.log = block, log
+        self.layout, C = coupling_layout(block, system)
+        self.C = C.toarray()
+        K = system.block(block, block)
+        assert K is not None  # a reduced block's matrix, this rank's
+        self.K = K.toarray()
+        n = self.K.shape[0]
+        empty = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0))
+        self.matrix = PatternedMatrix(MPI.COMM_SELF, n, n, empty, [], upper_coo=True)
+        self.Z: np.ndarray | None = None
+        self.factor: DenseCholesky | None = None
+        self._b: np.ndarray | None = None
+        self._g: np.ndarray | None = None
+        self._y: np.ndarray | None = None
+        self.u: np.ndarray | None = None
+
+    @property
+    def changing(self) -> bool:
+        """Whether it must be factorised before the next solve (only once: no contact here)."""
+        return self.factor is None
+
+    def analyse(self) -> SparseStatistics:
+        """What its dense factorisation costs (for the timing model)."""
+        n = self.K.shape[0]
+        return SparseStatistics(n, n * n, n**3 / 3.0, n * (n + 1) / 2.0)
+
+    def factorise(self) -> None:
+        """Factorise the reduced matrix and condense: Z = C^T K^-1 C."""
+        self.factor = DenseCholesky(self.K.copy(), self.log, self.block)
+        self.Z = self.factor.congruence(self.C, "condense")
+        self._b = None
+
+    def surface_rhs(self, b: np.ndarray) -> np.ndarray:
+        """-C^T K^-1 b, computed only when b changed."""
+        if self._b is None or not np.array_equal(b, self._b):
+            assert self.factor is not None  # factorised first
+            self._b = b.copy()
+            self._y = self.factor.solve(b, "u_hat")
+            self._g = -(self.C.T @ self._y)
+        self.u = None
+        assert self._g is not None  # computed with _b
+        return self._g
+
+    def back_substitute(self, surface: dict[str, np.ndarray]) -> np.ndarray:
+        """Q = K^-1 (b - C x_surface), once per new surface solution."""
+        if self.u is None:
+            assert self.factor is not None and self._y is not None  # surface_rhs came first
+            xs = np.concatenate([surface[s][J] for s, J in self.layout] or [np.zeros(0)])
+            self.u = self._y - self.factor.solve(self.C @ xs, "u")
+        return self.u
+
+    def destroy(self) -> None:
+        """Free the (empty) PETSc matrix."""
+        self.matrix.destroy()
+
+
+def reduced_subdomains(
+    comm: MPI.Comm, system: BlockSystem, log: WorkLog
+) -> dict[Block, DenseCondensation]:
+    """The reduced subdomains this rank owns, each ready to factorise."""
+    return {
+        block: DenseCondensation(block, system, log)
+        for block in sorted(system.reduced)
+        if system.owners[block] == comm.rank
+    }

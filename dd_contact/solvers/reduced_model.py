@@ -1,0 +1,205 @@
+"""A scene's model with reduced subdomains, and their state over a run.
+
+:func:`reduce_model` replaces each owned reduced subdomain's pieces of the assembled model
+by its reduced ones (:class:`~dd_contact.solvers.reduced.ReducedBasis`); the rest of the
+package then solves and steps the subdomain in its reduced coordinates, and its full fields
+are expanded only when read (:func:`expansion`, :func:`defer_rates`). docs/solvers.md,
+"Reduced subdomains".
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+from mpi4py import MPI
+
+import numpy as np
+import scipy.sparse as sp
+
+from dd_contact import forms
+from dd_contact.blocks import Block
+from dd_contact.parallel import allgathered
+from dd_contact.solvers.reduced import ReducedBasis
+from dd_contact.solvers.subdomains import coupling_layout
+from dd_contact.solvers.worklog import WorkLog
+
+__all__ = [
+    "REDUCED_ORDERS",
+    "defer_rates",
+    "expansion",
+    "reduce_model",
+    "reduced_states",
+    "refuse_reduced",
+    "start_states",
+]
+
+#: The orders that solve reduced subdomains (a small dense block through the subdomain seam).
+REDUCED_ORDERS = ("w-u", "w-v-u")
+
+
+def reduce_model(
+    comm: MPI.Comm, model, subdomains: Sequence, log: WorkLog
+) -> dict[Block, ReducedBasis]:
+    """Collective: each owned subdomain with a reduction replaced in ``model`` by its reduced one.
+
+    ``model`` (an :class:`~dd_contact.assembly.Model` with its mass as the scheme uses it)
+    then holds ``T^T A T`` and ``T^T M T`` for the block, its couplings on the boundary rows,
+    no prescribed dofs of its own, and the block's size is the reduced one on every rank
+    (``model.massless_reduced``: every reduced block's massless coordinates, every rank).
+    Returns the bases of this rank's reduced subdomains.
+    """
+    system = model.system
+    bases: dict[Block, ReducedBasis] = {}
+    for sub in subdomains:
+        if sub.reduction is None:
+            continue
+        block = sub.block
+        dofs, values = model.dirichlet[block]
+        if np.any(values):
+            raise NotImplementedError(
+                f"subdomain {sub.name!r}: a reduced subdomain with non-zero prescribed "
+                "displacement is not built yet; prescribe zero there, or do not reduce it"
+            )
+        if any(t.u == block for t in system.stiff_ties):
+            raise NotImplementedError(
+                f"subdomain {sub.name!r}: a reduced subdomain's ties must be below KAPPA_SPLIT "
+                "(stiffer ties are carried by an iteration on the whole field; not built yet)"
+            )
+        _, C = coupling_layout(block, system)
+        boundary = np.unique(sp.csr_array(C).tocoo().row)
+        if np.intersect1d(boundary, dofs).size:
+            raise NotImplementedError(
+                f"subdomain {sub.name!r}: a reduced subdomain's tied dofs must be free (some "
+                "are prescribed); do not reduce it"
+            )
+        A = system.block(block, block)
+        mass = model.mass.get(block)
+        basis = ReducedBasis(
+            A,
+            mass,
+            boundary,
+            dofs,
+            forms.SubdomainLoad(sub).patterns(),
+            sub.reduction.modes,
+            log,
+            sub.name,
+            sub.reduction.tolerance,
+        )
+        # the massless (wall) dofs among the boundary ones: their reported rates are the
+        # step's mean, as a whole subdomain's (dd_contact.kinematics)
+        basis.massless = (
+            np.zeros(0, np.int64)
+            if mass is None
+            else np.flatnonzero(sp.csr_array(mass).diagonal()[basis.b] == 0)
+        )
+        _replace(model, block, basis)
+        bases[block] = model.reduced[block] = basis
+    _walls_in_reduced(model.zones, bases)
+    mine = {b: (basis.size, basis.massless) for b, basis in bases.items()}
+    for part in allgathered(comm, mine):
+        for block, (size, massless) in part.items():
+            system.sizes[block] = size
+            system.reduced.add(block)
+            model.massless_reduced[block] = massless
+    return bases
+
+
+def _walls_in_reduced(zones: Sequence, bases: dict[Block, ReducedBasis]) -> None:
+    """The contact walls of reduced subdomains numbered in their reduced coordinates.
+
+    A wall is on the boundary dofs (it is tied to its contact interface), which stay
+    physical: the first ``n_b`` reduced coordinates, in b's order.
+    """
+    for z in zones:
+        if hasattr(z, "walls"):  # a pair: a wall per side
+            z.walls = [
+                np.searchsorted(bases[s.subdomain.block].b, w) if s.subdomain.block in bases else w
+                for s, w in zip(z.sides, z.walls, strict=True)
+            ]
+        elif z.contact.subdomain.block in bases:
+            z.wall = np.searchsorted(bases[z.contact.subdomain.block].b, z.wall)
+
+
+def _replace(model, block: Block, basis: ReducedBasis) -> None:
+    """The block's pieces of ``model`` in reduced coordinates (``T^T A T``, ``T^T A_us``)."""
+    system, extra = model.system, basis.size - basis.b.size
+    for (row, col), A in list(system.matrices.items()):
+        if row == block and col == block:
+            system.matrices[(row, col)] = sp.csr_array(basis.A_r)
+        elif row == block:
+            rows = sp.csr_array(A)[basis.b]
+            system.matrices[(row, col)] = sp.csr_array(
+                sp.vstack([rows, sp.csr_array((extra, A.shape[1]))])
+            )
+        elif col == block:
+            columns = sp.csc_array(A)[:, basis.b]
+            system.matrices[(row, col)] = sp.csr_array(
+                sp.hstack([columns, sp.csr_array((A.shape[0], extra))])
+            )
+    if basis.M_r is not None:
+        model.mass[block] = sp.csr_array(basis.M_r)
+    model.dirichlet[block] = (np.zeros(0, dtype=np.int32), np.zeros(0))
+
+
+def reduced_states(system) -> dict[Block, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Zero ``(q, q', q'')`` of every reduced block of ``system`` (a ``BlockSystem``)."""
+    return {
+        b: (np.zeros(n), np.zeros(n), np.zeros(n))
+        for b, n in system.sizes.items()
+        if b in system.reduced
+    }
+
+
+def refuse_reduced(subdomains: Sequence, algorithm: str) -> None:
+    """Reduced subdomains are solved by w-u and w-v-u (the others refuse them)."""
+    reduced = [s.name for s in subdomains if s.reduction is not None]
+    if not reduced:
+        return
+    if algorithm not in REDUCED_ORDERS:
+        raise NotImplementedError(
+            f"subdomain(s) {reduced} are reduced (Subdomain.reduce): algorithm {algorithm!r} "
+            f"does not solve reduced subdomains yet; use {' or '.join(REDUCED_ORDERS)}"
+        )
+
+
+def expansion(basis: ReducedBasis | None, q: np.ndarray, at=None, values=None) -> Callable:
+    """What writes a reduced subdomain's full field from its coordinates q, when it is read.
+
+    ``basis`` ``None``: another rank's subdomain, whose owner expands it (nothing here).
+    ``values`` replace the expansion at boundary coordinates ``at`` (the walls' rates).
+    """
+
+    def expand(field) -> None:
+        if basis is not None:
+            field.x.array[: basis.n] = basis.expand(q)
+            if at is not None and len(at):
+                field.x.array[basis.b[at]] = values
+
+    return expand
+
+
+def start_states(bases: dict[Block, ReducedBasis], owned: Sequence, states: dict) -> None:
+    """The owned reduced subdomains' coordinates of their initial u and velocity.
+
+    ``states``: block -> (q, q', q'') arrays, written in place.
+    """
+    for sub in owned:
+        if sub.block in bases:
+            basis, (q, v, _) = bases[sub.block], states[sub.block]
+            q[:] = basis.coordinates(sub.u.x.array)
+            v[:] = basis.coordinates(sub.velocity.x.array)
+
+
+def defer_rates(subdomains: Sequence, bases: dict[Block, ReducedBasis], kinematics) -> None:
+    """The reduced subdomains' velocity and acceleration expanded when next read.
+
+    Their massless walls report the step's mean rates, as a whole subdomain's
+    (``kinematics.walls``).
+    """
+    for sub in subdomains:
+        if sub.block in kinematics.reduced:
+            _, v, a = kinematics.reduced[sub.block]
+            basis = bases.get(sub.block)
+            at, (wv, wa) = kinematics.walls[sub.block]
+            sub.defer(expansion(basis, v.copy(), at, wv.copy()), "velocity")
+            sub.defer(expansion(basis, a.copy(), at, wa.copy()), "acceleration")
