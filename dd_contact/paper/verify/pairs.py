@@ -247,8 +247,11 @@ def two_spheres(
     ratio: float = 0.67,
     algorithm: str = "FULL",
     comm: MPI.Comm = MPI.COMM_WORLD,
+    petsc_options: dict | None = None,
 ) -> dict:
     """Hertz between two elastic spheres (:data:`PAIR_HERTZ`), at the computed force.
+
+    ``petsc_options``: for MUMPS (:class:`~dd_contact.StaticProblem`), e.g. another ordering.
 
     Returns:
         ``force`` (the whole sphere's: 4 x the quarter's), ``a`` (radius of the circle with
@@ -259,7 +262,7 @@ def two_spheres(
         ``changes``, ``iterations`` and the displacement ``fields``.
     """
     scene, pair = two_spheres_scene(h_contact, ratio, comm)
-    with StaticProblem(scene, algorithm=algorithm) as problem:
+    with StaticProblem(scene, algorithm=algorithm, petsc_options=petsc_options) as problem:
         problem.solve()
         force = 4.0 * float(problem.contact_forces()[pair.name][2])  # b pushes a up
         a_ref, p0_ref = hertz_reference(force)
@@ -305,7 +308,20 @@ def case_pair_spheres() -> list[Record]:
     order = two_spheres(algorithm="w-u")
     diff = _difference(order["fields"], r["fields"])
     out.append(record(case + " w-u", "1 + max |u - u_FULL| / |u_FULL|", 1 + diff, 1, 1e-9))
+    out.append(_yardstick(case, two_spheres(petsc_options=ROUNDOFF)["fields"], r["fields"]))
     return out
+
+
+#: MUMPS's AMD ordering: FULL solved again with it is FULL's own round-off (as
+#: :data:`dd_contact.paper.compare.ROUNDOFF_OPTIONS`).
+ROUNDOFF = {"mat_mumps_icntl_7": 0}
+
+
+def _yardstick(case: str, fields: list, full: list) -> Record:
+    """FULL with another ordering against FULL: shown beside the orders, not judged."""
+    diff = _difference(fields, full)
+    what = "1 + max |u - u_FULL| / |u_FULL| (FULL's round-off, not judged)"
+    return Record(case + " FULL, AMD ordering", what, 1 + diff, 1.0, diff, float("inf"), True)
 
 
 # -- two bars striking -----------------------------------------------------------------------
@@ -335,8 +351,12 @@ def _bar(x0: float, name: str, velocity: float) -> Subdomain:
     return bar
 
 
-def two_bars(algorithm: str = "FULL", comm: MPI.Comm = MPI.COMM_WORLD) -> dict:
+def two_bars(
+    algorithm: str = "FULL", comm: MPI.Comm = MPI.COMM_WORLD, petsc_options: dict | None = None
+) -> dict:
     """Two bars striking end to end (:data:`PAIR_BARS`), default settings.
+
+    ``petsc_options``: for MUMPS (:class:`~dd_contact.TransientProblem`).
 
     Returns:
         ``duration`` (time in contact) and ``duration_ref`` = 2 L / c, ``velocities`` (each
@@ -350,9 +370,8 @@ def two_bars(algorithm: str = "FULL", comm: MPI.Comm = MPI.COMM_WORLD) -> dict:
     b = ContactInterface.from_boundary(right, locator(0, L + gap), None, name="right_end")
     pair = ContactPair(a, b)
     dt = PAIR_BARS["cfl"] * L / PAIR_BARS["n"]
-    with TransientProblem(
-        Scene(comm, [left, right], None, [pair]), dt, algorithm=algorithm
-    ) as problem:
+    scene = Scene(comm, [left, right], None, [pair])
+    with TransientProblem(scene, dt, algorithm=algorithm, petsc_options=petsc_options) as problem:
         start = problem.energy()["total"]
         energies, touching = [], 0
         for _ in range(int((gap / (2 * v0) + 2.3 * L) / dt)):
@@ -418,4 +437,7 @@ def case_pair_bars() -> list[Record]:
         else:
             diff = _difference(r["fields"], full)
             out.append(record(case, "1 + max |u - u_FULL| / |u_FULL|", 1 + diff, 1, 1e-9))
+    assert full is not None
+    case = f"pair-bars n={PAIR_BARS['n']} cfl={PAIR_BARS['cfl']}"
+    out.append(_yardstick(case, two_bars(petsc_options=ROUNDOFF)["fields"], full))
     return out
