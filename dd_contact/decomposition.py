@@ -237,6 +237,11 @@ class DecomposedScene(Scene):
         amplitude: Callable[[float], float] | None = None,
     ) -> DecomposedScene:
         """:meth:`Subdomain.set_body_force` on every part (a 3-vector or callable)."""
+        if isinstance(force, ufl.core.expr.Expr):
+            raise InputError(
+                "DecomposedScene.set_body_force: give the force as a 3-vector or a callable "
+                "t -> 3-vector (a UFL expression belongs to one mesh)"
+            )
         for sub in self.subdomains:
             sub.set_body_force(force, amplitude)
         return self

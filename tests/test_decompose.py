@@ -246,6 +246,10 @@ def _inner(mesh):
             "a UFL expression belongs to one mesh",
         ),
         (
+            lambda m, t: dd.decompose(m, STEEL).set_body_force(ufl.as_vector([0, 0, -1])),
+            "a UFL expression belongs to one mesh",
+        ),
+        (
             lambda m, t: dd.fields_on_mesh(dd.Scene(MPI.COMM_SELF, [dd.Subdomain(m, STEEL, "a")])),
             "no one mesh",
         ),
