@@ -4,62 +4,25 @@ from __future__ import annotations
 
 import warnings
 
-from mpi4py import MPI
-
 import numpy as np
 import pytest
-import scipy.linalg as sla
 import scipy.sparse as sp
 
 import dd_contact as dd
-from dd_contact import meshes
 from dd_contact.assembly import assemble
 from dd_contact.errors import InputError
+from dd_contact.paper import verify
 from dd_contact.paper.examples import parallelepiped
-from dd_contact.solvers.linalg import SparseCholesky
-from dd_contact.solvers.reduced import ReducedBasis, _petsc, fixed_interface_modes
+from dd_contact.paper.verify.reduced import cantilever, cantilever_basis, full_frequencies_ratio
 from dd_contact.solvers.subdomains import coupling_layout
-from dd_contact.solvers.worklog import WorkLog
-
-STEEL = dd.Material(2.0e11, 0.3, 7800.0)
-L, W = 1.0, 0.1
-
-
-def _at(axis, value):
-    return lambda x: np.isclose(x[axis], value)
 
 
 def _cantilever(nx=10, parts=1):
-    """A steel beam fixed at x = 0, in ``parts`` tied pieces, its tip on a contact interface.
-
-    A shear traction on its top pushes the tip onto a plane 1 um beyond it.
-    """
-    edges = np.linspace(0.0, L, parts + 1)
-    subs = []
-    for k in range(parts):
-        mesh = meshes.box(MPI.COMM_SELF, [edges[k], 0, 0], [edges[k + 1], W, W], [nx, 2, 2])
-        subs.append(dd.Subdomain(mesh, STEEL, f"part{k}"))
-    subs[0].fix(_at(0, 0.0))
-    subs[-1].add_traction(_at(2, W), lambda t: [2.0e6 * t, 0.0, 0.0])
-    tip = meshes.surface_from_boundary(subs[-1].mesh, _at(0, L))
-    wall = dd.Plane([L + 1e-6, 0, 0], [-1.0, 0, 0])
-    contact = dd.ContactInterface(tip, subs[-1], wall, kappa=1e3, contact_kappa=1e3, name="tip")
-    interface = None
-    if parts > 1:
-        cut = meshes.surface_from_boundary(subs[0].mesh, _at(0, edges[1]))
-        interface = dd.Interface(cut, subs, kappa=1e3)
-    return dd.Scene(MPI.COMM_WORLD, subs, interface=interface, contacts=[contact])
+    return cantilever(nx, parts)
 
 
 def _basis(scene, modes, sub=0, patterns=()):
-    model = assemble(scene)
-    block = scene.subdomains[sub].block
-    A = sp.csr_array(model.system.block(block, block))
-    _, C = coupling_layout(block, model.system)
-    dofs = model.dirichlet[block][0]
-    M = model.mass[block]
-    basis = ReducedBasis(A, M, np.unique(C.tocoo().row), dofs, patterns, modes, WorkLog(), "b")
-    return basis, A, M, dofs
+    return cantilever_basis(scene, modes, sub, patterns)
 
 
 def test_static_response_is_exact_with_load_modes():
@@ -82,24 +45,16 @@ def test_static_response_is_exact_with_load_modes():
 
 
 def test_cantilever_eigenfrequencies_match_slepc_on_the_full_matrices():
-    scene = _cantilever(nx=10)
-    basis, A, M, dofs = _basis(scene, 160)
-    free = np.setdiff1d(np.arange(A.shape[0]), dofs)
-    log = WorkLog()
-    Mf = _petsc(sp.csr_array(M[free][:, free]))
-    full = SparseCholesky(_petsc(sp.csr_array(A[free][:, free])), log, "full")
-    omega2, _ = fixed_interface_modes(full, Mf, 20, 1e-13, "full")
-    # the reduced model's 20 lowest, from its inverse pencil (accurate at the low end)
-    mu = sla.eigh(basis.M_r, basis.A_r, eigvals_only=True)[::-1][:20]
-    error = np.abs(np.sqrt(omega2 * mu) - 1.0)
-    assert error.max() < 1e-6
-    # and a few modes carry the first ones only coarsely: the trade the modes buy
-    few, *_ = _basis(scene, 40)
-    mu_few = sla.eigh(few.M_r, few.A_r, eigvals_only=True)[::-1][:20]
-    assert 1e-5 < np.abs(np.sqrt(omega2 * mu_few) - 1.0).max() < 1e-2
-    for thing in (full, basis, few):
-        thing.destroy()
-    Mf.destroy()
+    # the 20 lowest of the reduced cantilever (m = 160) against SLEPc's on the full matrices
+    assert np.abs(full_frequencies_ratio(160)).max() < 1e-6
+    # few modes carry the first ones only coarsely: the trade the modes buy
+    assert 1e-5 < np.abs(full_frequencies_ratio(40)).max() < 1e-2
+
+
+def test_verify_cases_of_reduced_subdomains_pass():
+    records = verify.run_cases(["reduced-static", "reduced-modes"])
+    assert len(records) == 5
+    assert all(r["passed"] for r in records), records
 
 
 def _static(parts, algorithm, reduce):
@@ -236,3 +191,14 @@ def test_generalized_alpha_in_reduced_coordinates():
     assert np.abs(f - force).max() <= 1e-5 * np.abs(force).max()
     assert np.linalg.norm(u_r - u) <= 1e-5 * np.linalg.norm(u)
     assert np.abs(e - energy).max() <= 1e-6 * energy[0]
+
+
+@pytest.mark.mpi
+def test_reduced_subdomains_on_every_rank_count():
+    """w-v-u with both pieces reduced: each rank owns one on two ranks; same answers."""
+    du, df = verify.reduced.static_difference(2, "w-v-u", [3, 0])
+    assert du <= 1e-8 and df <= 1e-8
+    force, _, _, _ = _impact("w-v-u", None, steps=10)
+    f, e, _, _ = _impact("w-v-u", lambda s: [10] * len(s.subdomains), steps=10)
+    assert 0 < np.abs(f - force).max() <= 0.5 * np.abs(force).max()
+    assert e.max() <= e[0] * (1 + 1e-9)

@@ -17,6 +17,7 @@ from dd_contact.paper.verify.models import (
     record,
 )
 from dd_contact.paper.verify.orders import orders_agreement
+from dd_contact.paper.verify.reduced import case_reduced_modes, case_reduced_static
 
 __all__ = ["CASES", "run_cases"]
 
@@ -190,6 +191,8 @@ CASES: dict[str, Callable[[], list[Record]]] = {
     "free-vibration": _case_free_vibration,
     "orders": _case_orders,
     "extremes": extremes,
+    "reduced-static": case_reduced_static,
+    "reduced-modes": case_reduced_modes,
 }
 
 
