@@ -23,6 +23,7 @@ from dd_contact.paper.verify.models import Record, locator, record
 from dd_contact.parallel import sum_over_ranks
 from dd_contact.solvers.linalg import SparseCholesky, coo_of, petsc_matrix
 from dd_contact.solvers.reduced import ReducedBasis, fixed_interface_modes
+from dd_contact.solvers.reduced_model import tied_dofs
 from dd_contact.solvers.subdomains import coupling_layout
 from dd_contact.solvers.worklog import WorkLog
 
@@ -64,7 +65,7 @@ def cantilever_basis(scene: dd.Scene, modes: int, sub: int = 0, patterns=()) -> 
     _, C = coupling_layout(block, model.system)
     dofs = model.dirichlet[block][0]
     M = model.mass[block]
-    tied = np.unique(C.tocoo().row)
+    tied = tied_dofs(C)
     basis = ReducedBasis(A, M, tied, dofs, patterns, modes, WorkLog(), "cantilever")
     return basis, A, M, dofs
 
@@ -127,7 +128,7 @@ def case_reduced_static() -> list[Record]:
 
 
 def case_reduced_modes() -> list[Record]:
-    """The first 20 eigenfrequencies of the reduced cantilever (m = 160) against SLEPc's."""
-    error = float(np.abs(full_frequencies_ratio(160)).max())
-    quantity = "1 + max |omega_r / omega - 1|, 20 lowest, m = 160"
+    """The first 20 eigenfrequencies of the reduced cantilever (m = 20) against SLEPc's."""
+    error = float(np.abs(full_frequencies_ratio(20)).max())
+    quantity = "1 + max |omega_r / omega - 1|, 20 lowest, m = 20"
     return [record("reduced-modes", quantity, 1 + error, 1.0, 1e-6)]
