@@ -18,7 +18,7 @@ import scipy.sparse as sp
 
 from dd_contact import forms
 from dd_contact.blocks import Block
-from dd_contact.parallel import allgathered
+from dd_contact.parallel import allgathered, collective
 from dd_contact.solvers.reduced import ReducedBasis
 from dd_contact.solvers.subdomains import coupling_layout
 from dd_contact.solvers.worklog import WorkLog
@@ -52,6 +52,19 @@ def reduce_model(
     (``model.massless_reduced``: every reduced block's massless coordinates, every rank).
     Returns the bases of this rank's reduced subdomains.
     """
+    system = model.system
+    bases = collective(comm, lambda: _reduce_owned(model, subdomains, log))
+    mine = {b: (basis.size, basis.massless) for b, basis in bases.items()}
+    for part in allgathered(comm, mine):
+        for block, (size, massless) in part.items():
+            system.sizes[block] = size
+            system.reduced.add(block)
+            model.massless_reduced[block] = massless
+    return bases
+
+
+def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, ReducedBasis]:
+    """This rank's reduced subdomains replaced in ``model`` (:func:`reduce_model`)."""
     system = model.system
     bases: dict[Block, ReducedBasis] = {}
     for sub in subdomains:
@@ -98,12 +111,6 @@ def reduce_model(
         _replace(model, block, basis)
         bases[block] = model.reduced[block] = basis
     _walls_in_reduced(model.zones, bases)
-    mine = {b: (basis.size, basis.massless) for b, basis in bases.items()}
-    for part in allgathered(comm, mine):
-        for block, (size, massless) in part.items():
-            system.sizes[block] = size
-            system.reduced.add(block)
-            model.massless_reduced[block] = massless
     return bases
 
 
