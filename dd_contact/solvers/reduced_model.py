@@ -18,7 +18,7 @@ import scipy.sparse as sp
 
 from dd_contact import forms
 from dd_contact.blocks import Block
-from dd_contact.parallel import allgathered
+from dd_contact.parallel import allgathered, collective
 from dd_contact.solvers.reduced import ReducedBasis
 from dd_contact.solvers.subdomains import coupling_layout
 from dd_contact.solvers.worklog import WorkLog
@@ -31,10 +31,14 @@ __all__ = [
     "reduced_states",
     "refuse_reduced",
     "start_states",
+    "tied_dofs",
 ]
 
 #: The orders that solve reduced subdomains (a small dense block through the subdomain seam).
 REDUCED_ORDERS = ("w-u", "w-v-u")
+
+#: Coupling entries below this fraction of the largest are round-off (:func:`tied_dofs`).
+COUPLING_FLOOR = 1e-12
 
 
 def reduce_model(
@@ -48,6 +52,19 @@ def reduce_model(
     (``model.massless_reduced``: every reduced block's massless coordinates, every rank).
     Returns the bases of this rank's reduced subdomains.
     """
+    system = model.system
+    bases = collective(comm, lambda: _reduce_owned(model, subdomains, log))
+    mine = {b: (basis.size, basis.massless) for b, basis in bases.items()}
+    for part in allgathered(comm, mine):
+        for block, (size, massless) in part.items():
+            system.sizes[block] = size
+            system.reduced.add(block)
+            model.massless_reduced[block] = massless
+    return bases
+
+
+def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, ReducedBasis]:
+    """This rank's reduced subdomains replaced in ``model`` (:func:`reduce_model`)."""
     system = model.system
     bases: dict[Block, ReducedBasis] = {}
     for sub in subdomains:
@@ -65,8 +82,7 @@ def reduce_model(
                 f"subdomain {sub.name!r}: a reduced subdomain's ties must be below KAPPA_SPLIT "
                 "(stiffer ties are carried by an iteration on the whole field; not built yet)"
             )
-        _, C = coupling_layout(block, system)
-        boundary = np.unique(sp.csr_array(C).tocoo().row)
+        boundary = tied_dofs(coupling_layout(block, system)[1])
         if np.intersect1d(boundary, dofs).size:
             raise NotImplementedError(
                 f"subdomain {sub.name!r}: a reduced subdomain's tied dofs must be free (some "
@@ -95,29 +111,40 @@ def reduce_model(
         _replace(model, block, basis)
         bases[block] = model.reduced[block] = basis
     _walls_in_reduced(model.zones, bases)
-    mine = {b: (basis.size, basis.massless) for b, basis in bases.items()}
-    for part in allgathered(comm, mine):
-        for block, (size, massless) in part.items():
-            system.sizes[block] = size
-            system.reduced.add(block)
-            model.massless_reduced[block] = massless
     return bases
 
 
-def _walls_in_reduced(zones: Sequence, bases: dict[Block, ReducedBasis]) -> None:
-    """The contact walls of reduced subdomains numbered in their reduced coordinates.
+def tied_dofs(C: sp.sparray) -> np.ndarray:
+    """The rows of coupling columns C with an entry above round-off: the boundary dofs b.
 
-    A wall is on the boundary dofs (it is tied to its contact interface), which stay
-    physical: the first ``n_b`` reduced coordinates, in b's order.
+    A tie's exact integration leaves entries of order 1e-17 of its largest on the next
+    layer of nodes (shape functions evaluated where they vanish): they are not coupling,
+    and kept they would double b. Dropping them changes the coupling by that much.
+    """
+    C = sp.coo_array(C)
+    if not C.nnz:
+        return np.zeros(0, np.int64)
+    kept = np.abs(C.data) > COUPLING_FLOOR * np.abs(C.data).max()
+    return np.unique(C.row[kept])
+
+
+def _walls_in_reduced(zones: Sequence, bases: dict[Block, ReducedBasis]) -> None:
+    """No contact wall of a reduced subdomain is put in equilibrium at a release.
+
+    A whole subdomain's wall dofs are massless (energy-safe contact), so a release may
+    settle them with the rest held (:meth:`dd_contact.impact.StartForces.at_end`). A wall
+    coordinate of a reduced one moves its constraint mode, which carries the mass of the
+    interior behind it: settling it alone would throw that mass (the bar's energy grew
+    10^25-fold). Its contact interface's w, massless, is still settled.
     """
     for z in zones:
         if hasattr(z, "walls"):  # a pair: a wall per side
             z.walls = [
-                np.searchsorted(bases[s.subdomain.block].b, w) if s.subdomain.block in bases else w
+                np.zeros(0, np.int64) if s.subdomain.block in bases else w
                 for s, w in zip(z.sides, z.walls, strict=True)
             ]
         elif z.contact.subdomain.block in bases:
-            z.wall = np.searchsorted(bases[z.contact.subdomain.block].b, z.wall)
+            z.wall = np.zeros(0, np.int64)
 
 
 def _replace(model, block: Block, basis: ReducedBasis) -> None:

@@ -18,6 +18,7 @@ from dd_contact.paper.verify.models import (
 )
 from dd_contact.paper.verify.orders import orders_agreement
 from dd_contact.paper.verify.pairs import case_pair_bars, case_pair_patch, case_pair_spheres
+from dd_contact.paper.verify.reduced import case_reduced_modes, case_reduced_static
 
 __all__ = ["CASES", "run_cases"]
 
@@ -194,6 +195,8 @@ CASES: dict[str, Callable[[], list[Record]]] = {
     "pair-patch": case_pair_patch,
     "pair-spheres": case_pair_spheres,
     "pair-bars": case_pair_bars,
+    "reduced-static": case_reduced_static,
+    "reduced-modes": case_reduced_modes,
 }
 
 
