@@ -402,13 +402,14 @@ class TransientProblem(AnalysisReadout):
             self._start()
         analysis, owned = self.analysis, self.analysis.owned
         t_new = self.t + self.dt
+        if self.inertia and self._previous_loads[0] != self.t:  # the last step's: r(t_n)
+            # before r(t_n+1): a reduced subdomain's reaction reads the last load projected
+            self._previous_loads = (self.t, analysis.loads(self.t))
         loads = analysis.loads(t_new)
         external = dict(loads)
         where = f"step {self.step + 1} (t = {t_new:.6g})"
         release = None
         if self.inertia:
-            if self._previous_loads[0] != self.t:  # the last step's loads are r(t_n)
-                self._previous_loads = (self.t, analysis.loads(self.t))
             previous = self._previous_loads[1]
             if self.track_energy:  # for the energy balance of the step
                 before = {s.block: self.kinematics.now(s)[0].copy() for s in owned}
