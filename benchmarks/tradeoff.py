@@ -1,7 +1,8 @@
 """The speed/accuracy trade of the trade-study scenes (``dd-contact tradeoff``), measured.
 
 For each scene (``hertz``: a hemisphere pressed on a plane against Hertz; ``bar-impact``: a
-bar struck on a wall against wave theory) runs :func:`dd_contact.paper.tradeoff.run_study`
+bar struck on a wall against wave theory; ``tilted-wall``: the paper's parallelepiped shaken
+on a tilted wall against a converged run) runs :func:`dd_contact.paper.tradeoff.run_study`
 (the default, each knob alone, combined moves along the front, the default once more for the
 timing's noise; each run in its own process) and writes
 
@@ -10,7 +11,7 @@ timing's noise; each run in its own process) and writes
   front, the default's verdict (on the front, or its time against the front's at its error);
 * ``benchmarks/results/tradeoff_<scene>.png``: the Pareto chart.
 
-See docs/tradeoff.md. Usage: python benchmarks/tradeoff.py [--scenes hertz bar-impact]
+See docs/tradeoff.md. Usage: python benchmarks/tradeoff.py [--scenes hertz bar-impact tilted-wall]
 [--budget SECONDS] (per scene, default 720) [--charts] (fronts, verdicts and charts again
 from the JSON's runs) [--table] (print the runs as Markdown).
 """

@@ -20,11 +20,11 @@ import numpy as np
 from tqdm import tqdm
 
 from dd_contact import timing
+from dd_contact.accuracy import check_accuracy, transient_preset
 from dd_contact.analysis import Analysis
 from dd_contact.arguments import positive_int
 from dd_contact.checkpointing import RunState
 from dd_contact.errors import InputError
-from dd_contact.forms import MASS_KINDS
 from dd_contact.impact import BlockProducts, StartForces
 from dd_contact.io import RunOutput
 from dd_contact.iteration import ContactSettings
@@ -78,6 +78,8 @@ class StaticProblem(AnalysisReadout):
         petsc_options_prefix: The PETSc options prefix of this problem's factorisations
             (default ``dd_contact_``): give two problems of one script their own to tune
             them apart, e.g. ``-bracket_mat_mumps_icntl_14 50`` on the command line.
+        accuracy: ``"fast"``, ``"balanced"`` (default) or ``"reference"``: sets nothing
+            here (:mod:`dd_contact.accuracy`).
 
     Example:
         >>> with StaticProblem(scene) as problem:
@@ -94,8 +96,10 @@ class StaticProblem(AnalysisReadout):
         rates: timing.MachineRates | None = None,
         petsc_options: dict | None = None,
         petsc_options_prefix: str = OPTIONS_PREFIX,
+        accuracy: str = "balanced",
     ):
         scene.check_static_supports()
+        self.accuracy = check_accuracy(accuracy, "StaticProblem")
         #: The scene assembled, its solver and contact iteration.
         self.analysis = Analysis(
             scene,
@@ -156,7 +160,8 @@ class TransientProblem(AnalysisReadout):
 
     Args:
         scene: What is modelled.
-        dt: Time step (fixed: the subdomain matrices are factorised once for it).
+        dt: Time step (fixed: the subdomain matrices are factorised once for it; default:
+            the ``accuracy`` preset's, in units of the contacts' wave time).
         algorithm: Elimination order.
         inertia: ``False`` for quasi-static load stepping (no mass terms).
         contact: Contact iteration settings.
@@ -182,19 +187,20 @@ class TransientProblem(AnalysisReadout):
             discrete-gradient share of its start force (docs/validation.md measures what it
             changes). ``False``: the classic trapezoidal contact (the paper's; it creates
             energy when points leave contact, which is reported).
-        mass: ``"consistent"`` (the default), ``"lumped"`` (row sums for degree 1, the
-            diagonal scaled to the exact total mass for degree 2) or ``"averaged"`` (half
-            each: an impact's peak force overshoots least; docs/validation.md).
+        mass: ``"consistent"`` (the default, or the ``accuracy`` preset's), ``"lumped"``
+            (row sums for degree 1, the diagonal scaled to the exact total mass for degree
+            2) or ``"averaged"`` (half each: an impact's peak force overshoots least).
         scheme: ``"trapezoidal"`` (the default: no numerical damping, energy conserved) or
             ``"generalized-alpha"`` (damps the modes short against dt; second order).
         rho_infinity: generalized-alpha's spectral radius for dt / period -> infinity, in
             [0, 1] (default 0.8; 1 is the trapezoidal rule, 0 damps the most).
+        accuracy: ``"fast"``, ``"balanced"`` (default) or ``"reference"``: sets ``dt``, ``mass``.
     """
 
     def __init__(
         self,
         scene: Scene,
-        dt: float,
+        dt: float | None = None,
         algorithm: str = "FULL",
         inertia: bool = True,
         contact: ContactSettings | None = None,
@@ -207,16 +213,13 @@ class TransientProblem(AnalysisReadout):
         petsc_options: dict | None = None,
         petsc_options_prefix: str = OPTIONS_PREFIX,
         energy_safe_contact: bool = True,
-        mass: str = "consistent",
+        mass: str | None = None,
         scheme: str = "trapezoidal",
         rho_infinity: float | None = None,
+        accuracy: str = "balanced",
     ):
-        if mass not in MASS_KINDS:
-            raise InputError(
-                f"TransientProblem: unknown mass {mass!r}; valid: "
-                f"{', '.join(map(repr, MASS_KINDS))} (lumped: a diagonal mass matrix; "
-                "averaged: half consistent, half lumped)"
-            )
+        dt, mass = transient_preset(scene, accuracy, dt, mass, inertia)
+        self.accuracy = accuracy
         #: The mass matrix's kind.
         self.mass_kind = mass
         #: The time-integration scheme (coefficients and updates).

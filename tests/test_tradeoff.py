@@ -24,6 +24,7 @@ from dd_contact.paper.tradeoff import (
 )
 from dd_contact.paper.tradeoff.scenes import bar_error, hertz_error
 from dd_contact.paper.tradeoff.study import refresh
+from dd_contact.paper.tradeoff.tilted import REFERENCE, WINDOW, richardson, windows
 
 KNOBS = (
     Knob("h", 0.1, (Level(0.2), Level(0.05)), "resolution"),
@@ -58,7 +59,9 @@ def test_first_design_is_the_default_then_each_level_alone_with_what_it_needs():
     assert [r.kind for r in runs[1:]] == kinds  # a level that moves h too moves along h
 
 
-@pytest.mark.parametrize(("name", "count"), [("hertz", 21), ("bar-impact", 30)])
+@pytest.mark.parametrize(
+    ("name", "count"), [("hertz", 23), ("bar-impact", 32), ("tilted-wall", 17)]
+)
 def test_the_scenes_designs_vary_one_knob_at_a_time(name, count):
     trade = scene(name)
     runs = first_design(trade.knobs)
@@ -226,7 +229,8 @@ def test_a_worker_past_the_budget_is_stopped():
 
 
 def test_a_tiny_real_study_against_the_closed_form(tmp_path, capsys):
-    trade = scene("bar-impact").with_defaults(n=20, across=1).only(["mass"])
+    # At CFL 0.5 (the old default: averaged mass gains there, not at CFL 1).
+    trade = scene("bar-impact").with_defaults(n=20, across=1, cfl=0.5).only(["mass"])
     doc = run_study(trade, 600, tmp_path / "s.json", None, combined_limit=0)
     assert [r["changed"] for r in doc["runs"]] == [
         "default, warm-up",
@@ -299,3 +303,21 @@ def test_a_study_runs_cheap_runs_then_costly_ones():
     verdict = doc["default_verdict"]  # k=2: as fast, more accurate; good by the 10 % rule
     assert (verdict["on_front"], verdict["good"], verdict["time_ratio"]) == (False, True, 1.0)
     assert "k=2" in verdict["beaten_by"]
+
+
+def test_the_tilted_walls_windows_and_richardson():
+    dt = WINDOW / 4
+    forces = np.arange(8.0)
+    assert windows(dt, forces).tolist() == [1.5, 5.5]  # each window's mean
+    with pytest.raises(ValueError, match="does not divide"):
+        windows(WINDOW / 3.5, np.ones(7))
+    # Three runs whose errors are 4e, 2e, e (order 1): the finest is off by e.
+    exact = np.sin(np.linspace(0.0, 3.0, 40)) + 2.0
+    runs = [(dt, exact + k * 1e-2 * np.cos(np.arange(40.0))) for k in (4.0, 2.0, 1.0)]
+    est = richardson(runs)
+    assert est["order"] == pytest.approx(1.0, rel=1e-9)
+    true = np.linalg.norm(windows(*runs[2]) - windows(dt, exact)) / np.linalg.norm(
+        windows(*runs[2])
+    )
+    assert est["finest_error"] == pytest.approx(true, rel=1e-9)
+    assert len(REFERENCE["windows"]) == round(4e-3 / WINDOW)  # one period

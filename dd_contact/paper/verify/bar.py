@@ -26,7 +26,7 @@ BAR_IMPACT = {"length": 1.0, "section": 0.1, "v0": 0.01}
 
 def bar_impact(
     n: int = 40,
-    cfl: float = 0.5,
+    cfl: float | None = 1.0,
     contact_kappa: float | None = None,
     contact: str = "boundary",
     end_time: float = 3.0,
@@ -34,13 +34,14 @@ def bar_impact(
     comm: MPI.Comm = MPI.COMM_WORLD,
     algorithm: str = "FULL",
     energy_safe_contact: bool = True,
-    mass: str = "consistent",
+    mass: str | None = None,
     scheme: str = "trapezoidal",
     rho_infinity: float | None = None,
     kappa: float | None = None,
     degree: int = 1,
     interface_resolution: tuple[int, int] = (1, 1),
     across: int = 1,
+    accuracy: str = "balanced",
 ) -> dict:
     """Bar impact on a rigid wall: contact duration, rebound velocity, energy and force.
 
@@ -49,7 +50,8 @@ def bar_impact(
 
     Args:
         n: Elements along the bar.
-        cfl: Time step in units of h / c.
+        cfl: Time step in units of h / c (1: more accurate than 0.5, docs/tradeoff.md;
+            ``None``: the ``accuracy`` preset's).
         contact_kappa: Dimensionless contact penalty (default: the package's).
         contact: ``"boundary"`` or ``"interface"`` (a 1x1 contact interface on the end).
         end_time: Simulated time (in units of L / c).
@@ -60,33 +62,44 @@ def bar_impact(
         mass: See :class:`dd_contact.TransientProblem`.
         scheme: See :class:`dd_contact.TransientProblem`.
         rho_infinity: See :class:`dd_contact.TransientProblem`.
+        accuracy: See :class:`dd_contact.TransientProblem` (it sets dt with ``cfl=None``).
         kappa: Tie penalty of the interface (with ``split``).
         degree: Lagrange degree of the bar (2 needs ``contact="interface"``).
         interface_resolution: Interface cells across the section (with ``split``).
         across: Elements across the section, each way (nu = 0: the answer stays 1-D).
 
     Returns:
-        duration, rebound (mean velocity after / -v0), energy ratio after/before, changes,
-        factorisations, steps, the contact force of every step (``forces``), its largest
-        (``peak_force``) and its median while pressing (``plateau_force``), ``force_ref`` =
-        rho c v0 A; what a user reads at the end face (:meth:`_EndFaceWatch.summary`).
+        duration, rebound, energy ratio, changes, factorisations, steps, dt, the contact
+        force of every step and its peak and plateau (:func:`_forces`); what a user reads
+        at the end face (:meth:`_EndFaceWatch.summary`).
     """
-    L, a, v0 = BAR_IMPACT["length"], BAR_IMPACT["section"], BAR_IMPACT["v0"]
-    material = Material(1.0, 0.0, 1.0)
-    parts, interface = _impact_bar(n, split, material, kappa, degree, interface_resolution, across)
+    L = BAR_IMPACT["length"]
+    parts, interface = _impact_bar(
+        n, split, Material(1.0, 0.0, 1.0), kappa, degree, interface_resolution, across
+    )
     zone = _end_contact(parts[0], contact, contact_kappa)
-    dt = cfl * L / n
     problem = TransientProblem(
         Scene(comm, parts, interface, contacts=[zone]),
-        dt,
+        None if cfl is None else cfl * L / n,
         algorithm=algorithm,
         energy_safe_contact=energy_safe_contact,
         mass=mass,
         scheme=scheme,
         rho_infinity=rho_infinity,
+        accuracy=accuracy,
     )
     watch = _EndFaceWatch(problem, parts, n)
-    g = _run_tracking_penetration(problem, zone, round(end_time / dt), comm, watch)
+    steps = round(end_time / problem.dt)
+    g = _run_tracking_penetration(problem, zone, steps, comm, watch)
+    return _impact_summary(problem, parts, g, watch)
+
+
+def _impact_summary(
+    problem: TransientProblem, parts: list[Subdomain], g: np.ndarray, watch: _EndFaceWatch
+) -> dict:
+    """Collective: what :func:`bar_impact` returns, from its run's problem and gaps ``g``."""
+    L, a, v0 = BAR_IMPACT["length"], BAR_IMPACT["section"], BAR_IMPACT["v0"]
+    material, comm, dt = parts[0].material, problem.comm, problem.dt
     momentum, total_mass = _axial_momentum_and_mass(problem, parts, comm)
     work = problem.work_summary()  # collective: every rank's work, merged
     energy0 = 0.5 * total_mass * v0**2
@@ -99,6 +112,7 @@ def bar_impact(
         "changes": problem.changes["gamma"],
         "factorisations": max_over_ranks(comm, problem.work.count("sparse_factor", "FULL")),
         "steps": len(g),
+        "dt": dt,
         "history": [record["changes"] for record in problem.history],
         "substitutions": sum(work.get(part.block, {}).get("substitutions", 0) for part in parts),
         "whole_iterates": problem.iteration.whole_iterates,
