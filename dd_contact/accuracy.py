@@ -100,10 +100,22 @@ def contact_wave_time(scene: Scene) -> float:
 
 
 def transient_preset(
-    scene: Scene, accuracy: str, dt: float | None, mass: str | None, inertia: bool
+    scene: Scene, accuracy: str | None, dt: float | None, mass: str | None, inertia: bool
 ) -> tuple[float, str]:
-    """Collective: the time step and mass kind of a transient problem (given ones kept)."""
-    preset = ACCURACY_PRESETS[check_accuracy(accuracy, "TransientProblem")]
+    """Collective: the time step and mass kind of a transient problem (given ones kept).
+
+    With no preset named (``accuracy=None``) the mass is "balanced"'s and ``dt`` must be
+    given: a step silently taken from the contacts' wave time could be thousands of times
+    finer than a slowly loaded scene needs.
+    """
+    if accuracy is None and dt is None:
+        raise InputError(
+            "TransientProblem: no time step; give dt, or name an accuracy preset ("
+            f"{', '.join(map(repr, ACCURACY_PRESETS))}) to take it from the wave time of "
+            "the scene's contacts (docs/tradeoff.md, 'Presets')"
+        )
+    name = "balanced" if accuracy is None else accuracy
+    preset = ACCURACY_PRESETS[check_accuracy(name, "TransientProblem")]
     mass = preset.mass if mass is None else mass
     if mass not in MASS_KINDS:
         raise InputError(

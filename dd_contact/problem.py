@@ -161,7 +161,8 @@ class TransientProblem(AnalysisReadout):
     Args:
         scene: What is modelled.
         dt: Time step (fixed: the subdomain matrices are factorised once for it; default:
-            the ``accuracy`` preset's, in units of the contacts' wave time).
+            with an ``accuracy`` preset named, the preset's, in units of the contacts' wave
+            time).
         algorithm: Elimination order.
         inertia: ``False`` for quasi-static load stepping (no mass terms).
         contact: Contact iteration settings.
@@ -194,7 +195,10 @@ class TransientProblem(AnalysisReadout):
             ``"generalized-alpha"`` (damps the modes short against dt; second order).
         rho_infinity: generalized-alpha's spectral radius for dt / period -> infinity, in
             [0, 1] (default 0.8; 1 is the trapezoidal rule, 0 damps the most).
-        accuracy: ``"fast"``, ``"balanced"`` (default) or ``"reference"``: sets ``dt``, ``mass``.
+        accuracy: ``"fast"``, ``"balanced"`` or ``"reference"``: sets ``dt`` and ``mass``
+            where they are not given. Default ``None``: ``mass`` as ``"balanced"``, and ``dt``
+            must be given (a step from the contacts' wave time is far finer than a slowly
+            loaded scene needs, so it is taken only when a preset is named).
     """
 
     def __init__(
@@ -216,9 +220,10 @@ class TransientProblem(AnalysisReadout):
         mass: str | None = None,
         scheme: str = "trapezoidal",
         rho_infinity: float | None = None,
-        accuracy: str = "balanced",
+        accuracy: str | None = None,
     ):
         dt, mass = transient_preset(scene, accuracy, dt, mass, inertia)
+        #: The accuracy preset named (``None``: none; dt given, mass as ``"balanced"``).
         self.accuracy = accuracy
         #: The mass matrix's kind.
         self.mass_kind = mass

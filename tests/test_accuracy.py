@@ -43,7 +43,14 @@ def test_the_wave_time_is_the_shortest_edge_over_the_p_wave_speed():
     with pytest.raises(InputError, match="no density"):
         contact_wave_time(_block(rho=0.0))
     with pytest.raises(InputError, match="inertia=False"):
-        TransientProblem(_block(), inertia=False)
+        TransientProblem(_block(), inertia=False, accuracy="balanced")
+
+
+def test_a_step_left_out_needs_a_preset_named():
+    # a step from the wave time can be far finer than a slowly loaded scene needs: no default
+    with pytest.raises(InputError, match="no time step; give dt, or name an accuracy preset"):
+        TransientProblem(_block())
+    assert TransientProblem(_block(), 0.01).mass_kind == "consistent"  # "balanced"'s mass
 
 
 def test_the_presets_set_the_step_and_the_mass_left_out():
