@@ -278,8 +278,8 @@ def _left_out(name: str, nearest: np.ndarray, reach: np.ndarray, margin: float, 
     if reach.all():
         return None
     far = nearest[~reach]
-    what = "none of its facets" if not reach.any() else f"{far.size} of its facets"
-    reason = f"{what} come within the margin {margin:.4g} of {of} (nearest: gap {far.min():.4g})"
+    what = "none of its facets comes" if not reach.any() else f"these {far.size} facets do not come"
+    reason = f"{what} within the margin {margin:.4g} of {of} (nearest: gap {far.min():.4g})"
     return LeftOut(name, int(far.size), len(nearest), float(far.min()), reason)
 
 
