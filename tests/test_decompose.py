@@ -14,7 +14,7 @@ import pytest
 import ufl
 
 import dd_contact as dd
-from dd_contact import forms, meshes
+from dd_contact import forms, meshes, partition
 from dd_contact.decomposition import UnreachableObstacleWarning
 from dd_contact.parallel import max_over_ranks
 
@@ -114,6 +114,7 @@ def test_bisection_cuts_between_layers():
     # 320 cells in layers of 16: 107 asked -> 7 layers; 208 left in two -> 7 and 6 layers
     assert [len(c) for c in scene.decomposition.cells.values()] == [112, 112, 96]
     assert scene.decomposition.interface_facets == 32
+    assert scene.decomposition.method == "bisection"  # SCOTCH cuts no fewer facets here
 
 
 def _block_with_candidates(times, margin=1e-3):
@@ -227,6 +228,14 @@ def _inner(mesh):
         (lambda m, t: dd.decompose(m, STEEL, parts=t), "must tag cells"),
         (lambda m, t: dd.decompose(m, STEEL, parts="metis"), "parts must be 'auto'"),
         (
+            lambda m, t: dd.decompose(m, STEEL, parts=2, partitioner="metis"),
+            "partitioner must be one of",
+        ),
+        (
+            lambda m, t: dd.decompose(m, STEEL, parts=65, partitioner="scotch"),
+            "ask for at most 64 parts",
+        ),
+        (
             lambda m, t: dd.decompose(
                 m, STEEL, contacts=[dd.ContactCandidate((t, 99), dd.Plane([0, 0, 0], [1, 0, 0]))]
             ),
@@ -321,6 +330,45 @@ def test_a_gmsh_mesh_with_physical_groups_decomposed_by_its_tags():
     scale = max_over_ranks(comm, float(np.abs(reference.x.array).max()))
     error = max_over_ranks(comm, float(np.abs(fields.u.x.array - reference.x.array).max()))
     assert error / scale < 1e-7
+
+
+def _plate_with_holes(comm):
+    """A 1 x 0.2 x 0.05 plate with three holes of radius 0.06, gmsh tetrahedra of 0.02."""
+    gmsh = pytest.importorskip("gmsh")
+    import dolfinx.io.gmsh
+
+    if comm.rank != 0:
+        return dolfinx.io.gmsh.model_to_mesh(None, comm, 0, gdim=3).mesh
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.02)
+    box = gmsh.model.occ.addBox(0, 0, 0, 1, 0.2, 0.05)
+    holes = [(3, gmsh.model.occ.addCylinder(x, 0.1, 0, 0, 0, 0.05, 0.06)) for x in (0.2, 0.5, 0.8)]
+    (body,), _ = gmsh.model.occ.cut([(3, box)], holes)
+    gmsh.model.occ.synchronize()
+    gmsh.model.addPhysicalGroup(3, [body[1]], 1)
+    gmsh.model.mesh.generate(3)
+    mesh = dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, 0, gdim=3).mesh
+    gmsh.finalize()
+    return mesh
+
+
+@pytest.mark.mpi
+def test_a_number_of_parts_of_a_mesh_with_holes_is_cut_by_scotch():
+    """Bisection by coordinates cuts through the holes' ligaments (parts in pieces, 346
+    facets on the cuts); SCOTCH on the cells' dual graph cuts 234, its parts in one piece."""
+    mesh = _plate_with_holes(MPI.COMM_WORLD)
+    cut = {p: dd.decompose(mesh, STEEL, parts=8, partitioner=p) for p in ("auto", "bisection")}
+    chosen, coordinates = cut["auto"].decomposition, cut["bisection"].decomposition
+    assert chosen.method == "scotch" and coordinates.method == "bisection"
+    assert chosen.interface_facets < 0.8 * coordinates.interface_facets
+    pieces = {
+        p: [int(partition.bodies(s.mesh).max()) + 1 for s in c.subdomains] for p, c in cut.items()
+    }
+    assert pieces["auto"] == [1] * 8 and max(pieces["bisection"]) > 1
+    counts = np.array([len(c) for c in chosen.cells.values()])
+    assert counts.sum() == max_over_ranks(MPI.COMM_WORLD, mesh.topology.index_map(3).size_global)
+    assert np.ptp(counts) < 0.05 * counts.mean()  # SCOTCH's imbalance: 2.5 % by default
 
 
 @pytest.mark.parametrize(("parts", "facets"), [(4, 32), (8, 48)])
