@@ -12,10 +12,12 @@ import dolfinx.mesh
 import numpy as np
 import pytest
 import ufl
+from scipy.spatial import cKDTree
 
 import dd_contact as dd
 from dd_contact import forms, meshes, partition
 from dd_contact.decomposition import UnreachableObstacleWarning
+from dd_contact.paper.models import pin_joint, pin_joint_one_mesh
 from dd_contact.parallel import max_over_ranks
 
 STEEL = dd.Material(E=210e9, nu=0.3, rho=7850.0)
@@ -458,3 +460,34 @@ def test_a_pair_candidate_out_of_reach_and_one_inside_a_body():
         dd.decompose(mesh, STEEL, contacts=[bottom_and_side], margin=2.0, comm=MPI.COMM_SELF)
     with pytest.raises(dd.InputError, match="an obstacle or a partner surface"):
         dd.ContactCandidate(_at(2, 0.0))
+
+
+def _dof_matched(a, b):
+    """The largest difference of two Functions on the same nodes (matched by position)."""
+    xa = a.function_space.tabulate_dof_coordinates()
+    xb = b.function_space.tabulate_dof_coordinates()
+    distance, index = cKDTree(xb).query(xa)
+    assert distance.max() < 1e-12  # the same nodes
+    return np.abs(a.x.array.reshape(-1, 3) - b.x.array.reshape(-1, 3)[index]).max()
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_the_pin_joints_plates_as_one_mesh_agree_with_the_hand_built_model():
+    """The same cells, ties and wall facets: the two agree to round-off step by step; the
+    hand-built model's own FULL and w-v-u differ by as much (docs/decompose.md)."""
+    one = pin_joint_one_mesh("tiny", comm=MPI.COMM_SELF)
+    hand = pin_joint("tiny", walls="facets", comm=MPI.COMM_SELF)
+    assert sorted(c.name for c in one.contacts) == sorted(c.name for c in hand.contacts)
+    pairs = [(h, one.subdomains[k]) for k, h in enumerate(hand.subdomains)]  # part k: k-th
+    assert all(len(h.mesh.geometry.x) == len(o.mesh.geometry.x) for h, o in pairs)
+    dt = 2e-3 / 40
+    with dd.TransientProblem(hand, dt) as a, dd.TransientProblem(one, dt) as b:
+        for step in range(1, 10):
+            a.run(step, summary=False, progress=False)
+            b.run(step, summary=False, progress=False)
+            scale = max(np.abs(h.u.x.array).max() for h, _ in pairs)
+            error = max(_dof_matched(h.u, o.u) for h, o in pairs) / scale
+            assert error < 1e-8, (step, error)  # 3e-9 to 9e-9
+            assert a.history[-1]["active"] == b.history[-1]["active"]
+    in_contact = [sum(r["active"].values()) for r in a.history]
+    assert in_contact[:6] == [0] * 6 and min(in_contact[6:]) > 0  # the pins bear from step 7
