@@ -28,7 +28,7 @@ test: venv
 # The paper's two examples last: each prints where its pictures are and ends with its table.
 demo: venv
 	$(PY) demos/demo_tied_bar.py
-	$(PY) demos/demo_decompose.py
+	$(PY) demos/demo_one_mesh.py
 	$(PY) demos/demo_hertz.py
 	$(PY) demos/demo_parallelepiped.py
 	$(PY) demos/demo_pin_joint.py

@@ -29,6 +29,7 @@ from dd_contact import arguments, meshes, partition
 from dd_contact.arguments import Region
 from dd_contact.errors import InputError, warn
 from dd_contact.obstacles import Obstacle
+from dd_contact.parallel import bcast_from_root
 from dd_contact.partition import Whole
 from dd_contact.prescribed import Value
 from dd_contact.scene import ContactInterface, ContactPair, Interface, Scene
@@ -45,6 +46,8 @@ __all__ = [
 
 #: The default margin of :func:`decompose`, as a fraction of the mesh's bounding-box diagonal.
 DEFAULT_MARGIN = 0.05
+#: What ``decompose(partitioner=...)`` takes for a number of parts.
+PARTITIONERS = ("auto", "bisection", "scotch", "kahip")
 
 
 class UnreachableObstacleWarning(UserWarning):
@@ -115,7 +118,8 @@ class Decomposition:
     Attributes:
         mesh: The user's mesh.
         whole: The user's mesh whole on this rank (a copy if it is distributed).
-        method: ``"tags"``, ``"bisection"``, ``"planes"``, ``"auto"`` or ``"one part"``.
+        method: ``"tags"``, ``"bisection"``, ``"scotch"``, ``"kahip"``, ``"planes"``, ``"auto"``,
+            ``"bodies"`` or ``"one part"``.
         description: The cut in words.
         cells: Per part name, its cells as cells of :attr:`whole` (in the part's order).
         nodes: Per part name, its geometry nodes as nodes of :attr:`whole`.
@@ -278,8 +282,8 @@ def _left_out(name: str, nearest: np.ndarray, reach: np.ndarray, margin: float, 
     if reach.all():
         return None
     far = nearest[~reach]
-    what = "none of its facets" if not reach.any() else f"{far.size} of its facets"
-    reason = f"{what} come within the margin {margin:.4g} of {of} (nearest: gap {far.min():.4g})"
+    what = "none of its facets comes" if not reach.any() else f"these {far.size} facets do not come"
+    reason = f"{what} within the margin {margin:.4g} of {of} (nearest: gap {far.min():.4g})"
     return LeftOut(name, int(far.size), len(nearest), float(far.min()), reason)
 
 
@@ -339,8 +343,13 @@ def _parts(
     contact_cells: np.ndarray,
     layers: float,
     pairs: bool = False,
+    partitioner: str = "auto",
 ) -> tuple[np.ndarray, list[str], str, str]:
     """The part of each cell, the parts' suffixes, the method and a description."""
+    if partitioner not in PARTITIONERS:
+        raise InputError(
+            f"decompose: partitioner must be one of {PARTITIONERS}, got {partitioner!r}"
+        )
     mesh = whole.mesh
     midpoints = partition.cell_midpoints(mesh)
     num = len(midpoints)
@@ -367,8 +376,13 @@ def _parts(
         return np.zeros(num, dtype=np.int64), ["0"], "one part", f"one part ({why})"
     if isinstance(parts, (int, np.integer)) and not isinstance(parts, bool):
         n = arguments.positive_int(parts, "decompose: parts")
-        part = partition.bisection(midpoints, n)
-        return part, [str(k) for k in range(n)], "bisection", f"{n} parts by bisection"
+        if partitioner == "auto":
+            part, partitioner = partition.fewest_facets(mesh, n)
+        elif partitioner == "bisection":
+            part = partition.bisection(midpoints, n)
+        else:
+            part = partition.graph_partition(mesh, n, partitioner)
+        return part, [str(k) for k in range(n)], partitioner, f"{n} parts by {partitioner}"
     if not isinstance(parts, Sequence):
         raise InputError(
             f"decompose: parts must be 'auto', a number, cell MeshTags or a list of cut planes "
@@ -390,6 +404,7 @@ def decompose(
     kappa: float | None = None,
     epsilon: float | None = None,
     layers: float = 1.0,
+    partitioner: str = "auto",
     name: str = "part",
     comm: MPI.Comm | None = None,
 ) -> DecomposedScene:
@@ -404,7 +419,7 @@ def decompose(
         material: The material of every part.
         parts: ``"auto"`` (the cut that puts the candidate surfaces in reach into a small
             part, or one part if none is in reach or the cut saves nothing); a number of
-            parts (recursive coordinate bisection); cell MeshTags (a part per tag value); or
+            parts (see ``partitioner``); cell MeshTags (a part per tag value); or
             cut planes, a list of ``(point, normal)`` (a part per side pattern).
         contacts: The candidate contact surfaces (:class:`ContactCandidate`).
         margin: A candidate facet gets a contact interface if one of its nodes comes within
@@ -415,6 +430,8 @@ def decompose(
         kappa: Dimensionless tie penalty of the interface (default DEFAULT_KAPPA).
         epsilon: Absolute tie penalty instead.
         layers: For ``parts="auto"``: cell layers between the contact surfaces and the cut.
+        partitioner: For a number of parts: ``"bisection"``, ``"scotch"``, ``"kahip"`` (dolfinx's
+            graph partitioners), or ``"auto"``: bisection or SCOTCH, whichever cuts fewer facets.
         name: Parts are named ``name`` + their number (or tag value).
         comm: Communicator of the scene (default ``mesh.comm``; give ``MPI.COMM_WORLD``
             when every rank passes its own serial copy of the mesh).
@@ -443,7 +460,10 @@ def decompose(
     _warn_unreachable(contacts, reach)
     contact_cells = partition.cells_behind(whole.mesh, [r.facets for r in reach])
     pairs = any(c.partner is not None for c in contacts)
-    part, suffixes, method, description = _parts(whole, parts, contact_cells, layers, pairs)
+    part, suffixes, method, description = _parts(
+        whole, parts, contact_cells, layers, pairs, partitioner
+    )
+    part = bcast_from_root(comm, part)  # the same parts on every rank, whatever the partitioner
     decomposition = Decomposition(mesh, whole, method, description, {}, {})
     decomposition.margin, decomposition.times = float(margin), times
     decomposition.left_out = [o for r in reach for o in r.left]

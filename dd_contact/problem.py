@@ -259,7 +259,7 @@ class TransientProblem(AnalysisReadout):
         self._previous_loads: tuple[float | None, dict] = (None, {})  # (t, r(t)) of a step
         #: The energy balance each step is held to (with inertia and ``track_energy``).
         self.energy_balance = EnergyBalance(
-            self.comm, self.time_scheme.conserves_energy, self.energy_safe
+            self.comm, self.time_scheme.conserves_energy, self.energy_safe, scene.contacts, dt
         )
         #: The contact episodes (with inertia): a warning if one is too short.
         self.episodes = ContactEpisodes(dt)

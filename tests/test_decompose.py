@@ -12,10 +12,12 @@ import dolfinx.mesh
 import numpy as np
 import pytest
 import ufl
+from scipy.spatial import cKDTree
 
 import dd_contact as dd
-from dd_contact import forms, meshes
+from dd_contact import forms, meshes, partition
 from dd_contact.decomposition import UnreachableObstacleWarning
+from dd_contact.paper.models import pin_joint, pin_joint_one_mesh
 from dd_contact.parallel import max_over_ranks
 
 STEEL = dd.Material(E=210e9, nu=0.3, rho=7850.0)
@@ -114,6 +116,7 @@ def test_bisection_cuts_between_layers():
     # 320 cells in layers of 16: 107 asked -> 7 layers; 208 left in two -> 7 and 6 layers
     assert [len(c) for c in scene.decomposition.cells.values()] == [112, 112, 96]
     assert scene.decomposition.interface_facets == 32
+    assert scene.decomposition.method == "bisection"  # SCOTCH cuts no fewer facets here
 
 
 def _block_with_candidates(times, margin=1e-3):
@@ -227,6 +230,14 @@ def _inner(mesh):
         (lambda m, t: dd.decompose(m, STEEL, parts=t), "must tag cells"),
         (lambda m, t: dd.decompose(m, STEEL, parts="metis"), "parts must be 'auto'"),
         (
+            lambda m, t: dd.decompose(m, STEEL, parts=2, partitioner="metis"),
+            "partitioner must be one of",
+        ),
+        (
+            lambda m, t: dd.decompose(m, STEEL, parts=65, partitioner="scotch"),
+            "ask for at most 64 parts",
+        ),
+        (
             lambda m, t: dd.decompose(
                 m, STEEL, contacts=[dd.ContactCandidate((t, 99), dd.Plane([0, 0, 0], [1, 0, 0]))]
             ),
@@ -323,6 +334,45 @@ def test_a_gmsh_mesh_with_physical_groups_decomposed_by_its_tags():
     assert error / scale < 1e-7
 
 
+def _plate_with_holes(comm):
+    """A 1 x 0.2 x 0.05 plate with three holes of radius 0.06, gmsh tetrahedra of 0.02."""
+    gmsh = pytest.importorskip("gmsh")
+    import dolfinx.io.gmsh
+
+    if comm.rank != 0:
+        return dolfinx.io.gmsh.model_to_mesh(None, comm, 0, gdim=3).mesh
+    gmsh.initialize(readConfigFiles=False, interruptible=False)
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.02)
+    box = gmsh.model.occ.addBox(0, 0, 0, 1, 0.2, 0.05)
+    holes = [(3, gmsh.model.occ.addCylinder(x, 0.1, 0, 0, 0, 0.05, 0.06)) for x in (0.2, 0.5, 0.8)]
+    (body,), _ = gmsh.model.occ.cut([(3, box)], holes)
+    gmsh.model.occ.synchronize()
+    gmsh.model.addPhysicalGroup(3, [body[1]], 1)
+    gmsh.model.mesh.generate(3)
+    mesh = dolfinx.io.gmsh.model_to_mesh(gmsh.model, comm, 0, gdim=3).mesh
+    gmsh.finalize()
+    return mesh
+
+
+@pytest.mark.mpi
+def test_a_number_of_parts_of_a_mesh_with_holes_is_cut_by_scotch():
+    """Bisection by coordinates cuts through the holes' ligaments (parts in pieces, 346
+    facets on the cuts); SCOTCH on the cells' dual graph cuts 234, its parts in one piece."""
+    mesh = _plate_with_holes(MPI.COMM_WORLD)
+    cut = {p: dd.decompose(mesh, STEEL, parts=8, partitioner=p) for p in ("auto", "bisection")}
+    chosen, coordinates = cut["auto"].decomposition, cut["bisection"].decomposition
+    assert chosen.method == "scotch" and coordinates.method == "bisection"
+    assert chosen.interface_facets < 0.8 * coordinates.interface_facets
+    pieces = {
+        p: [int(partition.bodies(s.mesh).max()) + 1 for s in c.subdomains] for p, c in cut.items()
+    }
+    assert pieces["auto"] == [1] * 8 and max(pieces["bisection"]) > 1
+    counts = np.array([len(c) for c in chosen.cells.values()])
+    assert counts.sum() == max_over_ranks(MPI.COMM_WORLD, mesh.topology.index_map(3).size_global)
+    assert np.ptp(counts) < 0.05 * counts.mean()  # SCOTCH's imbalance: 2.5 % by default
+
+
 @pytest.mark.parametrize(("parts", "facets"), [(4, 32), (8, 48)])
 def test_parts_meeting_at_an_edge_or_a_corner_tie_exactly(parts, facets):
     # A cube bisected into 4 columns (meeting along a line) or 8 octants (at a point): the
@@ -410,3 +460,34 @@ def test_a_pair_candidate_out_of_reach_and_one_inside_a_body():
         dd.decompose(mesh, STEEL, contacts=[bottom_and_side], margin=2.0, comm=MPI.COMM_SELF)
     with pytest.raises(dd.InputError, match="an obstacle or a partner surface"):
         dd.ContactCandidate(_at(2, 0.0))
+
+
+def _dof_matched(a, b):
+    """The largest difference of two Functions on the same nodes (matched by position)."""
+    xa = a.function_space.tabulate_dof_coordinates()
+    xb = b.function_space.tabulate_dof_coordinates()
+    distance, index = cKDTree(xb).query(xa)
+    assert distance.max() < 1e-12  # the same nodes
+    return np.abs(a.x.array.reshape(-1, 3) - b.x.array.reshape(-1, 3)[index]).max()
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_the_pin_joints_plates_as_one_mesh_agree_with_the_hand_built_model():
+    """The same cells, ties and wall facets: the two agree to round-off step by step; the
+    hand-built model's own FULL and w-v-u differ by as much (docs/decompose.md)."""
+    one = pin_joint_one_mesh("tiny", comm=MPI.COMM_SELF)
+    hand = pin_joint("tiny", walls="facets", comm=MPI.COMM_SELF)
+    assert sorted(c.name for c in one.contacts) == sorted(c.name for c in hand.contacts)
+    pairs = [(h, one.subdomains[k]) for k, h in enumerate(hand.subdomains)]  # part k: k-th
+    assert all(len(h.mesh.geometry.x) == len(o.mesh.geometry.x) for h, o in pairs)
+    dt = 2e-3 / 40
+    with dd.TransientProblem(hand, dt) as a, dd.TransientProblem(one, dt) as b:
+        for step in range(1, 10):
+            a.run(step, summary=False, progress=False)
+            b.run(step, summary=False, progress=False)
+            scale = max(np.abs(h.u.x.array).max() for h, _ in pairs)
+            error = max(_dof_matched(h.u, o.u) for h, o in pairs) / scale
+            assert error < 1e-8, (step, error)  # 3e-9 to 9e-9
+            assert a.history[-1]["active"] == b.history[-1]["active"]
+    in_contact = [sum(r["active"].values()) for r in a.history]
+    assert in_contact[:6] == [0] * 6 and min(in_contact[6:]) > 0  # the pins bear from step 7

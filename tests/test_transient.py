@@ -61,6 +61,23 @@ def test_moving_wall_pushes_a_held_block():
     assert forces == pytest.approx(expected, rel=1e-5, abs=1e-12)
 
 
+def test_a_moving_wall_pushing_a_block_with_inertia_is_no_energy_growth(recwarn):
+    """The wall's work goes through contact, in no load vector: its steps are not held to the
+    loads' balance (on main this warned EnergyGrowthWarning at the first contact step)."""
+    block = dd.Subdomain(
+        meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [2, 2, 2]),
+        dd.Material(1000.0, 0.0, rho=1.0),
+        "b",
+    )
+    block.fix(_on(2, 1.0))
+    wall = dd.Plane([0, 0, -0.001], [0, 0, 1], motion=lambda t: [0.0, 0.0, 0.002 * t])
+    zone = dd.ContactBoundary(block, _on(2, 0.0), wall)
+    problem = dd.TransientProblem(dd.Scene(MPI.COMM_WORLD, [block], contacts=[zone]), dt=0.25)
+    forces = [r["force"]["contact"][2] for r in problem.run(8, progress=False, summary=False)]
+    assert forces[2] > 0  # in contact from t = 0.75 on, pushed
+    assert not [w for w in recwarn if issubclass(w.category, dd.errors.EnergyGrowthWarning)]
+
+
 @pytest.mark.mpi
 def test_resume_reproduces_the_uninterrupted_run(tmp_path, falling_bar):
     comm = MPI.COMM_WORLD

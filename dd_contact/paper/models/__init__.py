@@ -3,7 +3,8 @@
 * :func:`parallelepiped`: the rectangular parallelepiped (7.1) at any resolution, clamped and
   shaken against a rigid wall; :func:`bar_scene` its decomposition with any loads.
 * :func:`pin_joint`: the multi-pin lap joint (7.2), two steel plates on five rigid pins,
-  hexahedral gmsh meshes (:func:`pin_joint_meshes`).
+  hexahedral gmsh meshes (:func:`pin_joint_meshes`); :func:`pin_joint_one_mesh` its plates
+  as one mesh cut by ``decompose``.
 
 ``docs/models.md`` states their dimensions, loads and meshes.
 """
@@ -23,6 +24,7 @@ from dd_contact.paper.models.pin_joint import (
     pin_joint,
     pin_joint_layout,
     pin_joint_meshes,
+    pin_joint_one_mesh,
 )
 
 __all__ = [
@@ -40,4 +42,5 @@ __all__ = [
     "pin_joint",
     "pin_joint_layout",
     "pin_joint_meshes",
+    "pin_joint_one_mesh",
 ]

@@ -27,10 +27,13 @@ from dataclasses import dataclass
 
 from mpi4py import MPI
 
+import basix.ufl
 import dolfinx.mesh
 import numpy as np
+import ufl
 
 from dd_contact import meshes
+from dd_contact.decomposition import ContactCandidate, DecomposedScene, decompose
 from dd_contact.errors import InputError
 from dd_contact.obstacles import Cylinder
 from dd_contact.paper.flops.paper import PinJointLayout
@@ -47,6 +50,7 @@ __all__ = [
     "pin_joint",
     "pin_joint_layout",
     "pin_joint_meshes",
+    "pin_joint_one_mesh",
 ]
 
 #: Element counts of the named scales; "paper" is PinJointLayout's 174,080 hexahedra.
@@ -168,6 +172,7 @@ def pin_joint(
     comm: MPI.Comm = MPI.COMM_WORLD,
     pins: str = "rigid",
     pin_material: Material = STEEL,
+    walls: str = "cylinders",
 ) -> Scene:
     """The multi-pin joint: 12 subdomains, 1 interface, 10 contact interfaces, 5 pins.
 
@@ -191,10 +196,18 @@ def pin_joint(
             at its two ends, in a :class:`ContactPair` with each of its hole walls
             (:mod:`~dd_contact.paper.models.elastic_pins`): 12 + 5 subdomains.
         pin_material: The elastic pins' material (default steel).
+        walls: ``"cylinders"`` (each wall's contact interface a cylinder mesh of its own,
+            turned half a cell from the wall's nodes) or ``"facets"`` (a copy of the wall's
+            facets, as :func:`pin_joint_one_mesh` builds them; rigid pins only).
     """
     _check_options(lower, clearance, period)
     if pins not in PIN_KINDS:
         raise InputError(f"pin_joint: pins={pins!r} is not one of {PIN_KINDS}")
+    if walls not in ("cylinders", "facets") or (walls == "facets" and pins != "rigid"):
+        raise InputError(
+            f"pin_joint: walls={walls!r} with pins={pins!r}: give walls='cylinders', or "
+            "walls='facets' with rigid pins"
+        )
     model = pin_joint_meshes(scale, wall_cells)
     lay = model.layout
     radius, thick = lay.hole_diameter * MM / 2, lay.thickness * MM
@@ -207,23 +220,100 @@ def pin_joint(
     interface = Interface(model.interface, list(parts.values()), name="cuts")
     # The wall's nodes lie on the circle, off the plate's facet chords by up to a sagitta.
     sagitta = radius * (1.0 - np.cos(np.pi / (4 * lay.n_circumferential)))
-    walls = {
-        name: ContactInterface(
-            model.walls[name],
-            parts[name],
-            None
-            if pins == "elastic"
-            else Cylinder([x, y, 0.0], [0.0, 0.0, 1.0], radius - gaps[_pin(name, model.plates)]),
-            tolerance=2.0 * sagitta,
-            name=f"hole_{name}",
+    zones = {}
+    for name, (x, y) in model.holes.items():
+        if _pin(name, model.plates) not in in_contact:
+            continue
+        pin = Cylinder([x, y, 0.0], [0.0, 0.0, 1.0], radius - gaps[_pin(name, model.plates)])
+        if walls == "facets":
+            hole = (tags[name], FACE_TAGS["hole"])
+            zones[name] = ContactInterface.from_boundary(
+                parts[name], hole, pin, name=f"hole_{name}"
+            )
+            continue
+        obstacle = None if pins == "elastic" else pin
+        zones[name] = ContactInterface(
+            model.walls[name], parts[name], obstacle, tolerance=2.0 * sagitta, name=f"hole_{name}"
         )
-        for name, (x, y) in model.holes.items()
-        if _pin(name, model.plates) in in_contact
-    }
     if pins == "rigid":
-        return Scene(comm, list(parts.values()), interface, contacts=list(walls.values()))
-    pin_parts, pairs = elastic_pins(model, walls, in_contact, radius - gaps, pin_material)
+        return Scene(comm, list(parts.values()), interface, contacts=list(zones.values()))
+    pin_parts, pairs = elastic_pins(model, zones, in_contact, radius - gaps, pin_material)
     return Scene(comm, [*parts.values(), *pin_parts], interface, contacts=pairs)
+
+
+def pin_joint_one_mesh(
+    scale: str | PinJointLayout = "small",
+    clearance: float | Sequence[float] = 0.05e-3,
+    load: float = 20e3,
+    period: float = 2e-3,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> DecomposedScene:
+    """The joint's two plates as one mesh, cut by :func:`~dd_contact.decompose`.
+
+    The hexahedra of :func:`pin_joint_meshes` in one mesh of two bodies (nodes shared within
+    a plate, not between the plates), every cell tagged with its hand-built subdomain's
+    number, so that ``parts=`` those tags gives the same cells (part k is the k-th subdomain
+    of :func:`pin_joint_meshes`); every hole wall a candidate against its pin, the grips
+    loaded as ``pin_joint(lower="pulled")``'s. Its hand-built twin: ``pin_joint(scale,
+    walls="facets")`` (docs/decompose.md: they agree to round-off).
+    """
+    _check_options("pulled", clearance, period)
+    model = pin_joint_meshes(scale)
+    lay = model.layout
+    radius, thick, pitch = lay.hole_diameter * MM / 2, lay.thickness * MM, lay.pitch * MM
+    gaps = _pin_clearances(clearance, lay.n_holes, radius)
+    mesh, tags = _one_mesh(model)
+    candidates = []
+    for plate, z0 in (("lower", 0.0), ("upper", thick)):
+        for k in range(lay.n_holes):
+            centre = ((k + 0.5) * pitch, 0.5 * pitch)
+
+            def wall(x, c=centre, z0=z0):
+                on = np.hypot(x[0] - c[0], x[1] - c[1]) < radius * 1.001
+                return on & (x[2] > z0 - 1e-9 * thick) & (x[2] < z0 + thick * (1 + 1e-9))
+
+            pin = Cylinder([*centre, 0.0], [0.0, 0.0, 1.0], radius - gaps[k])
+            candidates.append(ContactCandidate(wall, pin, name=f"hole_{plate}{k}"))
+    scene = decompose(mesh, STEEL, parts=tags, contacts=candidates, margin=radius, comm=comm)
+    stress = load / (lay.n_holes * pitch * thick)
+    grip = lay.free_length * MM
+    for sign, y in ((1.0, pitch + grip), (-1.0, -grip)):
+
+        def end(x, y=y):
+            return np.isclose(x[1], y)
+
+        def pull(t, s=sign):
+            return [0.0, s * stress * np.sin(2 * np.pi * t / period), 0.0]
+
+        scene.fix(end, components=[0, 2])
+        scene.add_traction(end, pull)
+    return scene
+
+
+def _one_mesh(model: PinJointMeshes) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
+    """The subdomain meshes as one (nodes merged within a plate) and each cell's subdomain."""
+    points: list[np.ndarray] = []
+    cells, numbers = [], []
+    names = list(model.subdomains)
+    for plate in ("lower", "upper"):
+        mine = [n for n in names if model.plates[n] == plate]
+        x = np.vstack([model.subdomains[n][0].geometry.x for n in mine])
+        key = np.round(x / (1e-9 * np.ptp(x))).astype(np.int64)  # coincident nodes: one
+        _, first, merged = np.unique(key, axis=0, return_index=True, return_inverse=True)
+        merged, start, base = merged.ravel(), 0, sum(len(p) for p in points)
+        for n in mine:
+            sub = model.subdomains[n][0]
+            cells.append(merged[start + sub.geometry.dofmaps[0]] + base)
+            numbers.append(np.full(len(sub.geometry.dofmaps[0]), names.index(n)))
+            start += len(sub.geometry.x)
+        points.append(x[first])
+    element = basix.ufl.element("Lagrange", "hexahedron", 1, shape=(3,))
+    mesh = dolfinx.mesh.create_mesh(
+        MPI.COMM_SELF, np.vstack(cells).astype(np.int64), ufl.Mesh(element), np.vstack(points)
+    )
+    number = np.concatenate(numbers)[mesh.topology.original_cell_index].astype(np.int32)
+    every = np.arange(len(number), dtype=np.int32)
+    return mesh, dolfinx.mesh.meshtags(mesh, 3, every, number)
 
 
 def _check_options(lower: str, clearance: float | Sequence[float], period: float) -> None:
