@@ -160,9 +160,8 @@ class TransientProblem(AnalysisReadout):
 
     Args:
         scene: What is modelled.
-        dt: Time step (fixed: the subdomain matrices are factorised once for it; default:
-            with an ``accuracy`` preset named, the preset's, in units of the contacts' wave
-            time).
+        dt: Time step (fixed: the subdomain matrices are factorised once for it); ``None``
+            takes the named ``accuracy`` preset's.
         algorithm: Elimination order.
         inertia: ``False`` for quasi-static load stepping (no mass terms).
         contact: Contact iteration settings.
@@ -188,17 +187,14 @@ class TransientProblem(AnalysisReadout):
             discrete-gradient share of its start force (docs/validation.md measures what it
             changes). ``False``: the classic trapezoidal contact (the paper's; it creates
             energy when points leave contact, which is reported).
-        mass: ``"consistent"`` (the default, or the ``accuracy`` preset's), ``"lumped"``
-            (row sums for degree 1, the diagonal scaled to the exact total mass for degree
-            2) or ``"averaged"`` (half each: an impact's peak force overshoots least).
+        mass: ``"consistent"`` (default, or the preset's), ``"lumped"`` (row sums; degree 2:
+            scaled to the total mass) or ``"averaged"`` (half each: least overshoot).
         scheme: ``"trapezoidal"`` (the default: no numerical damping, energy conserved) or
             ``"generalized-alpha"`` (damps the modes short against dt; second order).
         rho_infinity: generalized-alpha's spectral radius for dt / period -> infinity, in
             [0, 1] (default 0.8; 1 is the trapezoidal rule, 0 damps the most).
-        accuracy: ``"fast"``, ``"balanced"`` or ``"reference"``: sets ``dt`` and ``mass``
-            where they are not given. Default ``None``: ``mass`` as ``"balanced"``, and ``dt``
-            must be given (a step from the contacts' wave time is far finer than a slowly
-            loaded scene needs, so it is taken only when a preset is named).
+        accuracy: ``"fast"``, ``"balanced"`` or ``"reference"``: sets ``dt`` (in wave times
+            of the contacts) and ``mass`` where not given; ``None``: "balanced"'s mass.
     """
 
     def __init__(
@@ -223,7 +219,6 @@ class TransientProblem(AnalysisReadout):
         accuracy: str | None = None,
     ):
         dt, mass = transient_preset(scene, accuracy, dt, mass, inertia)
-        #: The accuracy preset named (``None``: none; dt given, mass as ``"balanced"``).
         self.accuracy = accuracy
         #: The mass matrix's kind.
         self.mass_kind = mass
