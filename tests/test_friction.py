@@ -1,0 +1,130 @@
+"""Coulomb friction: the sliding block in every algorithm that fits, inputs, the history."""
+
+from __future__ import annotations
+
+from mpi4py import MPI
+
+import numpy as np
+import pytest
+
+from dd_contact.errors import InputError
+from dd_contact.friction import SLIP
+from dd_contact.obstacles import Plane
+from dd_contact.paper.verify.friction import SLIDING_SCENES, sliding_block, sliding_scene
+from dd_contact.paper.verify.models import locator
+from dd_contact.paper.verify.orders import blocks
+from dd_contact.problem import StaticProblem
+from dd_contact.scene import ContactBoundary, ContactInterface
+
+MU, STEPS = 0.3, 20
+RUNS = [
+    (kind, algorithm) for kind, algorithms in SLIDING_SCENES.items() for algorithm in algorithms
+]
+
+
+@pytest.fixture(scope="module")
+def runs():
+    """Each scene and algorithm, run once for the tests below."""
+    return {(k, a): sliding_block(k, a, MU, STEPS) for k, a in RUNS}
+
+
+@pytest.mark.parametrize(("kind", "algorithm"), RUNS)
+def test_sliding_reaction_is_mu_n(runs, kind, algorithm):
+    """Once the whole face slides, the plane's tangential force is mu N to 1e-6."""
+    run = runs[(kind, algorithm)]
+    assert run["slipping"][-1] == 25  # every contact node slides
+    T, N = np.array(run["T"]), np.array(run["N"])
+    assert N[-1] == pytest.approx(1.0, rel=1e-9)  # the pressure on the unit face
+    assert abs(T[-1] / (MU * N[-1]) - 1.0) < 1e-6
+
+
+@pytest.mark.parametrize(("kind", "algorithm"), RUNS)
+def test_no_slip_below_half_mu_n(runs, kind, algorithm):
+    """While T < mu N / 2 nothing slips: the face follows the plane (penalty compliance)."""
+    run = runs[(kind, algorithm)]
+    T, N = np.abs(run["T"]), np.abs(run["N"])
+    below = T < 0.5 * MU * N
+    assert below.sum() >= 3
+    assert np.all(np.array(run["slip"])[below] == 0.0)
+    assert np.all(np.array(run["slipping"])[below] == 0)
+    # sticking, T grows linearly with the plane's travel (elastic and penalty compliance)
+    steps = np.flatnonzero(below) + 1
+    assert np.allclose(T[below] / steps, T[0], rtol=1e-9)
+
+
+@pytest.mark.parametrize("kind", ["single", "interface"])
+def test_orders_agree_with_full(runs, kind):
+    """Every order's displacements after the run equal FULL's (same stick/slip path)."""
+    full = runs[(kind, "FULL")]
+    for algorithm in SLIDING_SCENES[kind][1:]:
+        run = runs[(kind, algorithm)]
+        assert run["changes"] == full["changes"]
+        error = np.linalg.norm(run["u"] - full["u"]) / np.linalg.norm(full["u"])
+        assert error < 1e-8
+
+
+def test_stick_slip_changes_count(runs):
+    """A point moving between stick and slip is a contact state change (gamma)."""
+    frictionless = sliding_block("single", "w-u", 0.0, 3)
+    assert frictionless["changes"] == 0  # the face stays in contact: no change
+    assert runs[("single", "w-u")]["changes"] >= 2  # edges, then the whole face, slip
+
+
+@pytest.mark.parametrize("algorithm", ["FULL", "w-u"])
+def test_mu_zero_is_frictionless(algorithm):
+    """friction=0 is the frictionless code path; a tiny mu converges to it."""
+    runs = {mu: sliding_block("single", algorithm, mu, 2) for mu in (0.0, 1e-10)}
+    u0, u1 = runs[0.0]["u"], runs[1e-10]["u"]
+    assert np.linalg.norm(u1 - u0) <= 1e-8 * np.linalg.norm(u0)
+    scene = sliding_scene("single", 0.0, MPI.COMM_WORLD)
+    problem = StaticProblem(scene, algorithm=algorithm)
+    region = problem.analysis.zones[0].region
+    assert region.symmetric and not region.history
+    problem.close()
+
+
+def test_dissipation_while_sliding():
+    """Each step dissipates >= 0; sliding, exactly mu N times the plane's travel."""
+    scene = sliding_scene("single", MU, MPI.COMM_WORLD)
+    problem = StaticProblem(scene, algorithm="w-u")
+    friction = problem.analysis.zones[0].operator.friction
+    dissipated = []
+    for step in range(1, STEPS + 1):
+        problem.solve(float(step))
+        dissipated.append(friction.dissipation)
+    problem.close()
+    assert min(dissipated) >= 0.0
+    assert np.all(friction.state == SLIP)
+    travel = 8e-5 * 0.25  # TRAVEL x the block's height, per step
+    assert dissipated[-1] == pytest.approx(MU * 1.0 * travel, rel=1e-6)
+
+
+def test_history_round_trip():
+    """The friction history is arrays and back, bit for bit."""
+    scene = sliding_scene("single", MU, MPI.COMM_WORLD)
+    problem = StaticProblem(scene, algorithm="w-u")
+    for step in (1, 2, 3):
+        problem.solve(float(step))
+    friction = problem.analysis.zones[0].operator.friction
+    saved = friction.arrays()
+    before = {k: v.copy() for k, v in saved.items()}
+    problem.solve(9.0)
+    friction.restore(saved)
+    for name, value in friction.arrays().items():
+        assert np.array_equal(value, before[name])
+    problem.close()
+
+
+@pytest.mark.parametrize("bad", [-0.1, float("nan"), float("inf"), "0.3", True])
+def test_bad_friction(bad):
+    """A negative, non-finite or non-numeric coefficient is refused, naming it."""
+    a = blocks("single")[0]
+    with pytest.raises(InputError, match="friction must be a finite number >= 0"):
+        ContactBoundary(a, locator(0, 0.0), Plane([0, 0, 0], [1, 0, 0]), friction=bad)
+
+
+def test_friction_on_pair_side_refused():
+    """Friction between bodies (a pair side) is not built yet: said so."""
+    a = blocks("single")[0]
+    with pytest.raises(InputError, match="not built yet"):
+        ContactInterface.from_boundary(a, locator(0, 0.0), None, friction=0.2)
