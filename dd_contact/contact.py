@@ -225,6 +225,7 @@ def contact_operator(contact, epsilon: float) -> ContactOperator:
     operator = ContactOperator(contact_points(contact.V, contact.points), contact.obstacle, epsilon)
     if contact.friction > 0.0:
         operator.friction = Friction(operator, contact.friction, TANGENTIAL_PENALTY * epsilon)
+        contact.friction_law = operator.friction  # what its output fields read
     return operator
 
 

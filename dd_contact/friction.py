@@ -66,7 +66,8 @@ class Friction:
         start: The surface displacement at the start of the step.
         t_start: The time at the start of the step (where the obstacle was).
         slip: Accumulated slip (the irreversible tangential displacement) per point.
-        dissipation: The work friction took out of the last step (>= 0).
+        dissipation: The work friction took out of the last step (>= 0): the mean
+            traction's work less the change of the tangential penalty's energy.
     """
 
     def __init__(self, operator: Any, mu: float, epsilon: float):
@@ -175,10 +176,27 @@ class Friction:
         """The end of a step: its tractions become the history, its slip and dissipation."""
         t, trial = self.tractions(w), self.trial(w)
         slipped = np.where((self.state == SLIP)[:, None], self.epsilon * (t - trial), 0.0)
-        work = -np.einsum("pd,pd->p", t, slipped) * self.operator.points.weight
-        self.dissipation = float(np.maximum(work, 0.0).sum())  # < 0 only within LIMIT_BAND
+        # The work the step's mean traction did on the body less what the tangential
+        # penalty stored: the trapezoidal rule's (the mean force over the step), and the
+        # whole work of a slipping point in steady sliding. P du = eps_T (P t_n - t*).
+        before = self._tangential(self.traction)
+        mean = 0.5 * (before + t)
+        stored = 0.5 * (np.sum(t * t, axis=1) - np.sum(before * before, axis=1))
+        work = self.epsilon * (np.einsum("pd,pd->p", mean, trial - before) - stored)
+        work[self.state == STICK] = 0.0  # the spring's work is what it stored: round-off
+        self.dissipation = float(np.dot(self.operator.points.weight, work))
         self.slip += slipped
         self.traction, self.start, self.t_start = t, np.array(w, float), self.operator.t
+
+    def nodal(self, values: np.ndarray) -> np.ndarray:
+        """Point values (points x k) at the nodes, weighted by the points' areas."""
+        points = self.operator.points
+        weighted = points.N.T @ (points.weight[:, None] * values)
+        return weighted / np.maximum(points.lumped, 1e-300)[:, None]
+
+    def start_force(self) -> np.ndarray:
+        """The friction force on the surface dofs at the start of the step (its history)."""
+        return self._E.T @ (self.operator.points.weight[:, None] * self.traction).ravel()
 
     def energy(self, w: np.ndarray) -> float:
         """The tangential penalty's stored energy ``(eps_T / 2) int |t|^2``."""

@@ -2,18 +2,25 @@
 
 from __future__ import annotations
 
+import warnings
+
 from mpi4py import MPI
 
 import numpy as np
 import pytest
 
-from dd_contact.errors import InputError
+from dd_contact.errors import EnergyGrowthWarning, InputError
 from dd_contact.friction import SLIP
 from dd_contact.obstacles import Plane
-from dd_contact.paper.verify.friction import SLIDING_SCENES, sliding_block, sliding_scene
+from dd_contact.paper.verify.friction import (
+    SLIDING_SCENES,
+    sliding_balance,
+    sliding_block,
+    sliding_scene,
+)
 from dd_contact.paper.verify.models import locator
 from dd_contact.paper.verify.orders import blocks
-from dd_contact.problem import StaticProblem
+from dd_contact.problem import StaticProblem, TransientProblem
 from dd_contact.scene import ContactBoundary, ContactInterface
 
 MU, STEPS = 0.3, 20
@@ -128,3 +135,62 @@ def test_friction_on_pair_side_refused():
     a = blocks("single")[0]
     with pytest.raises(InputError, match="not built yet"):
         ContactInterface.from_boundary(a, locator(0, 0.0), None, friction=0.2)
+
+
+@pytest.mark.parametrize("algorithm", ["FULL", "v-w-u"])
+def test_resumed_sliding_run_is_the_uninterrupted_one(algorithm, tmp_path):
+    """The friction history is checkpointed: a resumed quasi-static run is bit for bit."""
+
+    def problem():
+        scene = sliding_scene("interface", MU, MPI.COMM_SELF)
+        return TransientProblem(scene, 1.0, algorithm=algorithm, inertia=False)
+
+    whole = problem()
+    whole.run(18, summary=False, progress=False)
+    problem().run(9, output=tmp_path, checkpoint_every=3, summary=False, progress=False)
+    resumed = problem()
+    resumed.run(18, output=tmp_path, resume=True, summary=False, progress=False)
+    slipping = [r["changes"] for r in whole.history]
+    assert sum(slipping[:9]) >= 1 and sum(slipping[9:]) >= 1  # slip began before and after
+    for mine, theirs in zip(resumed.scene.subdomains, whole.scene.subdomains, strict=True):
+        np.testing.assert_array_equal(mine.u.x.array, theirs.u.x.array)
+    assert [r["force"] for r in resumed.history] == [r["force"] for r in whole.history]
+    friction = resumed.analysis.zones[0].operator.friction
+    for name, value in whole.analysis.zones[0].operator.friction.arrays().items():
+        np.testing.assert_array_equal(friction.arrays()[name], value)
+    resumed.close(), whole.close()
+
+
+@pytest.mark.parametrize(("kind", "algorithm"), [("single", "w-u"), ("boundary", "FULL")])
+def test_energy_balance_takes_out_the_dissipation(kind, algorithm):
+    """With inertia: energy now = before + loads' work - dissipation, to round-off.
+
+    The block slides (it lands as the pressure's wave reaches its base at step 6) and no
+    EnergyGrowthWarning is given; the steps without a contact change close the books.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", EnergyGrowthWarning)
+        steps = sliding_balance(kind, algorithm, MU, 26)
+    dissipated = np.array([s["dissipated"] for s in steps])
+    assert dissipated.min() >= 0.0 and dissipated.max() > 1e-5
+    settled = [s for s in steps if s["changes"] == 0 and s["dissipated"] > 0]
+    assert len(settled) >= 15
+    for s in settled:
+        assert abs(s["residual"]) <= 1e-8 * s["total"] < 1e-3 * s["dissipated"]
+
+
+def test_slip_and_traction_are_written(tmp_path):
+    """The output has slip, tangential traction and the stick/slip map of the contact."""
+    from dd_contact.results import load_results
+
+    scene = sliding_scene("single", MU, MPI.COMM_SELF)
+    problem = TransientProblem(scene, 1.0, algorithm="w-u", inertia=False)
+    problem.run(STEPS, output=tmp_path, summary=False, progress=False)
+    friction = problem.analysis.zones[0].operator.friction
+    stored = load_results(tmp_path).arrays(STEPS, "w_base")  # per node, in mesh order
+    for name, values in (("traction", friction.traction), ("slip", friction.slip)):
+        mine = np.sort(stored[f"{name}_base"].reshape(-1, 3), axis=0)
+        np.testing.assert_allclose(mine, np.sort(friction.nodal(values), axis=0), atol=1e-15)
+    assert np.all(stored["stick_base"] == SLIP)  # the whole face slides
+    assert stored["traction_base"].reshape(-1, 3)[:, 0].min() > 0  # dragged along +x
+    problem.close()

@@ -21,11 +21,17 @@ import numpy as np
 from dd_contact import meshes
 from dd_contact.obstacles import Plane
 from dd_contact.paper.verify.models import Record, locator, record
-from dd_contact.problem import StaticProblem
+from dd_contact.problem import StaticProblem, TransientProblem
 from dd_contact.scene import ContactBoundary, ContactInterface, Interface, Scene
 from dd_contact.subdomains import Material, Subdomain
 
-__all__ = ["SLIDING_SCENES", "case_sliding_block", "sliding_block", "sliding_scene"]
+__all__ = [
+    "SLIDING_SCENES",
+    "case_sliding_block",
+    "sliding_balance",
+    "sliding_block",
+    "sliding_scene",
+]
 
 #: Scene kinds of :func:`sliding_scene` and the algorithms each is solved with.
 SLIDING_SCENES = {
@@ -95,6 +101,52 @@ def sliding_block(
         out["slipping"].append(0 if friction is None else int(np.sum(friction.state == 2)))
     out["changes"] = problem.changes["gamma"]
     out["u"] = np.concatenate([s.u.x.array for s in problem.scene.subdomains])
+    problem.close()
+    return out
+
+
+def sliding_balance(
+    kind: str, algorithm: str, mu: float, steps: int, comm: MPI.Comm = MPI.COMM_WORLD
+) -> list[dict]:
+    """The block thrown along a fixed plane (0.1 m/s) under its top pressure, with inertia.
+
+    Per step (dt = 1 ms): ``changes``, ``dissipated`` and ``residual``, the energy now less
+    the energy before, the loads' work and the dissipation (``EnergyBalance``'s books).
+    """
+    mesh = meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 0.25], [4, 4, 2])
+    block = Subdomain(mesh, MATERIAL, "B0")
+    block.add_traction(locator(2, 0.25), [0.0, 0.0, -PRESSURE])
+    block.velocity.interpolate(lambda x: np.vstack([0.1 + 0 * x[0], 0 * x[0], 0 * x[0]]))
+    plane = Plane([0, 0, 0], [0, 0, 1])
+    contact: ContactBoundary | ContactInterface
+    if kind == "boundary":
+        contact = ContactBoundary(block, locator(2, 0.0), plane, friction=mu, name="base")
+    else:
+        contact = ContactInterface.from_boundary(
+            block, locator(2, 0.0), plane, friction=mu, name="base"
+        )
+    problem = TransientProblem(Scene(comm, [block], contacts=[contact]), 1e-3, algorithm=algorithm)
+    balance, out = problem.energy_balance, []
+    check = balance.check
+
+    def watched(record, work):
+        loads, moved = work()
+        if balance.before is not None:
+            energy = record["energy"]
+            change = energy["total"] - balance.before - loads
+            dissipated = energy.get("dissipated", 0.0)
+            out.append(
+                {
+                    "changes": record["changes"],
+                    "dissipated": dissipated,
+                    "residual": change + dissipated,
+                    "total": energy["total"],
+                }
+            )
+        check(record, lambda: (loads, moved))
+
+    balance.check = watched  # type: ignore[method-assign]
+    problem.run(steps, progress=False, summary=False)
     problem.close()
     return out
 
