@@ -81,7 +81,9 @@ def main() -> None:
                 runs.setdefault(f"{algorithm} mu={mu:g}", []).append(run)
     summary = summarise(args, runs)
     out = Path(args.out)
-    out.write_text(json.dumps({"arguments": vars(args), "summary": summary, "runs": runs}, indent=1))
+    out.write_text(
+        json.dumps({"arguments": vars(args), "summary": summary, "runs": runs}, indent=1)
+    )
     print(json.dumps(summary, indent=1))
 
 
