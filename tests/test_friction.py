@@ -194,3 +194,15 @@ def test_slip_and_traction_are_written(tmp_path):
     assert np.all(stored["stick_base"] == SLIP)  # the whole face slides
     assert stored["traction_base"].reshape(-1, 3)[:, 0].min() > 0  # dragged along +x
     problem.close()
+
+
+@pytest.mark.mpi
+@pytest.mark.parametrize("algorithm", ["FULL", "v-w-u", "w-v-u"])
+def test_sliding_on_the_ranks_of_the_communicator(algorithm):
+    """On any number of ranks: T = mu N once sliding, and the serial run's displacements."""
+    run = sliding_block("interface", algorithm, MU, STEPS, MPI.COMM_WORLD)
+    serial = sliding_block("interface", algorithm, MU, STEPS, MPI.COMM_SELF)
+    assert abs(run["T"][-1] / (MU * run["N"][-1]) - 1.0) < 1e-6
+    assert run["changes"] == serial["changes"]
+    error = np.linalg.norm(run["u"] - serial["u"]) / np.linalg.norm(serial["u"])
+    assert error < 1e-9
