@@ -136,6 +136,10 @@ class ContactOperator:
         epsilon: The contact penalty eps_C (traction = penetration / eps_C).
     """
 
+    #: Coulomb friction at the points (:mod:`dd_contact.friction`); ``None``: frictionless
+    #: (a class attribute: a pair's operator, which builds its own state, has none).
+    friction: Friction | None = None
+
     def __init__(self, points: ContactPoints, obstacle: Obstacle, epsilon: float):
         self.points = points
         self.obstacle = obstacle
@@ -147,8 +151,6 @@ class ContactOperator:
         self._g_rows = np.repeat(coo.row, 3)
         self._g_cols = (3 * coo.col[:, None] + np.arange(3)).ravel()
         self._g_shape = np.repeat(coo.data, 3)
-        #: Coulomb friction at the points (:mod:`dd_contact.friction`); ``None``: frictionless.
-        self.friction: Friction | None = None
         self.update(0.0)
 
     def update(self, t: float) -> None:
