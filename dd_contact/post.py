@@ -107,6 +107,15 @@ def energy(
     return {"kinetic": kinetic, "elastic": elastic, "contact": contact, "dissipated": dissipated}
 
 
+def friction_unfit(scene) -> tuple[str, ...]:
+    """The algorithms the friction of ``scene`` rules out (its unsymmetric blocks).
+
+    v-u where a subdomain's own boundary has friction: the subdomain would be unsymmetric.
+    """
+    own = any(getattr(c, "friction", 0.0) > 0.0 and c.block.kind == "u" for c in scene.contacts)
+    return ("v-u",) if own else ()
+
+
 def frictional(scene) -> bool:
     """Whether some contact of ``scene`` has friction (on every rank alike)."""
     return any(getattr(c, "friction", 0.0) > 0.0 for c in scene.regions)

@@ -206,3 +206,23 @@ def test_sliding_on_the_ranks_of_the_communicator(algorithm):
     assert run["changes"] == serial["changes"]
     error = np.linalg.norm(run["u"] - serial["u"]) / np.linalg.norm(serial["u"])
     assert error < 1e-9
+
+
+def test_v_u_does_not_fit_friction_on_a_subdomain_boundary():
+    """auto leaves v-u out; asked for, it is refused naming what fits (FULL)."""
+    from dd_contact.paper.verify.orders import block_scene
+
+    def scene():
+        parts = blocks("boundary")
+        parts[-1].fix(locator(0, 2.0), value=[-0.004, 0.001, 0.0])
+        wall = Plane([-0.002, 0, 0], [1, 0, 0])
+        made = block_scene("boundary", parts, wall, MPI.COMM_WORLD)
+        made.contacts[0].friction = 0.3  # read when the contact operator is built
+        return made
+
+    with pytest.raises(InputError, match="valid for it: FULL or auto"):
+        StaticProblem(scene(), algorithm="v-u")
+    problem = StaticProblem(scene(), algorithm="auto")
+    problem.solve()
+    assert problem.algorithm == "FULL"
+    problem.close()
