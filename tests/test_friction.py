@@ -9,7 +9,7 @@ from mpi4py import MPI
 import numpy as np
 import pytest
 
-from dd_contact.errors import EnergyGrowthWarning, InputError
+from dd_contact.errors import EnergyGrowthWarning, InputError, SingularMatrixError
 from dd_contact.friction import SLIP
 from dd_contact.obstacles import Plane
 from dd_contact.paper.verify.friction import (
@@ -226,3 +226,26 @@ def test_v_u_does_not_fit_friction_on_a_subdomain_boundary():
     problem.solve()
     assert problem.algorithm == "FULL"
     problem.close()
+
+
+def test_lu_factors_solve_unsymmetric_matrices():
+    """DenseLU's solve and left^T A^-1 B, SparseLU's solve, against numpy."""
+    from dd_contact.solvers.linalg import petsc_matrix
+    from dd_contact.solvers.unsymmetric import DenseLU, SparseLU
+    from dd_contact.solvers.worklog import WorkLog
+
+    rng = np.random.default_rng(7)
+    A = rng.standard_normal((6, 6)) + 6 * np.eye(6)
+    A[0, 5] += 3.0  # unsymmetric
+    B, C, b = rng.standard_normal((6, 2)), rng.standard_normal((6, 2)), rng.standard_normal(6)
+    dense = DenseLU(A.copy(), WorkLog(), "g")
+    np.testing.assert_allclose(dense.solve(b), np.linalg.solve(A, b), rtol=1e-12)
+    expected = C.T @ np.linalg.solve(A, B)
+    np.testing.assert_allclose(dense.congruence(B, left=C), expected, rtol=1e-12)
+    rows, cols = np.nonzero(np.ones_like(A))
+    matrix = petsc_matrix(MPI.COMM_SELF, 6, 6, rows, cols, A[rows, cols])
+    sparse = SparseLU(matrix, WorkLog(), "FULL")
+    np.testing.assert_allclose(sparse.solve_array(b), np.linalg.solve(A, b), rtol=1e-12)
+    sparse.destroy(), matrix.destroy()
+    with pytest.raises(SingularMatrixError):
+        DenseLU(np.zeros((3, 3)), WorkLog(), "g")

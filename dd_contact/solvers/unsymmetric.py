@@ -11,6 +11,7 @@ everything stays Cholesky, bit for bit as before.
 from __future__ import annotations
 
 import time
+import warnings
 from collections.abc import Iterable
 
 from petsc4py import PETSc
@@ -45,7 +46,9 @@ class DenseLU(DenseCholesky):
     def __init__(self, A: np.ndarray, log: WorkLog, block: str):
         self.log, self.block, self.size = log, block, A.shape[0]
         start = time.perf_counter()
-        lu, piv = sla.lu_factor(A, overwrite_a=True, check_finite=False)
+        with warnings.catch_warnings():  # a zero pivot is the error below, said once
+            warnings.simplefilter("ignore", sla.LinAlgWarning)
+            lu, piv = sla.lu_factor(A, overwrite_a=True, check_finite=False)
         pivots = np.abs(np.diag(lu))
         if not (np.all(np.isfinite(pivots)) and pivots.min(initial=1.0) > 0.0):
             raise SingularMatrixError(
