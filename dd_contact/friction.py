@@ -78,6 +78,10 @@ class Friction:
         cols = (3 * coo.col[:, None] + np.arange(3)).ravel()
         values = np.repeat(coo.data, 3)
         self._E = sp.csr_array((values, (rows, cols)), shape=(3 * p, operator.num_dofs))
+        # nodal contact points: E is the identity, and the terms need no products with it
+        N = sp.csr_array(operator.points.N)
+        self._nodal = N.shape == (p, p) and N.nnz == p and np.array_equal(N.diagonal(), np.ones(p))
+        self._terms: tuple | None = None  # the last terms and what they were made for
         self.state = np.zeros(p, np.int8)
         self.direction = np.zeros((p, 3))
         self.scale = np.zeros(p)
@@ -116,7 +120,18 @@ class Friction:
         return np.where(active, np.where(self.state == SLIP, SLIP, STICK), OPEN).astype(np.int8)
 
     def terms(self, active: np.ndarray) -> tuple[sp.csr_array, np.ndarray]:
-        """The friction's matrix and right-hand side (surface numbering) for ``active``."""
+        """The friction's matrix and right-hand side (surface numbering) for ``active``.
+
+        Kept for the next call with the same active set, state and time (a solve asks for
+        the matrix, then the right-hand side).
+        """
+        arrays = (active, self.state, self.direction, self.scale, self.traction, self.start)
+        key = (self.operator.t, *(a.tobytes() for a in arrays))
+        if self._terms is None or self._terms[0] != key:
+            self._terms = (key, *self._made(active))
+        return self._terms[1], self._terms[2]
+
+    def _made(self, active: np.ndarray) -> tuple[sp.csr_array, np.ndarray]:
         op, state = self.operator, self._law(active)
         a, n = op.points.weight, op.normal
         P = np.eye(3)[None] - n[:, :, None] * n[:, None, :]
@@ -140,6 +155,8 @@ class Friction:
         blocks = sp.bsr_array(
             (D, np.arange(len(a)), np.arange(len(a) + 1)), shape=(3 * len(a),) * 2
         )
+        if self._nodal:
+            return sp.csr_array(blocks), f.ravel()
         return sp.csr_array(self._E.T @ blocks @ self._E), self._E.T @ f.ravel()
 
     def tractions(self, w: np.ndarray) -> np.ndarray:
