@@ -556,7 +556,13 @@ class ContactIteration:
                     f"contact {z.contact.name!r}: {flips.size} point(s) flip in/out of contact, "
                     f"e.g. at {x}"
                 )
+
         lines = [line for part in allgathered(self.comm, lines) for line in part]
+        if not lines:  # no point flips in or out: the cycle is friction's stick and slip
+            lines = [
+                "the stick/slip state of points with friction goes round (the load step "
+                "cannot decide it: take smaller load steps)"
+            ]
         return (
             f"contact iteration cycles at {where}: iteration {iteration} returns to the active "
             f"set of iteration {first}. " + "; ".join(lines)
