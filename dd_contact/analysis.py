@@ -38,7 +38,7 @@ from dd_contact.parallel import (
     gathered,
     sum_over_ranks,
 )
-from dd_contact.post import Results
+from dd_contact.post import Results, friction_unfit
 from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.analysed import Candidates, scene_structure
@@ -58,7 +58,6 @@ from dd_contact.solvers.stiff_ties import AugmentedTies
 from dd_contact.subdomains import Subdomain
 
 __all__ = ["Analysis"]
-
 logger = logging.getLogger(__name__)
 
 #: Solves after which ``algorithm="auto"`` compares its prediction with the clock.
@@ -90,7 +89,8 @@ def check_algorithm(scene: Scene, algorithm: str, expected: tuple[float, float])
     """
     has_interface = scene.interface is not None
     has_w = any(not isinstance(c, ContactBoundary) for c in scene.contacts)
-    valid = fitting_algorithms(has_interface, has_w)
+    unfit = friction_unfit(scene)  # v-u, where friction would make a subdomain unsymmetric
+    valid = tuple(a for a in fitting_algorithms(has_interface, has_w) if a not in unfit)
     if algorithm != "auto" and algorithm not in valid:
         parts = ["an interface" if has_interface else "no interface"]
         parts.append("contact interfaces" if has_w else "no contact interfaces")

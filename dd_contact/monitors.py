@@ -107,6 +107,9 @@ def _force(record: dict, name: str) -> float:
 class EnergyBalance:
     """Collective: warn once if a step's energy grew by more than the loads' work.
 
+    Friction's dissipation over the step (the record's ``dissipated``) is taken out: energy
+    now = energy before + loads' work - dissipation.
+
     The trapezoidal rule conserves energy exactly but for contact points that change state;
     a gain beyond round-off is energy the contact created (:mod:`dd_contact.impact`). A
     scheme that does not conserve energy (generalized-alpha: its energy may swing up within
@@ -192,9 +195,10 @@ class EnergyBalance:
         loads_work, moved = work()
         if moved:
             return
+        dissipated = record["energy"].get("dissipated", 0.0)  # friction's work, >= 0
         if not self.conserves_energy:
-            self.before = energy_before + loads_work
-        gain = energy_after - energy_before - loads_work
+            self.before = energy_before + loads_work - dissipated
+        gain = energy_after - energy_before - loads_work + dissipated
         allowed = ENERGY_GROWTH_TOLERANCE * max(self.largest, abs(energy_before))
         if self.energy_safe:  # what its release iteration settles within (classic: none)
             allowed = max(allowed, RELEASE_TOLERANCE * contact_before)

@@ -88,7 +88,8 @@ def energy(
             start forces); by default computed here.
 
     Returns:
-        ``"kinetic"``, ``"elastic"`` and ``"contact"``.
+        ``"kinetic"``, ``"elastic"``, ``"contact"`` (the penalties' stored energy, friction's
+        tangential one in) and ``"dissipated"`` (friction's work over the last step, >= 0).
     """
     product = products.row if products else model.system.row_product
     rows = sorted({block for pair in model.system.matrices for block in pair})
@@ -101,7 +102,23 @@ def energy(
         if block in model.mass:
             kinetic += 0.5 * float(v @ (model.mass[block] @ v))
     contact = float(sum(z.operator.energy(z.published()) for z in zones))
-    return {"kinetic": kinetic, "elastic": elastic, "contact": contact}
+    frictions = [f for z in zones if (f := getattr(z.operator, "friction", None)) is not None]
+    dissipated = float(sum(f.dissipation for f in frictions))
+    return {"kinetic": kinetic, "elastic": elastic, "contact": contact, "dissipated": dissipated}
+
+
+def friction_unfit(scene) -> tuple[str, ...]:
+    """The algorithms the friction of ``scene`` rules out (its unsymmetric blocks).
+
+    v-u where a subdomain's own boundary has friction: the subdomain would be unsymmetric.
+    """
+    own = any(getattr(c, "friction", 0.0) > 0.0 and c.block.kind == "u" for c in scene.contacts)
+    return ("v-u",) if own else ()
+
+
+def frictional(scene) -> bool:
+    """Whether some contact of ``scene`` has friction (on every rank alike)."""
+    return any(getattr(c, "friction", 0.0) > 0.0 for c in scene.regions)
 
 
 @dataclass
@@ -139,6 +156,9 @@ def _subdomain_fields(sub: Subdomain, dynamic: bool) -> MeshFields:
 def _contact_fields(contact: ContactInterface | ContactBoundary) -> MeshFields:
     """w, nodal pressure, gap ``s - w . n`` at the nodes and the active nodes (1 or 0).
 
+    With friction also the accumulated slip, the tangential traction on the body and the
+    stick/slip map (0 open, 1 stick, 2 slip; a node's points averaged with quadrature).
+
     A node is active where its pressure is positive: with contact checked at the nodes
     (the default) these are exactly the active points of the contact iteration.
     """
@@ -148,13 +168,24 @@ def _contact_fields(contact: ContactInterface | ContactBoundary) -> MeshFields:
     n = scalars.dofmap.index_map.size_local
     x = scalars.tabulate_dof_coordinates()[:n]
 
+    friction = getattr(contact, "friction_law", None)  # set at assembly where mu > 0
+    slip, traction, state = (
+        fem.Function(space, name=f"{what}_{contact.name}")
+        for space, what in ((contact.V, "slip"), (contact.V, "traction"), (scalars, "stick"))
+    )
+
     def refresh(t: float) -> None:
         s, normal = contact.obstacle.gap_normal(x, t)
         w = contact.w.x.array[: 3 * n].reshape(n, 3)
         gap.x.array[:n] = s - np.einsum("ij,ij->i", w, normal)
         active.x.array[:n] = contact.pressure.x.array[:n] > 0.0
+        if friction is not None:
+            slip.x.array[: 3 * n] = friction.nodal(friction.slip).ravel()
+            traction.x.array[: 3 * n] = friction.nodal(friction.traction).ravel()
+            state.x.array[:n] = friction.nodal(friction.state.astype(float)[:, None]).ravel()
 
-    return MeshFields(contact.w.name, [contact.w, contact.pressure, gap, active], refresh)
+    extra = [] if friction is None else [slip, traction, state]
+    return MeshFields(contact.w.name, [contact.w, contact.pressure, gap, active, *extra], refresh)
 
 
 def part_fields(

@@ -43,7 +43,7 @@ from dd_contact.parallel import (
     gathered,
     sum_over_ranks,
 )
-from dd_contact.post import energy
+from dd_contact.post import energy, frictional
 from dd_contact.readout import AnalysisReadout
 from dd_contact.scene import Scene
 from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
@@ -345,17 +345,10 @@ class TransientProblem(AnalysisReadout):
         velocities = {sub.block: self.kinematics.now(sub)[1] for sub in self.analysis.owned}
         state = self.analysis.state_now()
         local = energy(self.model, state, velocities, self.zones, self._products)
-        parts = np.array(
-            sum_over_ranks(
-                self.comm, np.array([local["kinetic"], local["elastic"], local["contact"]])
-            )
-        )
-        return {
-            "kinetic": parts[0],
-            "elastic": parts[1],
-            "contact": parts[2],
-            "total": float(parts.sum()),
-        }
+        # with friction, also the step's frictional dissipation (the balance takes it out)
+        names = ["kinetic", "elastic", "contact"] + ["dissipated"] * frictional(self.scene)
+        parts = np.array(sum_over_ranks(self.comm, np.array([local[n] for n in names])))
+        return {**dict(zip(names, parts, strict=True)), "total": float(parts[:3].sum())}
 
     # -- stepping -----------------------------------------------------------------------
     def _inertia_loads(self, loads: dict, previous: dict) -> StartForces:

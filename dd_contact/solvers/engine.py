@@ -93,6 +93,11 @@ def surface_structure(
 
 
 # -- the solver ---------------------------------------------------------------------------
+def _unsymmetric(contacts: Sequence[ContactRegion]) -> list[Block]:
+    """The blocks of the regions whose contact matrix is unsymmetric (friction)."""
+    return [b for region in contacts if not region.symmetric for b in region.blocks]
+
+
 class BlockEliminationSolver:
     """Solves system (14) by block elimination in a given order.
 
@@ -141,9 +146,10 @@ class BlockEliminationSolver:
         self.surface: Surface | None = None
         # a subdomain with contact on its own boundary is re-factorised: it sends a new Z
         recondensed = any_rank(comm, any(r.block.kind == "u" for r in contacts))
+        unsymmetric = {b for part in allgathered(comm, _unsymmetric(contacts)) for b in part}
         if comm.rank == ROOT:
             assert pieces is not None  # gathered here
-            self.surface = Surface(self.schedule, log, recondensed)
+            self.surface = Surface(self.schedule, log, recondensed, unsymmetric)
             for part in pieces:
                 for r, c, A in part:
                     self.surface.add_base(r, c, A)
