@@ -217,6 +217,29 @@ def test_reduced_subdomains_on_every_rank_count():
     assert e.max() <= e[0] * (1 + 1e-9)
 
 
+@pytest.mark.mpi
+def test_a_refusal_during_reduction_on_one_rank_is_raised_on_every_rank():
+    """A reduced piece with a non-zero prescribed displacement is refused by its owner only
+    (rank 0 on two ranks); the other rank raises it too instead of waiting in the next
+    collective (faulthandler ends a hang after 60 s)."""
+    import faulthandler
+
+    from mpi4py import MPI
+
+    from dd_contact.paper.verify.reduced import cantilever
+
+    scene = cantilever(nx=6, parts=2)
+    left = scene.subdomains[0]
+    left.fix(lambda x: np.isclose(x[0], 0.0), value=[1e-9, 0.0, 0.0]).reduce(modes=2)
+    faulthandler.dump_traceback_later(60, exit=True)
+    try:
+        with pytest.raises(NotImplementedError, match="non-zero prescribed displacement"):
+            dd.TransientProblem(scene, 1e-3, "w-v-u")
+        MPI.COMM_WORLD.Barrier()  # every rank got here
+    finally:
+        faulthandler.cancel_dump_traceback_later()
+
+
 def test_a_reduced_subdomains_support_reaction_is_its_step_s_from_the_first_step():
     """The supports' reaction reads the load at t_n+1, also on the first step (it once read
     the load at t_n there: 2.9 % off, the top's traction ramping on the clamped edge)."""

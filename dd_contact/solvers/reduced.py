@@ -210,7 +210,6 @@ class ReducedBasis:
         self.G = _orthonormal(Phi, raw, M_ii)
         self._M_ii = M_ii
         self.size = self.b.size + self.G.shape[1]
-        self.load_on_supports = np.zeros(self.fixed.size)
         #: Its massless coordinates (contact walls; set by :func:`reduce_model`).
         self.massless = np.zeros(0, np.int64)
         self.A_r, self.M_r = self._reduced(A, None if M is None else sp.csr_array(M), A_ii, M_ii)
@@ -292,10 +291,9 @@ class ReducedBasis:
     def project_load(self, v: np.ndarray) -> np.ndarray:
         """``T^T v``, without a substitution when v is a combination of the load patterns.
 
-        Its entries on the prescribed dofs are kept for the supports' reaction
-        (:attr:`load_on_supports`).
+        Its entries on the prescribed dofs are dropped: the supports' reaction is given them
+        (``v[basis.fixed]``) with the same step's coordinates (:meth:`reaction`).
         """
-        self.load_on_supports = v[self.fixed].copy()
         if self._patterns.shape[1]:
             Q = self._patterns
             c = Q.T @ v
@@ -350,9 +348,15 @@ class ReducedBasis:
             )
         return np.zeros(0)
 
-    def reaction(self, q: np.ndarray, acceleration: np.ndarray | None) -> np.ndarray:
-        """The supports' reaction rows ``A[D] T q + M[D] T a - f_D`` (the last load)."""
-        r = self.reaction_rows @ q - self.load_on_supports
+    def reaction(
+        self, q: np.ndarray, acceleration: np.ndarray | None, load: np.ndarray
+    ) -> np.ndarray:
+        """The supports' reaction rows ``A[D] T q + M[D] T a - f_D``.
+
+        ``load`` is f_D, the load of the same solve on the prescribed dofs ``fixed`` (passed,
+        not remembered: a remembered one was once the previous step's).
+        """
+        r = self.reaction_rows @ q - load
         if self.reaction_mass is not None and acceleration is not None:
             r += self.reaction_mass @ acceleration
         return r
