@@ -51,6 +51,8 @@ import threading
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).parent))  # iterative_peer
+
 HERE = Path(__file__).parent / "results"
 PINNED = {
     "OPENBLAS_NUM_THREADS": "1",
@@ -71,8 +73,21 @@ GIB = 1024.0**3
 
 
 # ------------------------------------------------------------------------------ the worker
-def scene_for(model: str, scale: str, algorithm: str | None, comm):
-    """The model's scene at ``scale`` for ``algorithm`` (FULL runs the orders' split scene)."""
+def case_of(label: str) -> tuple[str, int | None, bool]:
+    """(algorithm, modes, peer) of a run's label: an algorithm, an iterative peer
+    (``CG+GAMG``, ``CG+Jacobi``: FULL by CG on the one-mesh bar, iterative_peer.py) or an
+    order with every subdomain reduced (``"w-u reduced m=20"``: m fixed-interface modes)."""
+    import iterative_peer
+
+    if label in iterative_peer.PEERS:
+        return "FULL", None, True
+    algorithm, _, modes = label.partition(" reduced m=")
+    return algorithm, int(modes) if modes else None, False
+
+
+def scene_for(model: str, scale: str, algorithm: str | None, comm, layout=None):
+    """The model's scene at ``scale`` for ``algorithm`` (FULL runs the orders' split scene;
+    ``layout``, the bar's: another, e.g. "FULL": one mesh, contact on its boundary)."""
     from dd_contact.paper import examples, models
 
     if model == "bar":
@@ -80,7 +95,7 @@ def scene_for(model: str, scale: str, algorithm: str | None, comm):
 
     if model == "parallelepiped":
         size = scale if scale in models.BAR_SCALES else _bar_scale(scale)
-        layout = "w-u" if algorithm == "w-u" else None
+        layout = layout or ("w-u" if algorithm == "w-u" else None)
         return models.parallelepiped(size, algorithm=layout, comm=comm)
     if scale in models.PIN_JOINT_SCALES:
         return models.pin_joint(scale, comm=comm)
@@ -134,22 +149,31 @@ def _analysis(problem) -> dict:
 
 def worker(args) -> dict:
     """One run of one algorithm (its own process, BLAS pinned); collective over the ranks."""
+    import contextlib
+
     from mpi4py import MPI
+
+    import iterative_peer
 
     import dd_contact as dc
 
     comm = MPI.COMM_WORLD
-    start = time.perf_counter()
-    scene = scene_for(args.model, args.scale, args.worker, comm)
+    start, cpu_start = time.perf_counter(), time.process_time()
+    algorithm, modes, peer = case_of(args.worker)
+    scene = scene_for(args.model, args.scale, algorithm, comm, "FULL" if peer else None)
+    for sub in scene.subdomains if modes is not None else ():
+        sub.reduce(modes=modes)
     options = dict(json.loads(args.petsc_options)) if args.petsc_options else None
-    problem = dc.TransientProblem(
-        scene, args.dt, algorithm=args.worker, track_energy=False, petsc_options=options
-    )
+    with iterative_peer.peer(args.worker, scene) if peer else contextlib.nullcontext():
+        problem = dc.TransientProblem(
+            scene, args.dt, algorithm=algorithm, track_energy=False, petsc_options=options
+        )
     built = time.perf_counter() - start
     record: dict = {
         "model": args.model,
         "scale": args.scale,
         "algorithm": args.worker,
+        "modes": modes,
         "ranks": comm.size,
         "dofs": int(sum(problem.solver.system.sizes.values())),
         "blocks": {str(k): int(v) for k, v in problem.solver.system.sizes.items()},
@@ -162,28 +186,34 @@ def worker(args) -> dict:
         problem.close()
         return record
     iterations: list[float] = []
+    cpu: list[float] = []  # the same in CPU time: the steadier clock on a loaded machine
     solve_once = problem.iteration._solve_once
 
     def timed(*a):
         comm.Barrier()
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         out = solve_once(*a)
         iterations.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
         return out
 
     problem.iteration._solve_once = timed  # the benchmark's probe: one time per iteration
     steps = []
     changes_wanted = args.full_changes if args.worker == "FULL" else None
+    record["build_cpu_seconds"] = time.process_time() - cpu_start
     for _ in range(args.steps):
         iterations.clear()
+        cpu.clear()
         comm.Barrier()
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         result = problem.advance()
         steps.append(
             {
                 "seconds": time.perf_counter() - t0,
+                "cpu_seconds": time.process_time() - c0,
                 "changes": int(result["changes"]),
                 "iterations": list(iterations),
+                "iterations_cpu": list(cpu),
                 "active": {k: int(v) for k, v in result["active"].items()},
             }
         )
@@ -197,6 +227,7 @@ def worker(args) -> dict:
             "changes": int(sum(s["changes"] for s in steps)),
             "work": problem.work_summary(),
             "peak_rss_gib": comm.allgather(_peak_rss_gib()),
+            "cg_iterations": getattr(problem.solver, "iterations", None),
         }
     )
     problem.close()
@@ -291,12 +322,21 @@ def steps_logged(log: Path) -> list[dict]:
 
 
 def derived(run: dict) -> dict:
-    """Set-up, per change and per step (medians) of one run."""
+    """Set-up, per change and per step (medians) of one run; by CPU time too if recorded."""
     steps = run["steps"]
     first = steps[0]["iterations"][0] if steps and steps[0]["iterations"] else 0.0
     change = [t for s in steps for t in s["iterations"][1:]]
     base = [s["seconds"] - sum(s["iterations"][1:]) for s in steps[1:]]
-    return {
+    cpu = {}
+    if steps and "cpu_seconds" in steps[0]:
+        c_change = [t for s in steps for t in s["iterations_cpu"][1:]]
+        c_base = [s["cpu_seconds"] - sum(s["iterations_cpu"][1:]) for s in steps[1:]]
+        cpu = {
+            "setup_cpu_seconds": run["build_cpu_seconds"] + steps[0]["iterations_cpu"][0],
+            "cpu_per_change": statistics.median(c_change) if c_change else None,
+            "cpu_per_step": statistics.median(c_base) if c_base else None,
+        }
+    return cpu | {
         "setup_seconds": run["build_seconds"] + first,
         "seconds_per_change": statistics.median(change) if change else None,
         "seconds_per_step": statistics.median(base) if base else None,
@@ -340,7 +380,33 @@ def summary(data: dict) -> dict:
     for model, extrapolated in full_paper.items():
         if extrapolated:
             out[f"{model}|paper|FULL (extrapolated)"] = extrapolated
+    _against_peers(out, whole)
     return out
+
+
+def _against_peers(out: dict, whole) -> None:
+    """Per run, the paper's study by each iterative peer at the same scale over its own."""
+    import iterative_peer
+
+    for key, d in out.items():
+        model, scale, algorithm = key.split("|")
+        for label in iterative_peer.PEERS:
+            peer = out.get(f"{model}|{scale}|{label}")
+            if peer is None or algorithm == label or peer["seconds_per_change"] is None:
+                continue
+            if d.get("seconds_per_change") is None or d.get("seconds_per_step") is None:
+                continue
+            d[f"{label}_over_this_paper_study"] = whole(peer) / whole(d)
+            if peer.get("cpu_per_change") and d.get("cpu_per_change") and d.get("cpu_per_step"):
+                d[f"{label}_over_this_paper_study_cpu"] = whole_cpu(peer) / whole_cpu(d)
+
+
+def whole_cpu(x: dict) -> float:
+    """The paper's study (Table 3's steps and changes) by a run's CPU-time rates."""
+    from dd_contact.paper.flops.paper import PAPER_BAR
+
+    steps, changes = PAPER_BAR.steps * x["cpu_per_step"], PAPER_BAR.changes * x["cpu_per_change"]
+    return x["setup_cpu_seconds"] + steps + changes
 
 
 def cells(model: str, scale: str) -> int:
