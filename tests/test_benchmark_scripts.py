@@ -46,8 +46,9 @@ def test_the_iterative_peer_patches_what_full_solves_with_and_repeats_its_answer
     wall (its contact changing) equal the direct FULL's to the peers' tolerance."""
     import sys
 
-    import numpy as np
     from mpi4py import MPI
+
+    import numpy as np
 
     import dd_contact as dd
     import dd_contact.analysis as analysis
