@@ -380,8 +380,56 @@ def summary(data: dict) -> dict:
     for model, extrapolated in full_paper.items():
         if extrapolated:
             out[f"{model}|paper|FULL (extrapolated)"] = extrapolated
+    for model in models:
+        _extrapolate_by_cells(out, model, full_paper[model], whole)
     _against_peers(out, whole)
     return out
+
+
+#: Runs carried to the paper's size by a power law in the cells (:func:`_extrapolate_by_cells`).
+CARRIED = ("reduced", "CG+")
+
+
+def _extrapolate_by_cells(out: dict, model: str, full: dict | None, whole) -> None:
+    """Reduced runs and the peers at the paper's size, from their measured runs.
+
+    Measured at two or more scales: a power law in the cell count through them per rate
+    (set-up, step, change, peak memory; wall and CPU). A peer at one scale: linear in the
+    cells (its CG iteration is a sweep over the matrix; its iteration count is taken to stay
+    the same, which favours the peer). Marked ``extrapolated`` with the exponents used.
+    """
+    import numpy as np
+
+    keys = ("setup_seconds", "seconds_per_step", "seconds_per_change", "peak_rss_gib")
+    keys += ("setup_cpu_seconds", "cpu_per_step", "cpu_per_change")
+    by_label: dict[str, dict[float, dict]] = {}
+    for key, d in out.items():
+        m, scale, label = key.split("|")
+        if m == model and scale != "paper" and "extrapolated" not in d:
+            if any(c in label for c in CARRIED) and not scale.startswith("paper"):
+                by_label.setdefault(label, {})[float(cells(model, scale))] = d
+    target = float(cells(model, "paper"))
+    for label, runs in by_label.items():
+        sizes = sorted(runs)
+        if len(sizes) < 2 and "CG+" not in label:  # a reduced run: two sizes needed
+            continue
+        estimate: dict = {"extrapolated": True, "from_cells": sizes, "exponents": {}}
+        for k in keys:
+            points = [(c, runs[c][k]) for c in sizes if runs[c].get(k)]
+            if not points:
+                continue
+            if len(points) >= 2:
+                slope = float(
+                    np.polyfit(np.log([c for c, _ in points]), np.log([v for _, v in points]), 1)[0]
+                )
+            else:
+                slope = 1.0
+            c, v = points[-1]
+            estimate[k] = v * (target / c) ** slope
+            estimate["exponents"][k] = slope
+        if full and estimate.get("seconds_per_change") and estimate.get("seconds_per_step"):
+            estimate["percent_of_full_paper_study"] = 100.0 * whole(estimate) / whole(full)
+        out[f"{model}|paper|{label} (extrapolated)"] = estimate
 
 
 def _against_peers(out: dict, whole) -> None:
@@ -391,8 +439,9 @@ def _against_peers(out: dict, whole) -> None:
     for key, d in out.items():
         model, scale, algorithm = key.split("|")
         for label in iterative_peer.PEERS:
-            peer = out.get(f"{model}|{scale}|{label}")
-            if peer is None or algorithm == label or peer["seconds_per_change"] is None:
+            suffix = " (extrapolated)" if algorithm.endswith(" (extrapolated)") else ""
+            peer = out.get(f"{model}|{scale}|{label}{suffix}")
+            if peer is None or algorithm.startswith(label) or not peer.get("seconds_per_change"):
                 continue
             if d.get("seconds_per_change") is None or d.get("seconds_per_step") is None:
                 continue
