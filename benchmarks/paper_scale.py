@@ -21,6 +21,13 @@ The summary puts, per order, the whole-run time of the paper's study (Table 3: N
 D changes; ``flops.paper.PAPER_BAR``) from the measured rates over FULL's, next to the
 paper's FLOP ratios 0.600 / 0.153 / 0.146 %.
 
+Besides the algorithms, ``--algorithms`` takes the iterative peers ``CG+GAMG`` and
+``CG+Jacobi`` (FULL's matrix by warm-started CG on the one-mesh bar, iterative_peer.py) and
+``"w-u reduced m=N"`` (every subdomain reduced to N modes); runs record CPU times too, the
+summary gives each run's study against each peer's at the same scale, and carries reduced
+runs (two scales) and peers to the paper's size (``benchmarks/study_estimate.py`` makes
+the estimate of the reduced study from these runs).
+
 Writes benchmarks/results/paper_scale.json after every finished run and resumes from it
 (a run already in the file is skipped).
 
