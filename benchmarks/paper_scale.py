@@ -471,7 +471,7 @@ def cells(model: str, scale: str) -> int:
     from dd_contact.paper import models
     from dd_contact.paper.flops.paper import pin_joint_mesh_counts
 
-    scale = scale.removesuffix("+ooc")
+    scale = scale.split("+")[0]  # a tag (+ooc, ...) names the run, not the size
     if model == "pin_joint":
         layout = models.pin_joint_layout("paper") if scale == "paper" else _joint_layout(scale)
         return pin_joint_mesh_counts(layout)["hexahedra"]
