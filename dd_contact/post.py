@@ -242,6 +242,7 @@ class Reactions:
         x: Mapping[str, np.ndarray],
         loads: Mapping[str, np.ndarray],
         accelerations: Mapping[str, np.ndarray],
+        supports: Mapping[str, np.ndarray],
     ) -> dict[Block, np.ndarray]:
         """Reaction 3-vector per owned subdomain block (zero without supports).
 
@@ -249,10 +250,12 @@ class Reactions:
             x: Every block's displacement.
             loads: The external load vector of each owned subdomain block.
             accelerations: Acceleration of each owned block (empty for statics).
+            supports: Each owned reduced block's load on its prescribed dofs (its ``loads``
+                entry is in reduced coordinates, without them).
         """
         out: dict[Block, np.ndarray] = {}
         for block, basis in self.model.reduced.items():  # in reduced coordinates
-            r = basis.reaction(x[block], accelerations.get(block))
+            r = basis.reaction(x[block], accelerations.get(block), supports[block])
             out[block] = np.bincount(basis.fixed % 3, weights=r, minlength=3)
         for block, rows in self.rows.items():
             if block in self.model.reduced:
@@ -330,6 +333,7 @@ class Results:
         x: Mapping[str, np.ndarray],
         loads: Mapping[str, np.ndarray],
         accelerations: Mapping[str, np.ndarray],
+        supports: Mapping[str, np.ndarray],
         active: Mapping[str, np.ndarray],
         alpha: Mapping[str, int],
     ) -> dict:
@@ -346,7 +350,7 @@ class Results:
             local[("active", name)] = int(active[name].sum())
             local[("contact_area", name)] = contact_area(z, active[name])
             local[("carrying", name)] = carrying_points(z, z.gather(x), active[name])
-        for block, reaction in self.reactions.of(x, loads, accelerations).items():
+        for block, reaction in self.reactions.of(x, loads, accelerations, supports).items():
             local[("reaction", self.names[block])] = reaction.tolist()
         agreed = gathered(self.comm, local)
         contacts = [c.name for c in self.scene.regions]

@@ -130,10 +130,11 @@ class StaticProblem(AnalysisReadout):
         self._check_open()
         analysis = self.analysis
         self.iteration.start(t)
-        loads = analysis.loads(t)
+        loads, supports = analysis.loads(t)
         x, self.iterations, _ = analysis.solve(t, analysis.rhs(t, loads), f"t = {t}")
         analysis.publish(x)
-        record = {"t": t, "iterations": self.iterations, **analysis.agree(x, loads, {})}
+        record = {"t": t, "iterations": self.iterations}
+        record.update(analysis.agree(x, loads, {}, supports))
         self.resolution.solved(record, analysis.agreed.carrying)
         analysis.agreed.latest = record
         return analysis.functions()
@@ -314,7 +315,7 @@ class TransientProblem(AnalysisReadout):
     def _initial_acceleration(self) -> None:
         """M u''(t0) = r(t0) - K u(t0) - tie forces (massless surfaces in equilibrium)."""
         owned, system = self.analysis.owned, self.model.system
-        loads = self.analysis.loads(self.t0)
+        loads = self.analysis.loads(self.t0)[0]
         now = self.kinematics.now
         u0 = {sub.block: now(sub)[0].copy() for sub in owned}
         moved = any_rank(self.comm, any(np.any(u != 0) for u in u0.values()))
@@ -399,9 +400,8 @@ class TransientProblem(AnalysisReadout):
         analysis, owned = self.analysis, self.analysis.owned
         t_new = self.t + self.dt
         if self.inertia and self._previous_loads[0] != self.t:  # the last step's: r(t_n)
-            # before r(t_n+1): a reduced subdomain's reaction reads the last load projected
-            self._previous_loads = (self.t, analysis.loads(self.t))
-        loads = analysis.loads(t_new)
+            self._previous_loads = (self.t, analysis.loads(self.t)[0])
+        loads, supports = analysis.loads(t_new)
         external = dict(loads)
         where = f"step {self.step + 1} (t = {t_new:.6g})"
         release = None
@@ -424,7 +424,7 @@ class TransientProblem(AnalysisReadout):
         self._previous_loads = (t_new, external)
         accelerations = {s.block: self.kinematics.now(s)[2] for s in owned if self.inertia}
         record = {"step": self.step, "t": t_new, "iterations": iterations, "changes": changes}
-        record.update(analysis.agree(x, external, accelerations))
+        record.update(analysis.agree(x, external, accelerations, supports))
         if self.inertia and self.track_energy:
             energy_before = self.history[-1].get("energy") if self.history else None
             record["energy"] = self._energy()

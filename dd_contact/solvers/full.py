@@ -97,7 +97,7 @@ class MonolithicSolver:
 
     def _solve(self, rhs: BlockKeyed[np.ndarray]) -> dict[str, np.ndarray]:
         self._refactorise()
-        assert self.matrix.A is not None and self._factor is not None
+        assert self.matrix.A is not None
         b = self.matrix.A.createVecRight()
         for name, vector in rhs.items():
             idx = np.arange(len(vector), dtype=PETSc.IntType) + self.offsets[name]
@@ -105,7 +105,7 @@ class MonolithicSolver:
             # insert mode as InsertMode (its values are ints)
             b.setValues(idx, vector, addv=PETSc.InsertMode.ADD_VALUES)  # type: ignore[arg-type]
         b.assemble()
-        x = self._factor.solve(b)
+        x = self._apply(b)
         if self.comm.size == 1:  # x holds every row already
             values = x.getArray(readonly=True).copy()
         else:
@@ -121,6 +121,11 @@ class MonolithicSolver:
             for name, off in self.offsets.items()
         }
         return self._last
+
+    def _apply(self, b: PETSc.Vec) -> PETSc.Vec:
+        """A^-1 b, a new vector (the factor's substitution; a subclass may iterate instead)."""
+        assert self._factor is not None  # _refactorise came first
+        return self._factor.solve(b)
 
     def finish(self) -> dict[str, np.ndarray]:
         """Every block of the last solution (nothing is left to back-substitute)."""
