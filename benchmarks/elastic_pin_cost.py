@@ -39,13 +39,20 @@ PINNED = {
     "MKL_NUM_THREADS": "1",
     "BLIS_NUM_THREADS": "1",
 }
-ALGORITHMS = ("FULL", "v-w-u", "w-v-u")
+#: An order followed by " refactorise" runs with the low-rank correction of contact changes
+#: off (dd_contact/solvers/lowrank.py): every change re-factorises the groups it makes stale.
+ALGORITHMS = ("FULL", "v-w-u", "w-v-u", "v-w-u refactorise", "w-v-u refactorise")
 DEFAULT_SCALE = "6,7,4,34"
 #: The pins in the joint (their holes in contact), as benchmarks/pin_joint_ordering.py.
 VARIANTS = {"all 10": [0, 1, 2, 3, 4], "2 holes": [2]}
 PERIOD = 2e-3
-#: The work records of a (re-)factorisation.
-FACTOR_KINDS = ("sparse_factor", "dense_factor", "schur")
+#: The work records of a (re-)factorisation, and of a low-rank correction instead of one.
+FACTOR_KINDS = ("sparse_factor", "dense_factor", "schur", "dense_update")
+
+
+def change_work(record) -> bool:
+    """Whether a work record is part of what a contact change costs (not a substitution)."""
+    return record.kind in FACTOR_KINDS or record.what == "lowrank"
 
 
 def result_name(scale: str) -> str:
@@ -60,6 +67,10 @@ def one(algorithm: str, scale: str, reversals: int, variant: str) -> dict:
 
     import dd_contact as dc
     from dd_contact.paper import models
+    from dd_contact.solvers.lowrank import LowRankSurface
+
+    algorithm, _, refactorise = algorithm.partition(" ")
+    LowRankSurface.enabled = not refactorise
 
     names = list(models.PIN_JOINT_SCALES["small"])
     counts = dict(zip(names, map(int, scale.split(",")), strict=True))
@@ -83,7 +94,7 @@ def one(algorithm: str, scale: str, reversals: int, variant: str) -> dict:
             problem.solve(t)
             seconds = time.perf_counter() - tic
             records = problem.work.records[first:]
-            factors = [r for r in records if r.kind in FACTOR_KINDS]
+            factors = [r for r in records if change_work(r)]
             rows.append(
                 {
                     "t": t,
@@ -91,11 +102,13 @@ def one(algorithm: str, scale: str, reversals: int, variant: str) -> dict:
                     "iterations": problem.iterations,
                     "changes": problem.changes["gamma"] - before,
                     "factor_seconds": sum(r.seconds for r in factors),
+                    "updates": sum(r.kind == "dense_update" for r in records),
                     "factorisations": {
                         f"{r.kind} {r.block} ({r.size})": sum(
                             1 for q in factors if (q.kind, q.block) == (r.kind, r.block)
                         )
                         for r in factors
+                        if r.kind != "dense_update" and r.what != "lowrank"
                     },
                 }
             )
@@ -105,7 +118,7 @@ def one(algorithm: str, scale: str, reversals: int, variant: str) -> dict:
     per_change = [r["factor_seconds"] / r["changes"] for r in later]
     per_iteration = [r["seconds"] / r["iterations"] for r in later]
     return {
-        "algorithm": algorithm,
+        "algorithm": algorithm + (" refactorise" if refactorise else ""),
         "dofs": dofs,
         "setup_seconds": setup,
         "solves": rows,
