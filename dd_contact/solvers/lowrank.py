@@ -43,17 +43,29 @@ from dd_contact.solvers.schedule import Operation, Schedule
 from dd_contact.solvers.surface import Surface
 from dd_contact.solvers.worklog import WorkLog
 
-__all__ = ["REFINED", "REFINEMENTS", "UPDATE_TOLERANCE", "Correction", "LowRankSurface", "low_rank"]
+__all__ = [
+    "CAPACITANCE_RCOND",
+    "REFINED",
+    "REFINEMENTS",
+    "UPDATE_TOLERANCE",
+    "Correction",
+    "LowRankSurface",
+    "low_rank",
+]
 
 #: Largest accepted ``|D U^T x_J - z| / |z|`` of a corrected solve (its residual on J,
 #: relative to the correction); beyond it the groups are re-factorised and the solve repeated.
 UPDATE_TOLERANCE = 1e-9
 
-#: Defect below which a corrected solve is not refined (round-off of the chain's solves).
-REFINED = 1e-13
+#: Smallest reciprocal condition number of the capacitance matrix ``I + D G`` kept: below
+#: it, changes that nearly cancel are merged, or the groups are re-factorised.
+CAPACITANCE_RCOND = 1e-8
+
+#: Residual (relative to the right-hand side) below which a corrected solve is not refined.
+REFINED = 1e-14
 
 #: Refinements of a corrected solve at most (each one more pass through the chain).
-REFINEMENTS = 2
+REFINEMENTS = 4
 
 
 @dataclass
@@ -74,6 +86,7 @@ class Correction:
         kept: Per group, the columns of V that reach it and their forward elimination
             (``L^-1 R`` in the last level, ``A_GG^-1 R`` before it).
         capacitance: LU factors of ``I + D G``.
+        conditioned: Its reciprocal condition number (1-norm, LAPACK's estimate).
     """
 
     pieces: list[tuple[dict[Block, np.ndarray], np.ndarray]] = field(default_factory=list)
@@ -81,6 +94,7 @@ class Correction:
     G: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     kept: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     capacitance: tuple[np.ndarray, np.ndarray] | None = None
+    conditioned: float = 1.0  # the capacitance matrix's reciprocal condition number (1-norm)
 
     @property
     def rank(self) -> int:
@@ -167,6 +181,7 @@ class LowRankSurface(Surface):
         self.moved: set[tuple[Block, Block]] = set()  # pairs changed since the factorisation
         self.fresh: set[tuple[Block, Block]] = set()  # pairs changed since the correction
         self.correction = Correction()
+        self._solved: dict[str, np.ndarray] | None = None  # the last corrected solve's x
 
     def set_contact(self, pair: tuple[Block, Block], matrix: sp.csr_array) -> None:
         """The new contact matrix of a block pair: corrected for, or re-factorised later."""
@@ -193,11 +208,11 @@ class LowRankSurface(Surface):
         self.factorised = dict(self.contact)
         self.corrected = dict(self.contact)
 
-    def _delta(self) -> tuple[dict[Block, np.ndarray], sp.csr_array]:
-        """J per block and ``M = dC[J, J]`` (sparse) of the changes since the correction."""
+    def _delta(self, pairs: set, since: dict) -> tuple[dict[Block, np.ndarray], sp.csr_array]:
+        """J per block and ``M = dC[J, J]`` (sparse): the change of ``pairs`` since ``since``."""
         pieces = {}
-        for pair in sorted(self.fresh):
-            old = self.corrected.get(pair)
+        for pair in sorted(pairs):
+            old = since.get(pair)
             new = self.contact[pair]
             piece = sp.coo_array(new - old if old is not None else new).tocsr().tocoo()
             piece.eliminate_zeros()
@@ -221,29 +236,54 @@ class LowRankSurface(Surface):
         return dofs, sp.csr_array(triplets, shape=(k, k))
 
     def _update(self) -> bool:
-        """Add the changes since the correction to it; False: re-factorise instead."""
-        start = time.perf_counter()
-        dofs, M = self._delta()
+        """Add the changes since the correction to it; False: re-factorise instead.
+
+        A change that undoes part of an earlier one (a point back in its state) adds the
+        opposite term; when that leaves the capacitance matrix ill-conditioned (the terms
+        nearly cancel), the correction is built again from every change since the
+        factorisation at once, whose rank is then the true one.
+        """
+        start, first = time.perf_counter(), len(self.log.records)
+        blocks = {b for pair in self.moved for b in pair}
+        refactorise = self.refactorise_seconds(blocks)
+        dofs, M = self._delta(self.fresh, self.corrected)
         if M.nnz and abs(M - M.T).max() > 1e-12 * abs(M).max():
             return False  # an unsymmetric contact block (friction): re-factorised
         U, D = low_rank(M)
         if not len(D):  # the contact matrices are back to the corrected ones
             return True
-        blocks = {b for pair in self.moved for b in pair}
-        if self.update_seconds(dofs, len(D)) >= self.refactorise_seconds(blocks):
+        if self.update_seconds(dofs, len(D), self.correction.rank) >= refactorise:
             return False
-        first = len(self.log.records)
-        c = self.correction
-        c.G = self._extend(c, dofs, U)
-        c.pieces.append((dofs, U))
-        c.D = np.concatenate([c.D, D])
-        c.capacitance = sla.lu_factor(np.eye(c.rank) + c.D[:, None] * c.G, check_finite=False)
-        self.corrected = dict(self.contact)
+        c = self._extended(self.correction, dofs, U, D)
+        if c.conditioned < CAPACITANCE_RCOND and self.correction.rank:
+            dofs, M = self._delta(self.moved, self.factorised)
+            U, D = low_rank(M)
+            if not len(D):
+                self.correction, self.corrected = Correction(), dict(self.contact)
+                return True
+            if self.update_seconds(dofs, len(D), 0) >= refactorise:
+                return False
+            c = self._extended(Correction(), dofs, U, D)
+        if c.conditioned < CAPACITANCE_RCOND:
+            return False
+        self.correction, self.corrected = c, dict(self.contact)
         logged = sum(r.seconds for r in self.log.records[first:])  # the elimination's own
         seconds = time.perf_counter() - start - logged
         flops = 2.0 * M.shape[0] ** 3 / 3.0 + (2.0 / 3.0) * c.rank**3
         self.log.add("lowrank", "dense_update", c.rank, len(D), seconds, flops)
         return True
+
+    def _extended(self, c: Correction, dofs, U: np.ndarray, D: np.ndarray) -> Correction:
+        """A correction with a new change's columns added to ``c``'s (``c`` unchanged)."""
+        out = Correction(list(c.pieces), c.D, c.G, dict(c.kept))
+        out.G = self._extend(out, dofs, U)
+        out.pieces.append((dofs, U))
+        out.D = np.concatenate([c.D, D])
+        C = np.eye(out.rank) + out.D[:, None] * out.G
+        out.capacitance = sla.lu_factor(C, check_finite=False)
+        rcond, _ = sla.lapack.dgecon(out.capacitance[0], np.abs(C).sum(axis=0).max(), norm="1")
+        out.conditioned = float(rcond)
+        return out
 
     # -- the chain ------------------------------------------------------------------------
     def _extend(self, c: Correction, dofs: dict[Block, np.ndarray], U: np.ndarray) -> np.ndarray:
@@ -328,14 +368,14 @@ class LowRankSurface(Surface):
 
         return sum(record_seconds(r, self.rates) for r in WorkLog.planned(ops).records)
 
-    def update_seconds(self, dofs: dict[Block, np.ndarray], rank: int) -> float:
-        """Price of adding a change of ``rank`` on ``dofs`` to the correction.
+    def update_seconds(self, dofs: dict[Block, np.ndarray], rank: int, r0: int) -> float:
+        """Price of adding a change of ``rank`` on ``dofs`` to a correction of rank ``r0``.
 
         The forward elimination of its columns through the groups they reach (the first
         ones each take their own columns only: priced as all of them, an upper bound), the
         cross terms with the earlier columns, and the LU of the grown capacitance matrix.
         """
-        ops, r0 = [], self.correction.rank
+        ops = []
         for grp in self._reached(set(dofs)):
             n = sum(self.sizes[b] for b in grp.blocks)
             twice = 1 if grp.last or not grp.neighbours else 3  # A^-1 R, then B^T Y
@@ -357,23 +397,62 @@ class LowRankSurface(Surface):
     def solve(self, g: dict[str, np.ndarray], complete: bool) -> dict[str, np.ndarray]:
         """Solve ``S' x = g``: through the chain, corrected for the changes since it was made.
 
-        ``x = S^-1 (g - E U z)`` is exact when ``z = D U^T x_J``; the defect of that is the
-        residual of ``S' x = g`` (on J, the only rows where S' and S differ), so z is refined
-        until it is below :data:`REFINED` (at most :data:`REFINEMENTS` times), and the groups
-        are re-factorised if it stays above :data:`UPDATE_TOLERANCE`.
+        With a correction, every block is solved for (``complete`` or not) and refined with
+        the residual of ``S' x = g`` (the surface pairs and contact matrices times x):
+        until it is below :data:`REFINED` of ``|g|`` or stops falling, at most
+        :data:`REFINEMENTS` times. A release of a stiff contact point subtracts its penalty
+        from a factor that holds it, which loses digits the refinement gives back. If the
+        residual stays above :data:`UPDATE_TOLERANCE` of ``|g|``, the groups are
+        re-factorised and the solve repeated.
         """
-        x = super().solve(g, complete)
+        self._solved = None
         c = self.correction
         if c.capacitance is None:
-            return x
-        z = np.zeros(c.rank)
-        for _ in range(1 + REFINEMENTS):
-            defect = c.projected(x) - z
-            if np.linalg.norm(defect) <= REFINED * np.linalg.norm(z):
-                return x
-            z += sla.lu_solve(c.capacitance, defect, check_finite=False)
-            x = super().solve(c.shifted(g, z), complete)
-        if np.linalg.norm(c.projected(x) - z) <= UPDATE_TOLERANCE * np.linalg.norm(z):
-            return x
-        self._refactorise()
-        return super().solve(g, complete)
+            return super().solve(g, complete)
+        x = self._corrected(c, g)
+        size = np.sqrt(sum(float(v @ v) for v in g.values()))
+        before = np.inf
+        for _ in range(REFINEMENTS):
+            r = self._residual(g, x)
+            now = np.sqrt(sum(float(v @ v) for v in r.values()))
+            if now <= REFINED * size or now > 0.5 * before:
+                break
+            before = now
+            dx = self._corrected(c, r)
+            x = {b: v + dx[b] for b, v in x.items()}
+        else:
+            r = self._residual(g, x)
+            now = np.sqrt(sum(float(v @ v) for v in r.values()))
+        if now > UPDATE_TOLERANCE * size:
+            self._refactorise()
+            return super().solve(g, complete)
+        self._solved = x
+        return x
+
+    def _corrected(self, c: Correction, g: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Woodbury: ``S^-1 (g - E U z)`` with ``(I + D G) z = D U^T (S^-1 g)_J``."""
+        x = super().solve(g, True)
+        z = sla.lu_solve(c.capacitance, c.projected(x), check_finite=False)
+        return super().solve(c.shifted(g, z), True)
+
+    def _residual(
+        self, g: dict[str, np.ndarray], x: dict[str, np.ndarray]
+    ) -> dict[str, np.ndarray]:
+        """``g - S' x``: the surface pairs (S) and the contact matrices times x."""
+        start = time.perf_counter()
+        r = {b: v.copy() for b, v in g.items()}
+        for a, b in self.schedule.pairs:
+            matrix = self._schur_pair((a, b))
+            if matrix is not None:
+                r[a] -= matrix @ x[b]
+        for (a, b), matrix in self.contact.items():
+            r[a] -= matrix @ x[b]
+        n, seconds = sum(map(len, x.values())), time.perf_counter() - start
+        self.log.add("lowrank", "dense_product", n, n, seconds, 2.0 * n * n, "residual")
+        return r
+
+    def back_substitute(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The earlier levels: solved already if the last solve was corrected."""
+        if self._solved is not None:
+            return {**x, **{b: v for b, v in self._solved.items() if b not in x}}
+        return super().back_substitute(x)
