@@ -90,6 +90,7 @@ def one(algorithm: str, scale: str, reversals: int, variant: str) -> dict:
         for k in range(reversals + 1):
             t = PERIOD * (0.25 + 0.5 * k)
             before, first = problem.changes["gamma"], len(problem.work.records)
+            states = {k: a.copy() for k, a in problem.iteration.active.items()}
             tic = time.perf_counter()
             problem.solve(t)
             seconds = time.perf_counter() - tic
@@ -103,6 +104,11 @@ def one(algorithm: str, scale: str, reversals: int, variant: str) -> dict:
                     "changes": problem.changes["gamma"] - before,
                     "factor_seconds": sum(r.seconds for r in factors),
                     "updates": sum(r.kind == "dense_update" for r in records),
+                    "points": sum(len(a) for a in states.values()),
+                    "points_changed": sum(
+                        int(np.count_nonzero(a != problem.iteration.active[k]))
+                        for k, a in states.items()
+                    ),
                     "factorisations": {
                         f"{r.kind} {r.block} ({r.size})": sum(
                             1 for q in factors if (q.kind, q.block) == (r.kind, r.block)
@@ -138,6 +144,7 @@ def main():
     parser.add_argument("--reversals", type=int, default=4, help="load reversals measured")
     parser.add_argument("--one", help=argparse.SUPPRESS)  # a child: run this algorithm
     parser.add_argument("--variant", default="all 10", help=argparse.SUPPRESS)
+    parser.add_argument("--variants", default=",".join(VARIANTS), help="variants run")
     parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
     args = parser.parse_args()
     if args.one:
@@ -149,7 +156,7 @@ def main():
         "reversals": args.reversals,
         "machine": platform.node(),
         "blas_threads": 1,
-        "variants": {variant: run_variant(variant, args) for variant in VARIANTS},
+        "variants": {v: run_variant(v, args) for v in args.variants.split(",")},
     }
     report["seconds"] = time.perf_counter() - start
     out = Path(args.out)
