@@ -57,15 +57,18 @@ __all__ = [
 #: relative to the correction); beyond it the groups are re-factorised and the solve repeated.
 UPDATE_TOLERANCE = 1e-9
 
-#: Smallest reciprocal condition number of the capacitance matrix ``I + D G`` kept: below
-#: it, changes that nearly cancel are merged, or the groups are re-factorised.
-CAPACITANCE_RCOND = 1e-8
+#: Reciprocal condition numbers of the capacitance matrix ``I + D G``: below the first, the
+#: changes (some nearly cancelling) are merged into one; below the second, re-factorised.
+#: Releasing a point of penalty kappa from a factor that holds it is ill-conditioned by
+#: nature (about 1 / (kappa s), s the compliance there: 1e-6 to 1e-11 at the default
+#: penalty); the refinement with the true residual gives the digits back.
+CAPACITANCE_RCOND = (1e-10, 1e-14)
 
 #: Residual (relative to the right-hand side) below which a corrected solve is not refined.
 REFINED = 1e-14
 
 #: Refinements of a corrected solve at most (each one more pass through the chain).
-REFINEMENTS = 4
+REFINEMENTS = 3
 
 
 @dataclass
@@ -255,7 +258,7 @@ class LowRankSurface(Surface):
         if self.update_seconds(dofs, len(D), self.correction.rank) >= refactorise:
             return False
         c = self._extended(self.correction, dofs, U, D)
-        if c.conditioned < CAPACITANCE_RCOND and self.correction.rank:
+        if c.conditioned < CAPACITANCE_RCOND[0] and self.correction.rank:
             dofs, M = self._delta(self.moved, self.factorised)
             U, D = low_rank(M)
             if not len(D):
@@ -264,7 +267,7 @@ class LowRankSurface(Surface):
             if self.update_seconds(dofs, len(D), 0) >= refactorise:
                 return False
             c = self._extended(Correction(), dofs, U, D)
-        if c.conditioned < CAPACITANCE_RCOND:
+        if c.conditioned < CAPACITANCE_RCOND[1]:
             return False
         self.correction, self.corrected = c, dict(self.contact)
         logged = sum(r.seconds for r in self.log.records[first:])  # the elimination's own
