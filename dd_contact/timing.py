@@ -76,6 +76,8 @@ def rate_kind(record: WorkRecord) -> str:
         return "sparse_solve"
     if record.kind == "dense_product":
         return "dense_solve_block" if record.what == "condense" else "dense_solve"
+    if record.kind == "dense_update":  # a low-rank correction's small dense LU and products
+        return "dense_factor"
     return "dense_solve" if record.kind == "schur" else record.kind
 
 
