@@ -16,10 +16,9 @@ instead of one. The correction is on the whole condensed surface system, so it i
 for every order, and a change re-factorises neither the interface nor the other groups.
 
 Changes accumulate (J and M grow) until re-factorising the groups the change makes stale
-is cheaper than the correction (:meth:`LowRankSurface.update_seconds`), or until the
-correction's residual degrades. The residual is exact and cheap: off J, ``S' = S`` and the
-chain solved ``S x = g - E z``; on J, ``S' x - g = M x_J - z``. A solve whose relative
-residual exceeds :data:`UPDATE_TOLERANCE` re-factorises and solves again.
+is cheaper than the correction (:meth:`LowRankSurface.update_seconds`), or until a
+corrected solve's accuracy degrades: each one is refined with its true residual, and one
+whose backward error stays above :data:`UPDATE_TOLERANCE` re-factorises and solves again.
 
 Work log: the forward elimination's substitutions are ``"dense_solve"`` records with
 ``what="lowrank"``, each correction one ``"dense_update"`` record (size k): their count
@@ -53,9 +52,10 @@ __all__ = [
     "low_rank",
 ]
 
-#: Largest accepted ``|D U^T x_J - z| / |z|`` of a corrected solve (its residual on J,
-#: relative to the correction); beyond it the groups are re-factorised and the solve repeated.
-UPDATE_TOLERANCE = 1e-9
+#: Largest accepted normwise backward error ``|g - S' x| / (|S'| |x| + |g|)`` of a
+#: corrected solve (a Cholesky solve's is about 1e-16); beyond it the groups are
+#: re-factorised and the solve repeated.
+UPDATE_TOLERANCE = 1e-13
 
 #: Reciprocal condition numbers of the capacitance matrix ``I + D G``: below the first, the
 #: changes (some nearly cancelling) are merged into one; below the second, re-factorised.
@@ -64,8 +64,8 @@ UPDATE_TOLERANCE = 1e-9
 #: penalty); the refinement with the true residual gives the digits back.
 CAPACITANCE_RCOND = (1e-10, 1e-14)
 
-#: Residual (relative to the right-hand side) below which a corrected solve is not refined.
-REFINED = 1e-14
+#: Normwise backward error below which a corrected solve is not refined.
+REFINED = 1e-16
 
 #: Refinements of a corrected solve at most (each one more pass through the chain).
 REFINEMENTS = 3
@@ -150,6 +150,11 @@ def low_rank(M: sp.csr_array, tolerance: float = 1e-12) -> tuple[np.ndarray, np.
     return U, D
 
 
+def _norm(blocks: dict[str, np.ndarray]) -> float:
+    """The 2-norm of vectors by block, as one vector."""
+    return float(np.sqrt(sum(float(v @ v) for v in blocks.values())))
+
+
 class LowRankSurface(Surface):
     """A :class:`Surface` that corrects contact changes with Woodbury instead of re-factorising.
 
@@ -185,6 +190,7 @@ class LowRankSurface(Surface):
         self.fresh: set[tuple[Block, Block]] = set()  # pairs changed since the correction
         self.correction = Correction()
         self._solved: dict[str, np.ndarray] | None = None  # the last corrected solve's x
+        self._pairs_norm: float | None = None  # |S|_F^2 of the surface pairs
 
     def set_contact(self, pair: tuple[Block, Block], matrix: sp.csr_array) -> None:
         """The new contact matrix of a block pair: corrected for, or re-factorised later."""
@@ -400,37 +406,50 @@ class LowRankSurface(Surface):
     def solve(self, g: dict[str, np.ndarray], complete: bool) -> dict[str, np.ndarray]:
         """Solve ``S' x = g``: through the chain, corrected for the changes since it was made.
 
-        With a correction, every block is solved for (``complete`` or not) and refined with
-        the residual of ``S' x = g`` (the surface pairs and contact matrices times x):
-        until it is below :data:`REFINED` of ``|g|`` or stops falling, at most
-        :data:`REFINEMENTS` times. A release of a stiff contact point subtracts its penalty
-        from a factor that holds it, which loses digits the refinement gives back. If the
-        residual stays above :data:`UPDATE_TOLERANCE` of ``|g|``, the groups are
-        re-factorised and the solve repeated.
+        With a correction, every block is solved for (``complete`` or not) and checked by
+        its normwise backward error ``|g - S' x| / (|S'| |x| + |g|)`` (Frobenius norms; the
+        residual from the surface pairs and contact matrices times x): refined while it is
+        above :data:`REFINED` and falling, at most :data:`REFINEMENTS` times. A release of a
+        stiff contact point subtracts a penalty from a factor that holds it, which loses
+        digits the refinement gives back. Above :data:`UPDATE_TOLERANCE` (a re-factorised
+        Cholesky solve stays near 1e-16), the groups are re-factorised and the solve
+        repeated.
         """
         self._solved = None
         c = self.correction
         if c.capacitance is None:
             return super().solve(g, complete)
         x = self._corrected(c, g)
-        size = np.sqrt(sum(float(v @ v) for v in g.values()))
-        before = np.inf
-        for _ in range(REFINEMENTS):
+        size, before = _norm(g), np.inf
+        for refinement in range(REFINEMENTS + 1):
             r = self._residual(g, x)
-            now = np.sqrt(sum(float(v @ v) for v in r.values()))
-            if now <= REFINED * size or now > 0.5 * before:
+            error = _norm(r) / (self._matrix_norm() * _norm(x) + size)
+            if error <= REFINED or error > 0.5 * before or refinement == REFINEMENTS:
                 break
-            before = now
+            before = error
             dx = self._corrected(c, r)
             x = {b: v + dx[b] for b, v in x.items()}
-        else:
-            r = self._residual(g, x)
-            now = np.sqrt(sum(float(v @ v) for v in r.values()))
-        if now > UPDATE_TOLERANCE * size:
+        if error > UPDATE_TOLERANCE:
             self._refactorise()
             return super().solve(g, complete)
         self._solved = x
         return x
+
+    def _matrix_norm(self) -> float:
+        """``|S'|`` (Frobenius): the surface pairs' (kept until S changes) and the contact's."""
+        if self._pairs_norm is None:
+            squares = 0.0
+            for pair in self.schedule.pairs:
+                matrix = self._schur_pair(pair)
+                squares += 0.0 if matrix is None else float(np.sum(matrix * matrix))
+            self._pairs_norm = squares
+        contact = sum(float(np.sum(m.data * m.data)) for m in self.contact.values())
+        return float(np.sqrt(self._pairs_norm + contact))
+
+    def set_condensed(self, block: Block, Z: np.ndarray) -> None:
+        """A subdomain's new condensation (S changes: its norm is taken again)."""
+        super().set_condensed(block, Z)
+        self._pairs_norm = None
 
     def _corrected(self, c: Correction, g: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Woodbury: ``S^-1 (g - E U z)`` with ``(I + D G) z = D U^T (S^-1 g)_J``."""
