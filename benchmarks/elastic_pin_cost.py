@@ -7,11 +7,14 @@ no clearance, solved statically at the load's peaks, alternately pulled and push
 press on the other, and the contact iteration passes through several contact states. The
 cost of a change is what it re-factorises: per solve, the seconds of the factorisations in
 its work log (``problem.work``: MUMPS numeric factorisations, dense factorisations, Schur
-complements) over its contact state changes; beside it the wall time of a contact
+complements, and a low-rank correction's work in their place: ``"dense_update"`` and the
+``what="lowrank"`` eliminations) over its contact state changes; beside it the wall time of a contact
 iteration (a solve's seconds over its iterations: re-factorisation and substitutions).
 Reported are the medians over the reversals (the first solve, which sets up, left out).
 Each algorithm runs in its own process with every BLAS
-pinned to one thread; its peak memory (max RSS) is reported too.
+pinned to one thread; its peak memory (max RSS) is reported too. The orders run twice:
+with the low-rank correction of contact changes (dd_contact/solvers/lowrank.py) and with
+it off ("... refactorise"); per solve the contact points and how many changed state.
 
     python benchmarks/elastic_pin_cost.py                   # 6,7,4,34: 87,405 dofs
     python benchmarks/elastic_pin_cost.py --scale 3,2,1,4   # 5,460 dofs, seconds
