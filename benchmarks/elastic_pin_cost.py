@@ -8,8 +8,8 @@ press on the other, and the contact iteration passes through several contact sta
 cost of a change is what it re-factorises: per solve, the seconds of the factorisations in
 its work log (``problem.work``: MUMPS numeric factorisations, dense factorisations, Schur
 complements, and a low-rank correction's work in their place: ``"dense_update"`` and the
-``what="lowrank"`` eliminations) over its contact state changes; beside it the wall time of a contact
-iteration (a solve's seconds over its iterations: re-factorisation and substitutions).
+``what="lowrank"`` eliminations) over its contact state changes; beside it the wall time
+of a contact iteration (a solve's seconds over its iterations: re-factorisation and substitutions).
 Reported are the medians over the reversals (the first solve, which sets up, left out).
 Each algorithm runs in its own process with every BLAS
 pinned to one thread; its peak memory (max RSS) is reported too. The orders run twice:
