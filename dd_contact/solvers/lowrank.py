@@ -9,19 +9,21 @@ block included),
 
     S'^-1 g = S^-1 (g - E z),   (I + M G) z = M (S^-1 g)_J,   G = E^T S^-1 E.
 
-G costs one forward elimination of J's k unit columns through the groups they reach (the
-group holding J and the later levels it is eliminated into; no other group and no
-back-substitution), then a k x k LU of ``I + M G``. A solve is two passes through the chain
-instead of one. The correction is on the whole condensed surface system, so it is the same
-for every order, and a change re-factorises neither the interface nor the other groups.
+M is kept as ``U D U^T`` (its non-zero eigenpairs: about one per changed point), so the
+correction works with ``U`` 's columns: ``U^T G U`` costs one forward elimination of them
+through the groups they reach (the group holding J and the later levels it is eliminated
+into; no other group and no back-substitution), then an LU of the small capacitance
+matrix. A solve is two passes through the chain instead of one, plus refinements. The
+correction is on the whole condensed surface system, so it is the same for every order,
+and a change re-factorises neither the interface nor the other groups.
 
-Changes accumulate (J and M grow) until re-factorising the groups the change makes stale
-is cheaper than the correction (:meth:`LowRankSurface.update_seconds`), or until a
+Changes accumulate until re-factorising the groups they make stale is priced cheaper than
+the correction (:meth:`LowRankSurface.update_seconds`, :data:`UPDATE_MARGIN`), or until a
 corrected solve's accuracy degrades: each one is refined with its true residual, and one
 whose backward error stays above :data:`UPDATE_TOLERANCE` re-factorises and solves again.
 
 Work log: the forward elimination's substitutions are ``"dense_solve"`` records with
-``what="lowrank"``, each correction one ``"dense_update"`` record (size k): their count
+``what="lowrank"``, each correction one ``"dense_update"`` record (size its rank): their count
 against ``"dense_factor"``'s says how many changes were updated and how many re-factorised.
 """
 
