@@ -7,6 +7,9 @@ scenes are the targets of issue 30:
 
 * ``pin_small``: ``demos/demo_pin_joint.py`` at its default scale (100 steps of 40 us);
 * ``pin_tests``: the same joint at the tests' scale (cells ``3,2,1,4``, 30 steps);
+* ``pin_demo``: the joint as ``demos/demo_pin_joint.py`` runs it now (cells ``8,3,2,12``,
+  steps of 1.6 us), 400 steps (0.64 ms: the first hit on the pins, 0.35-0.53 ms, with its
+  contact changes) instead of the demo's 1,250;
 * ``bar_small`` and ``bar_tiny``: ``demos/demo_parallelepiped.py`` at ``small`` (its
   default) and ``tiny`` (the tests'), 80 steps of 0.1 ms, on the split model every algorithm
   that fits runs (FULL, v-w-u, w-v-u; auto chooses among them);
@@ -18,7 +21,8 @@ auto is told the run's length (``expected_steps``) as the demos tell it. Per run
 time of building the scene, of building the problem (assembly, auto's analysis and choice),
 of the steps (the first one factorises), their sum (``whole``), the peak resident memory
 (``ru_maxrss``), auto's choice, its predicted table and whether it re-planned, the contact
-changes and release solves, and the work log's seconds and counts per kind. The machine's
+changes and release solves, the work log's seconds and counts per kind, and the machine's
+load average (``os.getloadavg``, as ``uptime`` shows it) before and after the run. The machine's
 rates are measured before the first run (``dd-contact calibrate``, pinned like the runs).
 
 Per scene: the median whole time of each algorithm with its spread (min, max), the best
@@ -63,6 +67,7 @@ PINNED = {
 SCENES: dict[str, dict] = {
     "pin_small": {"build": ("pin", "small"), "dt": 4e-5, "steps": 100},
     "pin_tests": {"build": ("pin", "3,2,1,4"), "dt": 4e-5, "steps": 30},
+    "pin_demo": {"build": ("pin", "8,3,2,12"), "dt": 1.6e-6, "steps": 400},
     "bar_small": {"build": ("bar", "small"), "dt": 1e-4, "steps": 80},
     "bar_tiny": {"build": ("bar", "tiny"), "dt": 1e-4, "steps": 80},
     "bar_49k": {"build": ("speed", "120,18,6"), "dt": 1e-6, "steps": 8, "changes": 1.25},
@@ -316,10 +321,12 @@ def main() -> None:
                 print(f"run {repeat + 1}/{args.repeats}: {name} {algorithm}", flush=True)
                 command = [sys.executable, __file__, "--worker", name, algorithm]
                 command += ["--clock", args.clock]
+                load = os.getloadavg()
                 result = subprocess.run(command, env=env, capture_output=True, text=True)
                 if result.returncode:
                     raise SystemExit(result.stderr[-3000:])
                 done.append(json.loads(result.stdout.strip().splitlines()[-1]))
+                done[-1]["load"] = {"before": load, "after": os.getloadavg()}
                 write(out, args, runs)
     summary = write(out, args, runs)
     for name, med in summary.items():

@@ -26,9 +26,15 @@ def test_the_cpu_clock_of_auto_choice_patches_the_timers_the_work_records_use():
     from dd_contact.solvers import linalg, mumps_schur, worklog
 
     script = _script("auto_choice")
-    assert {"pin_small", "pin_tests", "bar_small", "bar_tiny", "bar_49k", "bar_124k"} <= set(
-        script.SCENES
-    )
+    assert {
+        "pin_small",
+        "pin_tests",
+        "pin_demo",
+        "bar_small",
+        "bar_tiny",
+        "bar_49k",
+        "bar_124k",
+    } <= set(script.SCENES)
     modules = (linalg, mumps_schur, worklog)
     before = [m.time for m in modules]
     try:
