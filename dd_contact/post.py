@@ -290,12 +290,12 @@ def contact_force(zone: ContactZone, w: np.ndarray, active: np.ndarray) -> np.nd
     5e-18 m of their pins, 2.2e-7 of the load's amplitude; the solve's own force 2e-12 N).
     """
     op = zone.operator
+    force = op.force(w)  # with friction's tangential tractions, if any
     if type(op).force is not ContactOperator.force:  # a pair's (its own sum): as it is
-        return op.force(w)
-    g = op.penetration(w)
-    pressure = op.point_pressure(w)
-    pressure[~active & (g <= STATE_BAND * zone.length)] = 0.0
-    return -((pressure * op.points.weight)[:, None] * op.normal).sum(axis=0)
+        return force
+    kept_out = ~active & (op.penetration(w) <= STATE_BAND * zone.length)
+    pressure = op.point_pressure(w)[kept_out] * op.points.weight[kept_out]
+    return force + (pressure[:, None] * op.normal[kept_out]).sum(axis=0)
 
 
 def carrying_points(zone: ContactZone, w: np.ndarray, active: np.ndarray) -> tuple[float, bool]:
