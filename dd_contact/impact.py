@@ -50,7 +50,8 @@ acceleration reported is the step's mean ``(u'_{n+1} - u'_n) / dt`` (nothing reu
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 
 import numpy as np
 import scipy.sparse as sp
@@ -140,6 +141,8 @@ class StartForces:
             it already); by default computed here, not kept.
         end_loads: The loads ``r_n+1`` on the owned subdomain blocks (for :meth:`at_end`).
         end_offset: The stiff ties' forces of the last solve (for :meth:`at_end`).
+        time: ``t_n``. A moving obstacle's operator is put at ``t_n`` for the start forces
+            and their penetrations are kept: the contact iteration moves it to ``t_n+1``.
     """
 
     def __init__(
@@ -155,8 +158,18 @@ class StartForces:
         products: BlockProducts | None = None,
         end_loads: Mapping[Block, np.ndarray] | None = None,
         end_offset: Callable[[], Mapping[Block, np.ndarray]] | None = None,
+        time: float | None = None,
     ):
         self.system, self.zones, self.x, self.free = system, zones, x, free
+        self.time = time
+        #: Each contact's penetration and G at ``t_n``: every start force and theta reads
+        #: them (the obstacle at ``t_n+1`` would give back a force never applied).
+        self.g0: dict[str, np.ndarray] = {}
+        self._G0: dict[str, sp.csr_array] = {}
+        for z in zones:
+            with _operator_at(z, time):
+                self.g0[z.contact.name] = z.operator.penetration(z.gather(x))
+                self._G0[z.contact.name] = z.operator.G
         self._end_loads = end_loads or {}
         #: The blocks the last :meth:`at_end` changed on this rank.
         self.settled_blocks: list[Block] = []
@@ -251,7 +264,7 @@ class StartForces:
                 continue
             leaving = self.start[name] & ~active[name]
             k = z.operator.points.weight / z.operator.epsilon
-            g0 = np.maximum(z.operator.penetration(z.gather(self.x)), 0.0)
+            g0 = np.maximum(self.g0[name], 0.0)
             g1 = np.minimum(z.operator.penetration(z.gather(x)), 0.0)
             change = np.abs(_discrete_gradient(g0, g1) - self.kept[name])
             if not (change[leaving] > RELEASE_TOLERANCE * self.kept[name][leaving]).any():
@@ -272,7 +285,7 @@ class StartForces:
         out = {}
         for z in self.zones:
             name = z.contact.name
-            g0 = np.maximum(z.operator.penetration(z.gather(self.x)), 0.0)
+            g0 = np.maximum(self.g0[name], 0.0)
             g1 = z.operator.penetration(z.gather(x))
             deeper = self.start[name] & (g1 > g0)
             k = z.operator.points.weight / z.operator.epsilon
@@ -322,7 +335,7 @@ class StartForces:
         """The theta to use next: 1 before any solution, then towards the last solution's."""
         if x is None:
             return np.ones(z.operator.num_points)
-        g0 = np.maximum(z.operator.penetration(z.gather(self.x)), 0.0)
+        g0 = np.maximum(self.g0[z.contact.name], 0.0)
         theta = _discrete_gradient(g0, z.operator.penetration(z.gather(x)))
         previous = self.kept.get(z.contact.name)
         if previous is not None and self._calls > GEOMETRIC_STEPS:
@@ -333,9 +346,9 @@ class StartForces:
 
     def _point_forces(self, z: ContactZone, factor: np.ndarray) -> np.ndarray:
         """``factor`` times each point's penalty force at ``t_n``, on the zone's dofs."""
-        op = z.operator
-        pen = op.penetration(z.gather(self.x))
-        return z.free * (op.G.T @ (factor * op.points.weight / op.epsilon * pen))
+        op, name = z.operator, z.contact.name
+        pen = self.g0[name]
+        return z.free * (self._G0[name].T @ (factor * op.points.weight / op.epsilon * pen))
 
     def _surface_at_start(
         self, z: ContactZone, active: Mapping[str, np.ndarray], forces: np.ndarray
@@ -345,12 +358,27 @@ class StartForces:
         In contact matrix numbering: a contact interface's dofs are its w block's, whole.
         """
         blocks = [w for w, _ in z.parts]
-        matrix, vector = z.contribution(active[z.contact.name])
+        with _operator_at(z, self.time):
+            matrix, vector = z.contribution(active[z.contact.name])
         A = sp.block_array([[self.system.block(a, b) for b in blocks] for a in blocks])
         A = sp.csc_array(A + matrix)  # the zone's dofs are its blocks', in order
         rest = {k: v for k, v in self.x.items() if k not in blocks}
         b = np.concatenate([-self.system.row_product(w, rest) for w in blocks])
         return spsolve(A, b + vector - forces)
+
+
+@contextmanager
+def _operator_at(z: ContactZone, t: float | None) -> Iterator[None]:
+    """``z``'s operator at time ``t`` inside (``None``: as it is), back at its time after."""
+    now = z.operator.t
+    moves = t is not None and t != now
+    if moves:
+        z.operator.update(t)
+    try:
+        yield
+    finally:
+        if moves:
+            z.operator.update(now)
 
 
 def _massless_dofs(

@@ -382,6 +382,7 @@ class TransientProblem(AnalysisReadout):
             self._products,
             end_loads=dict(loads),
             end_offset=lambda: self.tie_solver.rhs_offset,
+            time=self.t,
         )
         for sub in owned:
             block = sub.block
