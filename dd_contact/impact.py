@@ -166,10 +166,14 @@ class StartForces:
         #: them (the obstacle at ``t_n+1`` would give back a force never applied).
         self.g0: dict[str, np.ndarray] = {}
         self._G0: dict[str, sp.csr_array] = {}
+        self._gap0: dict[str, np.ndarray] = {}
+        self._x0: dict[str, np.ndarray] = {}  # x may be updated in place by the step
         for z in zones:
+            name = z.contact.name
             with _operator_at(z, time):
-                self.g0[z.contact.name] = z.operator.penetration(z.gather(x))
-                self._G0[z.contact.name] = z.operator.G
+                self._x0[name] = np.array(z.gather(x), dtype=float)
+                self.g0[name] = z.operator.penetration(self._x0[name])
+                self._G0[name], self._gap0[name] = z.operator.G, z.operator.gap
         self._end_loads = end_loads or {}
         #: The blocks the last :meth:`at_end` changed on this rank.
         self.settled_blocks: list[Block] = []
@@ -180,6 +184,8 @@ class StartForces:
         self.kept: dict[str, np.ndarray] = {}
         self._releasing: set[str] = set()
         self._calls = 0  # corrections asked for in this step
+        #: Each contact's end as solved, before :meth:`at_end` settled its massless dofs.
+        self._solved_end: dict[str, np.ndarray] = {}
         #: ``K x_n - f_C(x_n; A_n)`` on each owned subdomain block (ties and stiff-tie forces in).
         self.internal = {}
         for block in owned:
@@ -320,16 +326,51 @@ class StartForces:
         """
         out = dict(x)
         offset = self._end_offset()
-        self.settled_blocks = []
+        self.settled_blocks, self._solved_end = [], {}
         for z in self.zones:
             name = z.contact.name
             if (self.start[name] & ~active[name]).any() and _holds_rows(self.system, z, out):
+                self._solved_end[name] = z.gather(out)  # the step's own end, for the work
                 state = _in_equilibrium(
                     self.system, z, out, active[name], self._end_loads, offset, self.free
                 )
                 out.update(state)
                 self.settled_blocks += list(state)
         return out
+
+    def obstacle_work(
+        self, active: Mapping[str, np.ndarray], x: BlockKeyed[np.ndarray], safe: bool
+    ) -> float:
+        """This rank's work of the moving obstacles on the bodies over the step [J].
+
+        Each point's mean force (start ``c0 = s k g_n``, ``s`` as the step applied it: 1 in
+        contact at both ends, theta leaving (``safe``) or 1 (classic), end ``c1 = k g_n+1``)
+        times the obstacle's advance at the point, ``g(y, t_n+1) - g(y, t_n)`` at fixed y,
+        taken at ``x_n+1`` for c0 and ``x_n`` for c1: with the linear penetrations exactly
+        what contact in and contact out of every point adds beyond the release's discrete
+        gradient (for a translating plane: the mean force times the obstacle's
+        displacement).
+        """
+        work = 0.0
+        for z in self.zones:
+            name = z.contact.name
+            motion = getattr(getattr(z.operator, "obstacle", None), "motion", None)
+            if motion is None or name not in self.g0:
+                continue
+            op, start, end = z.operator, self.start[name], active[name]
+            x1, x0 = self._solved_end.get(name, z.gather(x)), self._x0[name]
+            share = np.where(start & end, 1.0, 0.0)
+            leaving = start & ~end
+            kept = self.kept.get(name, np.ones(op.num_points)) if safe else 1.0
+            share = np.where(leaving, kept, share)
+            k = op.points.weight / op.epsilon
+            c0 = share * k * self.g0[name]
+            c1 = np.where(end, k * op.penetration(x1), 0.0)
+            advance1 = op.penetration(x1) - (self._G0[name] @ x1 - self._gap0[name])
+            advance0 = op.penetration(x0) - self.g0[name]
+            w = self.weight
+            work += float(w * c0 @ advance1 + c1 @ advance0) / (1 + w)
+        return work
 
     def _kept(self, z: ContactZone, x: Mapping[Block, np.ndarray] | None) -> np.ndarray:
         """The theta to use next: 1 before any solution, then towards the last solution's."""
@@ -371,14 +412,14 @@ class StartForces:
 def _operator_at(z: ContactZone, t: float | None) -> Iterator[None]:
     """``z``'s operator at time ``t`` inside (``None``: as it is), back at its time after."""
     now = z.operator.t
-    moves = t is not None and t != now
-    if moves:
-        z.operator.update(t)
+    if t is None or t == now:
+        yield
+        return
+    z.operator.update(t)
     try:
         yield
     finally:
-        if moves:
-            z.operator.update(now)
+        z.operator.update(now)
 
 
 def _massless_dofs(
