@@ -7,11 +7,14 @@ no clearance, solved statically at the load's peaks, alternately pulled and push
 press on the other, and the contact iteration passes through several contact states. The
 cost of a change is what it re-factorises: per solve, the seconds of the factorisations in
 its work log (``problem.work``: MUMPS numeric factorisations, dense factorisations, Schur
-complements) over its contact state changes; beside it the wall time of a contact
-iteration (a solve's seconds over its iterations: re-factorisation and substitutions).
+complements, and a low-rank correction's work in their place: ``"dense_update"`` and the
+``what="lowrank"`` eliminations) over its contact state changes; beside it the wall time
+of a contact iteration (a solve's seconds over its iterations: re-factorisation and substitutions).
 Reported are the medians over the reversals (the first solve, which sets up, left out).
 Each algorithm runs in its own process with every BLAS
-pinned to one thread; its peak memory (max RSS) is reported too.
+pinned to one thread; its peak memory (max RSS) is reported too. The orders run twice:
+with the low-rank correction of contact changes (dd_contact/solvers/lowrank.py) and with
+it off ("... refactorise"); per solve the contact points and how many changed state.
 
     python benchmarks/elastic_pin_cost.py                   # 6,7,4,34: 87,405 dofs
     python benchmarks/elastic_pin_cost.py --scale 3,2,1,4   # 5,460 dofs, seconds
@@ -39,13 +42,20 @@ PINNED = {
     "MKL_NUM_THREADS": "1",
     "BLIS_NUM_THREADS": "1",
 }
-ALGORITHMS = ("FULL", "v-w-u", "w-v-u")
+#: An order followed by " refactorise" runs with the low-rank correction of contact changes
+#: off (dd_contact/solvers/lowrank.py): every change re-factorises the groups it makes stale.
+ALGORITHMS = ("FULL", "v-w-u", "w-v-u", "v-w-u refactorise", "w-v-u refactorise")
 DEFAULT_SCALE = "6,7,4,34"
 #: The pins in the joint (their holes in contact), as benchmarks/pin_joint_ordering.py.
 VARIANTS = {"all 10": [0, 1, 2, 3, 4], "2 holes": [2]}
 PERIOD = 2e-3
-#: The work records of a (re-)factorisation.
-FACTOR_KINDS = ("sparse_factor", "dense_factor", "schur")
+#: The work records of a (re-)factorisation, and of a low-rank correction instead of one.
+FACTOR_KINDS = ("sparse_factor", "dense_factor", "schur", "dense_update")
+
+
+def change_work(record) -> bool:
+    """Whether a work record is part of what a contact change costs (not a substitution)."""
+    return record.kind in FACTOR_KINDS or record.what == "lowrank"
 
 
 def result_name(scale: str) -> str:
@@ -60,6 +70,10 @@ def one(algorithm: str, scale: str, reversals: int, variant: str) -> dict:
 
     import dd_contact as dc
     from dd_contact.paper import models
+    from dd_contact.solvers.lowrank import LowRankSurface
+
+    algorithm, _, refactorise = algorithm.partition(" ")
+    LowRankSurface.enabled = not refactorise
 
     names = list(models.PIN_JOINT_SCALES["small"])
     counts = dict(zip(names, map(int, scale.split(",")), strict=True))
@@ -79,11 +93,12 @@ def one(algorithm: str, scale: str, reversals: int, variant: str) -> dict:
         for k in range(reversals + 1):
             t = PERIOD * (0.25 + 0.5 * k)
             before, first = problem.changes["gamma"], len(problem.work.records)
+            states = {k: a.copy() for k, a in problem.iteration.active.items()}
             tic = time.perf_counter()
             problem.solve(t)
             seconds = time.perf_counter() - tic
             records = problem.work.records[first:]
-            factors = [r for r in records if r.kind in FACTOR_KINDS]
+            factors = [r for r in records if change_work(r)]
             rows.append(
                 {
                     "t": t,
@@ -91,11 +106,18 @@ def one(algorithm: str, scale: str, reversals: int, variant: str) -> dict:
                     "iterations": problem.iterations,
                     "changes": problem.changes["gamma"] - before,
                     "factor_seconds": sum(r.seconds for r in factors),
+                    "updates": sum(r.kind == "dense_update" for r in records),
+                    "points": sum(len(a) for a in states.values()),
+                    "points_changed": sum(
+                        int(np.count_nonzero(a != problem.iteration.active[k]))
+                        for k, a in states.items()
+                    ),
                     "factorisations": {
                         f"{r.kind} {r.block} ({r.size})": sum(
                             1 for q in factors if (q.kind, q.block) == (r.kind, r.block)
                         )
                         for r in factors
+                        if r.kind != "dense_update" and r.what != "lowrank"
                     },
                 }
             )
@@ -105,7 +127,7 @@ def one(algorithm: str, scale: str, reversals: int, variant: str) -> dict:
     per_change = [r["factor_seconds"] / r["changes"] for r in later]
     per_iteration = [r["seconds"] / r["iterations"] for r in later]
     return {
-        "algorithm": algorithm,
+        "algorithm": algorithm + (" refactorise" if refactorise else ""),
         "dofs": dofs,
         "setup_seconds": setup,
         "solves": rows,
@@ -125,6 +147,7 @@ def main():
     parser.add_argument("--reversals", type=int, default=4, help="load reversals measured")
     parser.add_argument("--one", help=argparse.SUPPRESS)  # a child: run this algorithm
     parser.add_argument("--variant", default="all 10", help=argparse.SUPPRESS)
+    parser.add_argument("--variants", default=",".join(VARIANTS), help="variants run")
     parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
     args = parser.parse_args()
     if args.one:
@@ -136,7 +159,7 @@ def main():
         "reversals": args.reversals,
         "machine": platform.node(),
         "blas_threads": 1,
-        "variants": {variant: run_variant(variant, args) for variant in VARIANTS},
+        "variants": {v: run_variant(v, args) for v in args.variants.split(",")},
     }
     report["seconds"] = time.perf_counter() - start
     out = Path(args.out)

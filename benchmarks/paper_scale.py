@@ -21,6 +21,13 @@ The summary puts, per order, the whole-run time of the paper's study (Table 3: N
 D changes; ``flops.paper.PAPER_BAR``) from the measured rates over FULL's, next to the
 paper's FLOP ratios 0.600 / 0.153 / 0.146 %.
 
+Besides the algorithms, ``--algorithms`` takes the iterative peers ``CG+GAMG`` and
+``CG+Jacobi`` (FULL's matrix by warm-started CG on the one-mesh bar, iterative_peer.py) and
+``"w-u reduced m=N"`` (every subdomain reduced to N modes); runs record CPU times too, the
+summary gives each run's study against each peer's at the same scale, and carries reduced
+runs (two scales) and peers to the paper's size (``benchmarks/study_estimate.py`` makes
+the estimate of the reduced study from these runs).
+
 Writes benchmarks/results/paper_scale.json after every finished run and resumes from it
 (a run already in the file is skipped).
 
@@ -51,6 +58,8 @@ import threading
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).parent))  # iterative_peer
+
 HERE = Path(__file__).parent / "results"
 PINNED = {
     "OPENBLAS_NUM_THREADS": "1",
@@ -71,8 +80,21 @@ GIB = 1024.0**3
 
 
 # ------------------------------------------------------------------------------ the worker
-def scene_for(model: str, scale: str, algorithm: str | None, comm):
-    """The model's scene at ``scale`` for ``algorithm`` (FULL runs the orders' split scene)."""
+def case_of(label: str) -> tuple[str, int | None, bool]:
+    """(algorithm, modes, peer) of a run's label: an algorithm, an iterative peer
+    (``CG+GAMG``, ``CG+Jacobi``: FULL by CG on the one-mesh bar, iterative_peer.py) or an
+    order with every subdomain reduced (``"w-u reduced m=20"``: m fixed-interface modes)."""
+    import iterative_peer
+
+    if label in iterative_peer.PEERS:
+        return "FULL", None, True
+    algorithm, _, modes = label.partition(" reduced m=")
+    return algorithm, int(modes) if modes else None, False
+
+
+def scene_for(model: str, scale: str, algorithm: str | None, comm, layout=None):
+    """The model's scene at ``scale`` for ``algorithm`` (FULL runs the orders' split scene;
+    ``layout``, the bar's: another, e.g. "FULL": one mesh, contact on its boundary)."""
     from dd_contact.paper import examples, models
 
     if model == "bar":
@@ -80,7 +102,7 @@ def scene_for(model: str, scale: str, algorithm: str | None, comm):
 
     if model == "parallelepiped":
         size = scale if scale in models.BAR_SCALES else _bar_scale(scale)
-        layout = "w-u" if algorithm == "w-u" else None
+        layout = layout or ("w-u" if algorithm == "w-u" else None)
         return models.parallelepiped(size, algorithm=layout, comm=comm)
     if scale in models.PIN_JOINT_SCALES:
         return models.pin_joint(scale, comm=comm)
@@ -134,22 +156,31 @@ def _analysis(problem) -> dict:
 
 def worker(args) -> dict:
     """One run of one algorithm (its own process, BLAS pinned); collective over the ranks."""
+    import contextlib
+
     from mpi4py import MPI
+
+    import iterative_peer
 
     import dd_contact as dc
 
     comm = MPI.COMM_WORLD
-    start = time.perf_counter()
-    scene = scene_for(args.model, args.scale, args.worker, comm)
+    start, cpu_start = time.perf_counter(), time.process_time()
+    algorithm, modes, peer = case_of(args.worker)
+    scene = scene_for(args.model, args.scale, algorithm, comm, "FULL" if peer else None)
+    for sub in scene.subdomains if modes is not None else ():
+        sub.reduce(modes=modes)
     options = dict(json.loads(args.petsc_options)) if args.petsc_options else None
-    problem = dc.TransientProblem(
-        scene, args.dt, algorithm=args.worker, track_energy=False, petsc_options=options
-    )
+    with iterative_peer.peer(args.worker, scene) if peer else contextlib.nullcontext():
+        problem = dc.TransientProblem(
+            scene, args.dt, algorithm=algorithm, track_energy=False, petsc_options=options
+        )
     built = time.perf_counter() - start
     record: dict = {
         "model": args.model,
         "scale": args.scale,
         "algorithm": args.worker,
+        "modes": modes,
         "ranks": comm.size,
         "dofs": int(sum(problem.solver.system.sizes.values())),
         "blocks": {str(k): int(v) for k, v in problem.solver.system.sizes.items()},
@@ -162,28 +193,34 @@ def worker(args) -> dict:
         problem.close()
         return record
     iterations: list[float] = []
+    cpu: list[float] = []  # the same in CPU time: the steadier clock on a loaded machine
     solve_once = problem.iteration._solve_once
 
     def timed(*a):
         comm.Barrier()
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         out = solve_once(*a)
         iterations.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
         return out
 
     problem.iteration._solve_once = timed  # the benchmark's probe: one time per iteration
     steps = []
     changes_wanted = args.full_changes if args.worker == "FULL" else None
+    record["build_cpu_seconds"] = time.process_time() - cpu_start
     for _ in range(args.steps):
         iterations.clear()
+        cpu.clear()
         comm.Barrier()
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         result = problem.advance()
         steps.append(
             {
                 "seconds": time.perf_counter() - t0,
+                "cpu_seconds": time.process_time() - c0,
                 "changes": int(result["changes"]),
                 "iterations": list(iterations),
+                "iterations_cpu": list(cpu),
                 "active": {k: int(v) for k, v in result["active"].items()},
             }
         )
@@ -197,6 +234,7 @@ def worker(args) -> dict:
             "changes": int(sum(s["changes"] for s in steps)),
             "work": problem.work_summary(),
             "peak_rss_gib": comm.allgather(_peak_rss_gib()),
+            "cg_iterations": getattr(problem.solver, "iterations", None),
         }
     )
     problem.close()
@@ -291,12 +329,21 @@ def steps_logged(log: Path) -> list[dict]:
 
 
 def derived(run: dict) -> dict:
-    """Set-up, per change and per step (medians) of one run."""
+    """Set-up, per change and per step (medians) of one run; by CPU time too if recorded."""
     steps = run["steps"]
     first = steps[0]["iterations"][0] if steps and steps[0]["iterations"] else 0.0
     change = [t for s in steps for t in s["iterations"][1:]]
     base = [s["seconds"] - sum(s["iterations"][1:]) for s in steps[1:]]
-    return {
+    cpu = {}
+    if steps and "cpu_seconds" in steps[0]:
+        c_change = [t for s in steps for t in s["iterations_cpu"][1:]]
+        c_base = [s["cpu_seconds"] - sum(s["iterations_cpu"][1:]) for s in steps[1:]]
+        cpu = {
+            "setup_cpu_seconds": run["build_cpu_seconds"] + steps[0]["iterations_cpu"][0],
+            "cpu_per_change": statistics.median(c_change) if c_change else None,
+            "cpu_per_step": statistics.median(c_base) if c_base else None,
+        }
+    return cpu | {
         "setup_seconds": run["build_seconds"] + first,
         "seconds_per_change": statistics.median(change) if change else None,
         "seconds_per_step": statistics.median(base) if base else None,
@@ -340,7 +387,82 @@ def summary(data: dict) -> dict:
     for model, extrapolated in full_paper.items():
         if extrapolated:
             out[f"{model}|paper|FULL (extrapolated)"] = extrapolated
+    for model in models:
+        _extrapolate_by_cells(out, model, full_paper[model], whole)
+    _against_peers(out, whole)
     return out
+
+
+#: Runs carried to the paper's size by a power law in the cells (:func:`_extrapolate_by_cells`).
+CARRIED = ("reduced", "CG+")
+
+
+def _extrapolate_by_cells(out: dict, model: str, full: dict | None, whole) -> None:
+    """Reduced runs and the peers at the paper's size, from their measured runs.
+
+    Measured at two or more scales: a power law in the cell count through them per rate
+    (set-up, step, change, peak memory; wall and CPU). A peer at one scale: linear in the
+    cells (its CG iteration is a sweep over the matrix; its iteration count is taken to stay
+    the same, which favours the peer). Marked ``extrapolated`` with the exponents used.
+    """
+    import numpy as np
+
+    keys = ("setup_seconds", "seconds_per_step", "seconds_per_change", "peak_rss_gib")
+    keys += ("setup_cpu_seconds", "cpu_per_step", "cpu_per_change")
+    by_label: dict[str, dict[float, dict]] = {}
+    for key, d in out.items():
+        m, scale, label = key.split("|")
+        if m == model and scale != "paper" and "extrapolated" not in d:
+            if any(c in label for c in CARRIED) and not scale.startswith("paper"):
+                by_label.setdefault(label, {})[float(cells(model, scale))] = d
+    target = float(cells(model, "paper"))
+    for label, runs in by_label.items():
+        sizes = sorted(runs)
+        if len(sizes) < 2 and "CG+" not in label:  # a reduced run: two sizes needed
+            continue
+        estimate: dict = {"extrapolated": True, "from_cells": sizes, "exponents": {}}
+        for k in keys:
+            points = [(c, runs[c][k]) for c in sizes if runs[c].get(k)]
+            if not points:
+                continue
+            if len(points) >= 2:
+                slope = float(
+                    np.polyfit(np.log([c for c, _ in points]), np.log([v for _, v in points]), 1)[0]
+                )
+            else:
+                slope = 1.0
+            c, v = points[-1]
+            estimate[k] = v * (target / c) ** slope
+            estimate["exponents"][k] = slope
+        if full and estimate.get("seconds_per_change") and estimate.get("seconds_per_step"):
+            estimate["percent_of_full_paper_study"] = 100.0 * whole(estimate) / whole(full)
+        out[f"{model}|paper|{label} (extrapolated)"] = estimate
+
+
+def _against_peers(out: dict, whole) -> None:
+    """Per run, the paper's study by each iterative peer at the same scale over its own."""
+    import iterative_peer
+
+    for key, d in out.items():
+        model, scale, algorithm = key.split("|")
+        for label in iterative_peer.PEERS:
+            suffix = " (extrapolated)" if algorithm.endswith(" (extrapolated)") else ""
+            peer = out.get(f"{model}|{scale}|{label}{suffix}")
+            if peer is None or algorithm.startswith(label) or not peer.get("seconds_per_change"):
+                continue
+            if d.get("seconds_per_change") is None or d.get("seconds_per_step") is None:
+                continue
+            d[f"{label}_over_this_paper_study"] = whole(peer) / whole(d)
+            if peer.get("cpu_per_change") and d.get("cpu_per_change") and d.get("cpu_per_step"):
+                d[f"{label}_over_this_paper_study_cpu"] = whole_cpu(peer) / whole_cpu(d)
+
+
+def whole_cpu(x: dict) -> float:
+    """The paper's study (Table 3's steps and changes) by a run's CPU-time rates."""
+    from dd_contact.paper.flops.paper import PAPER_BAR
+
+    steps, changes = PAPER_BAR.steps * x["cpu_per_step"], PAPER_BAR.changes * x["cpu_per_change"]
+    return x["setup_cpu_seconds"] + steps + changes
 
 
 def cells(model: str, scale: str) -> int:
@@ -349,7 +471,7 @@ def cells(model: str, scale: str) -> int:
     from dd_contact.paper import models
     from dd_contact.paper.flops.paper import pin_joint_mesh_counts
 
-    scale = scale.removesuffix("+ooc")
+    scale = scale.split("+")[0]  # a tag (+ooc, ...) names the run, not the size
     if model == "pin_joint":
         layout = models.pin_joint_layout("paper") if scale == "paper" else _joint_layout(scale)
         return pin_joint_mesh_counts(layout)["hexahedra"]

@@ -8,6 +8,17 @@ steps are timed one by one (``track_energy=False``); only steps without a contac
 change count. Reported: set-up seconds (assembly, reduction, factorisations), the median
 quiet step (wall and CPU), the peak resident memory (``ru_maxrss``, MiB), the reduced sizes.
 
+The iterative peers (``CG+Jacobi``, ``CG+GAMG``: FULL's matrix solved by warm-started CG,
+``iterative_peer.py``) run the same bar as FULL, and every case's step is also given as a
+ratio to theirs. Each case runs ``--repeats`` times, the cases interleaved (all once, then
+again); reported are the medians of the runs' medians, the largest peak, the load average
+before each run, and each peer's displacements against the direct FULL's (the largest
+relative difference over the timed steps).
+
+**Peer accuracy** (``--part peer-accuracy``): the peers' displacements against the direct
+FULL's over ``--steps`` steps of the ``--trade-elements`` bar pressed at full speed (its
+contact growing), per CG tolerance; writes peer_accuracy.json (how RTOL was chosen).
+
 **Trade** (``--part trade``): the bar striking its wall (no load, contact kappa 1), w-u,
 unreduced and reduced with each of ``--trade-modes``: the contact-force history's largest
 error relative to the unreduced run's peak, and a chart
@@ -16,7 +27,7 @@ error relative to the unreduced run's peak, and a chart
 Writes benchmarks/results/reduced_speed_<nx>x<ny>x<nz>.json and reduced_trade.json.
 
 Run: python benchmarks/reduced_speed.py [--elements 120 18 6] [--modes 20] [--steps 9]
-     [--part speed trade]
+     [--repeats 3] [--cases FULL "w-u reduced" CG+GAMG] [--part speed peer-accuracy trade]
 """
 
 from __future__ import annotations
@@ -28,9 +39,12 @@ import resource
 import statistics
 import subprocess
 import sys
+import tempfile
 import time
 import warnings
 from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).parent))  # iterative_peer, a worker's import
 
 HERE = Path(__file__).parent / "results"
 PINNED = {
@@ -39,39 +53,57 @@ PINNED = {
     "MKL_NUM_THREADS": "1",
     "BLIS_NUM_THREADS": "1",
 }
-#: (label, algorithm, reduced)
+#: (label, algorithm, reduced); the peers are FULL solved by CG (iterative_peer.py)
 CASES = [("FULL", "FULL", False), ("w-u", "w-u", False), ("w-u reduced", "w-u", True)]
-CASES += [("w-v-u reduced", "w-v-u", True)]
+CASES += [("w-v-u reduced", "w-v-u", True), ("CG+Jacobi", "FULL", False)]
+CASES += [("CG+GAMG", "FULL", False)]
 
 
 def speed_worker(args) -> dict:
+    import contextlib
+
     from mpi4py import MPI
+
+    import iterative_peer
+    import numpy as np
 
     import dd_contact as dd
     from dd_contact.paper.examples import parallelepiped
 
     label = args.worker
     _, algorithm, reduced = next(c for c in CASES if c[0] == label)
-    start = time.perf_counter()
+    start, cpu_start = time.perf_counter(), time.process_time()
     scene = parallelepiped(algorithm, tuple(args.elements), speed=args.speed, comm=MPI.COMM_SELF)
     if reduced:
         for sub in scene.subdomains:
             sub.reduce(modes=args.modes)
-    problem = dd.TransientProblem(scene, args.dt, algorithm=algorithm, track_energy=False)
+    solver = (
+        iterative_peer.peer(label, scene, args.rtol or None)
+        if label in iterative_peer.PEERS
+        else contextlib.nullcontext()
+    )
+    with solver:
+        problem = dd.TransientProblem(scene, args.dt, algorithm=algorithm, track_energy=False)
     problem.start()
     for _ in range(args.warm):
         problem.advance()
-    setup = time.perf_counter() - start
-    wall, cpu = [], []
+    setup, setup_cpu = time.perf_counter() - start, time.process_time() - cpu_start
+    wall, cpu, fields = [], [], []
     for _ in range(args.steps):
         t0, c0 = time.perf_counter(), time.process_time()
         record = problem.advance()
         if not record["changes"]:
             wall.append(time.perf_counter() - t0)
             cpu.append(time.process_time() - c0)
+        if algorithm == "FULL" and args.dump:  # FULL's and the peers' u, for their accuracy
+            fields.append(np.concatenate(list(problem.solver.finish().values())))
+    if fields:
+        np.save(Path(args.dump) / f"{label}.npy", np.array(fields))
     sizes = {b: int(n) for b, n in problem.model.system.sizes.items() if b.startswith("u:")}
     out = {
         "setup_seconds": setup,
+        "setup_cpu_seconds": setup_cpu,
+        "cg_iterations": getattr(problem.solver, "iterations", None),
         "step_seconds": statistics.median(wall) if wall else None,
         "step_cpu_seconds": statistics.median(cpu) if cpu else None,
         "quiet_steps": len(wall),
@@ -119,6 +151,44 @@ def trade(elements, modes_list, steps, dt) -> dict:
     return out
 
 
+def paper_trade(elements, modes_list, steps) -> dict:
+    """The paper's bar (models.parallelepiped, shaken on its wall; w-u, dt 1e-4 as
+    paper_scale.py), reduced with each of ``modes_list`` against unreduced: the largest
+    error of the contact-force history (its x component) over the unreduced run's peak."""
+    from mpi4py import MPI
+
+    import numpy as np
+
+    import dd_contact as dd
+    from dd_contact.paper import models
+
+    def run(modes):
+        scene = models.parallelepiped(tuple(elements), algorithm="w-u", comm=MPI.COMM_SELF)
+        for sub in scene.subdomains if modes is not None else ():
+            sub.reduce(modes=modes)
+        problem = dd.TransientProblem(scene, 1e-4, "w-u", track_energy=False)
+        c0 = time.process_time()
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", dd.CoarseTimeStepWarning)
+            history = problem.run(steps, progress=False, summary=False)
+        seconds = time.process_time() - c0
+        problem.close()
+        changes = sum(r["changes"] for r in history)
+        return np.array([r["force"]["end"][0] for r in history]), seconds, changes
+
+    reference, seconds, changes = run(None)
+    out = {"elements": list(elements), "dt": 1e-4, "steps": steps, "changes": changes}
+    out |= {"unreduced_cpu_seconds": seconds, "force_unreduced": reference.tolist(), "runs": {}}
+    peak = np.abs(reference).max()
+    for m in modes_list:
+        force, seconds, changes = run(m)
+        error = float(np.abs(force - reference).max() / peak)
+        out["runs"][str(m)] = {"error": error, "cpu_seconds": seconds, "changes": changes}
+        out["runs"][str(m)]["force"] = force.tolist()
+        print(f"paper's bar {elements}, modes {m}: force history error {error:.3g} of the peak")
+    return out
+
+
 def chart(data: dict, path: Path) -> None:
     import matplotlib
 
@@ -144,6 +214,74 @@ def chart(data: dict, path: Path) -> None:
     fig.savefig(path, dpi=120)
 
 
+def speed(args) -> None:
+    """Every case ``--repeats`` times, interleaved (case after case, then again); medians."""
+    import iterative_peer
+    import numpy as np
+
+    nx, ny, nz = args.elements
+    runs: dict[str, list[dict]] = {label: [] for label in args.cases}
+    loads = []
+    with tempfile.TemporaryDirectory() as dump:
+        for repeat in range(args.repeats):
+            for label in args.cases:
+                command = [sys.executable, __file__, "--worker", label, "--elements"]
+                command += [str(n) for n in args.elements]
+                command += ["--steps", str(args.steps), "--warm", str(args.warm)]
+                command += ["--dt", str(args.dt), "--speed", str(args.speed)]
+                command += ["--modes", str(args.modes), "--rtol", str(args.rtol)]
+                command += ["--dump", dump] * (repeat == 0)
+                loads.append(os.getloadavg()[0])
+                done = subprocess.run(
+                    command, env={**os.environ, **PINNED}, capture_output=True, text=True
+                )
+                if done.returncode:
+                    raise RuntimeError(f"{label}: {done.stderr[-2000:]}")
+                lines = [line for line in done.stdout.splitlines() if line.startswith("{")]
+                runs[label].append(json.loads(lines[-1]))
+                r = runs[label][-1]
+                print(label, repeat, {k: r[k] for k in ("setup_seconds", "step_cpu_seconds")})
+        reference = Path(dump) / "FULL.npy"
+        accuracy = {}
+        if reference.exists():
+            full = np.load(reference)
+            for label in args.cases:
+                if label != "FULL" and (Path(dump) / f"{label}.npy").exists():
+                    x = np.load(Path(dump) / f"{label}.npy")
+                    gap = np.linalg.norm(x - full, axis=1) / np.linalg.norm(full, axis=1)
+                    accuracy[label] = float(gap.max())
+    results = {label: _medians(r) for label, r in runs.items()}
+    for label, gap in accuracy.items():
+        results[label]["u_difference_vs_full"] = gap  # max over steps of |u - u_FULL| / |u_FULL|
+    for label, r in results.items():
+        for base in ("FULL", *PEERS_OF):
+            b = results.get(base, {})
+            if b.get("step_cpu_seconds") and r["step_cpu_seconds"] and base != label:
+                r[f"cpu_speedup_vs_{base}"] = b["step_cpu_seconds"] / r["step_cpu_seconds"]
+                r[f"wall_speedup_vs_{base}"] = b["step_seconds"] / r["step_seconds"]
+    rtol = args.rtol or iterative_peer.RTOL
+    settings = {"elements": args.elements, "modes": args.modes, "dt": args.dt, "rtol": rtol}
+    settings |= {"repeats": args.repeats, "load_average": [round(x, 2) for x in loads]}
+    out = Path(args.out or HERE / f"reduced_speed_{nx}x{ny}x{nz}.json")
+    out.write_text(json.dumps({**settings, "results": results}, indent=1))
+    print(f"wrote {out}")
+
+
+#: The peers every ratio is also given against.
+PEERS_OF = ("CG+Jacobi", "CG+GAMG")
+
+
+def _medians(runs: list[dict]) -> dict:
+    """One case's repeats: the medians of their medians, the largest peak memory."""
+    out = dict(runs[0])
+    for key in ("setup_seconds", "setup_cpu_seconds", "step_seconds", "step_cpu_seconds"):
+        values = [r[key] for r in runs if r.get(key) is not None]
+        out[key] = statistics.median(values) if values else None
+        out[f"{key}_runs"] = [round(v, 5) for v in values]
+    out["peak_memory_mib"] = max(r["peak_memory_mib"] for r in runs)
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__)
     parser.add_argument("--elements", type=int, nargs=3, default=[120, 18, 6])
@@ -152,50 +290,82 @@ def main() -> None:
     parser.add_argument("--modes", type=int, default=20)
     parser.add_argument("--warm", type=int, default=2)
     parser.add_argument("--steps", type=int, default=9)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--rtol", type=float, default=0.0, help="the peers' (0: their RTOL)")
     parser.add_argument("--part", nargs="+", default=["speed", "trade"])
     parser.add_argument("--cases", nargs="+", default=[c[0] for c in CASES])
+    parser.add_argument("--out", help="the speed part's JSON (default by the cells)")
     parser.add_argument("--trade-elements", type=int, nargs=3, default=[40, 8, 4])
     parser.add_argument("--trade-modes", type=int, nargs="+", default=[5, 10, 20, 40, 80, 160])
     parser.add_argument("--trade-steps", type=int, default=60)
     parser.add_argument("--worker", help=argparse.SUPPRESS)
+    parser.add_argument("--dump", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
         print(json.dumps(speed_worker(args)))
         return
     if "speed" in args.part:
-        nx, ny, nz = args.elements
-        results = {}
-        for label in args.cases:
-            command = [sys.executable, __file__, "--worker", label, "--elements"]
-            command += [str(n) for n in args.elements]
-            command += ["--steps", str(args.steps), "--warm", str(args.warm)]
-            command += [
-                "--dt",
-                str(args.dt),
-                "--speed",
-                str(args.speed),
-                "--modes",
-                str(args.modes),
-            ]
-            done = subprocess.run(
-                command, env={**os.environ, **PINNED}, capture_output=True, text=True, check=True
-            )
-            results[label] = json.loads(done.stdout.splitlines()[-1])
-            r = results[label]
-            print(label, {k: r[k] for k in ("setup_seconds", "step_seconds", "peak_memory_mib")})
-        full = results.get("FULL", {}).get("step_seconds")
-        for r in results.values():
-            if full and r["step_seconds"]:
-                r["speedup_vs_full"] = full / r["step_seconds"]
-        settings = {"elements": args.elements, "modes": args.modes, "dt": args.dt}
-        out = HERE / f"reduced_speed_{nx}x{ny}x{nz}.json"
-        out.write_text(json.dumps({**settings, "results": results}, indent=1))
-        print(f"wrote {out}")
+        speed(args)
+    if "peer-accuracy" in args.part:
+        peer_accuracy(args)
+    if "paper-trade" in args.part:
+        data = paper_trade(args.trade_elements, args.trade_modes, args.trade_steps)
+        nx, ny, nz = args.trade_elements
+        (HERE / f"reduced_paper_trade_{nx}x{ny}x{nz}.json").write_text(json.dumps(data, indent=1))
     if "trade" in args.part:
         data = trade(tuple(args.trade_elements), args.trade_modes, args.trade_steps, 2e-7)
         (HERE / "reduced_trade.json").write_text(json.dumps(data, indent=1))
         chart(data, HERE / "reduced_trade.png")
         print(f"wrote {HERE / 'reduced_trade.json'} and reduced_trade.png")
+
+
+def peer_accuracy(args) -> None:
+    """The peers' displacement against the direct FULL's over a run, per tolerance.
+
+    The bar of ``--trade-elements`` pressed on its wall at the speed benchmark's speed (its
+    contact grows every step), FULL direct and each peer at 1e-9 ... 1e-15, one process.
+    The direct solve's own accuracy is its distance from the tightest CG's.
+    """
+    import contextlib
+
+    from mpi4py import MPI
+
+    import iterative_peer
+    import numpy as np
+
+    import dd_contact as dd
+    from dd_contact.paper.examples import parallelepiped
+
+    def run(label, rtol):
+        scene = parallelepiped("FULL", tuple(args.trade_elements), comm=MPI.COMM_SELF)
+        with iterative_peer.peer(label, scene, rtol) if label else contextlib.nullcontext():
+            problem = dd.TransientProblem(scene, args.dt, "FULL", track_energy=False)
+        fields, changes = [], 0
+        for _ in range(args.steps):
+            changes += problem.advance()["changes"]
+            fields.append(np.concatenate(list(problem.solver.finish().values())))
+        iterations = getattr(problem.solver, "iterations", [])
+        problem.close()
+        return np.array(fields), changes, iterations
+
+    full, changes, _ = run(None, None)
+    out = {"elements": args.trade_elements, "dt": args.dt, "steps": args.steps}
+    out |= {"changes": changes, "peers": {}}
+    for label in iterative_peer.PEERS:
+        for rtol in (1e-9, 1e-10, 1e-11, 1e-12, 1e-13, 1e-14, 1e-15):
+            try:
+                x, _, iterations = run(label, rtol)
+            except dd.InaccurateSolutionError as error:  # the residual check refused it
+                out["peers"][f"{label} {rtol:g}"] = {"refused": str(error)[:200]}
+                continue
+            gap = np.linalg.norm(x - full, axis=1) / np.linalg.norm(full, axis=1)
+            out["peers"][f"{label} {rtol:g}"] = {
+                "u_difference_vs_full": float(gap.max()),
+                "median_iterations": float(np.median(iterations)),
+            }
+            print(label, rtol, out["peers"][f"{label} {rtol:g}"])
+    (HERE / "peer_accuracy.json").write_text(json.dumps(out, indent=1))
+    print(f"wrote {HERE / 'peer_accuracy.json'}")
 
 
 if __name__ == "__main__":

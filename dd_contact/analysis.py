@@ -38,7 +38,7 @@ from dd_contact.parallel import (
     gathered,
     sum_over_ranks,
 )
-from dd_contact.post import Results
+from dd_contact.post import Results, friction_unfit
 from dd_contact.scene import KAPPA_VERIFIED, ContactBoundary, Scene
 from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.analysed import Candidates, scene_structure
@@ -58,7 +58,6 @@ from dd_contact.solvers.stiff_ties import AugmentedTies
 from dd_contact.subdomains import Subdomain
 
 __all__ = ["Analysis"]
-
 logger = logging.getLogger(__name__)
 
 #: Solves after which ``algorithm="auto"`` compares its prediction with the clock.
@@ -90,7 +89,8 @@ def check_algorithm(scene: Scene, algorithm: str, expected: tuple[float, float])
     """
     has_interface = scene.interface is not None
     has_w = any(not isinstance(c, ContactBoundary) for c in scene.contacts)
-    valid = fitting_algorithms(has_interface, has_w)
+    unfit = friction_unfit(scene)  # v-u, where friction would make a subdomain unsymmetric
+    valid = tuple(a for a in fitting_algorithms(has_interface, has_w) if a not in unfit)
     if algorithm != "auto" and algorithm not in valid:
         parts = ["an interface" if has_interface else "no interface"]
         parts.append("contact interfaces" if has_w else "no contact interfaces")
@@ -383,26 +383,25 @@ class Analysis:
             self._free[block] = self.model.free(Block.parse(block))
         return self._free[block]
 
-    def loads(self, t: float) -> dict[str, np.ndarray]:
-        """Collective: owned load vectors r_D(t), shared arrays not to be written.
-
-        :class:`forms.SubdomainLoad` assembles them as seldom as their time dependence allows.
-        """
+    def loads(self, t: float) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+        """Collective: owned loads r_D(t) (not to be written), reduced blocks' f_D on supports."""
         return collective(self.comm, lambda: self._loads(t))
 
-    def _loads(self, t: float) -> dict[str, np.ndarray]:
-        loads: dict[str, np.ndarray] = {}
+    def _loads(self, t: float) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+        loads: dict[str, np.ndarray] = {}  # SubdomainLoad assembles as seldom as it can
+        supports: dict[str, np.ndarray] = {}
         for sub in self.owned:
             sub.set_time(t)
             vector = loads[sub.block] = self._load[sub.block]()
             if sub.block in self.reduced:  # in reduced coordinates: T^T r
                 loads[sub.block] = self.reduced[sub.block].project_load(vector)
+                supports[sub.block] = vector[self.reduced[sub.block].fixed]
             if not np.all(np.isfinite(vector)):
                 raise InputError(
                     f"subdomain {sub.name!r}: the load at t = {t} contains NaN or inf; check "
                     "the traction and body-force data"
                 )
-        return loads
+        return loads, supports
 
     def _prescribed(self, t: float) -> dict[str, np.ndarray]:
         """The right-hand side of the prescribed values at ``t`` (recomputed when they change).
@@ -477,10 +476,10 @@ class Analysis:
             ", ".join(f"{k}: {v}" for k, v in counts.items()) if counts else "none"
         )
 
-    def agree(self, x, loads, accelerations) -> dict:
+    def agree(self, x, loads, accelerations, supports) -> dict:
         """Collective: this solve's results on every rank (:meth:`Results.agree`)."""
         it = self.iteration
-        return self.agreed.agree(x, loads, accelerations, it.active, it.alpha)
+        return self.agreed.agree(x, loads, accelerations, supports, it.active, it.alpha)
 
     def publish(self, x: dict[str, np.ndarray]) -> None:
         """Collective: copy the solution into the scene's Functions.

@@ -67,6 +67,27 @@ def real(value: Any, argument: str) -> float:
     return float(value)
 
 
+def friction(value: Any, what: str, pair_side: bool) -> float:
+    """A Coulomb coefficient: a finite number >= 0 (0: frictionless)."""
+    if not (is_real(value) and np.isfinite(value) and value >= 0):
+        raise InputError(
+            f"{what}: friction must be a finite number >= 0 (the Coulomb coefficient mu; "
+            f"0 for frictionless contact), got {_describe(value)}"
+        )
+    if value > 0 and pair_side:
+        raise InputError(
+            f"{what}: friction between two bodies (a side of a ContactPair) is not built "
+            "yet; give friction only on contacts with a rigid obstacle"
+        )
+    return float(value)
+
+
+def choice(value: Any, allowed: Sequence[str], argument: str) -> None:
+    """One of ``allowed``."""
+    if value not in allowed:
+        raise InputError(f"{argument} must be one of {tuple(allowed)}, got {value!r}")
+
+
 def positive_int(value: Any, argument: str) -> int:
     """An integer >= 1 (a count)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:

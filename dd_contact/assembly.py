@@ -30,7 +30,7 @@ from dd_contact import coupling, forms
 from dd_contact.blocks import Block, BlockKeyed, BlockSystem, ContactRegion, StiffTie
 from dd_contact.contact import (
     ContactOperator,
-    contact_points,
+    contact_operator,
     largest_turn,
     mean_cell_size,
     patch_average,
@@ -316,7 +316,7 @@ class ContactZone:
     @property
     def region(self) -> ContactRegion:
         """What a solver reserves for this zone: its block, dofs and matrix pattern."""
-        return ContactRegion(self.contact.name, self.block, self.dofs, self.operator.pattern())
+        return self.operator.region(self.contact.name, self.block, self.dofs)
 
 
 @dataclass
@@ -505,7 +505,7 @@ def _contact_zone(
         return None, coverage, (height, wall)
     eps_c = contact.contact_penalty.epsilon_for(height, sub.material.E)
     system.penalties[(sub.name, f"contact:{contact.name}")] = eps_c
-    operator = ContactOperator(contact_points(contact.V, contact.points), contact.obstacle, eps_c)
+    operator = contact_operator(contact, eps_c)
     free, prescribed = np.ones(len(dofs), bool), np.zeros(len(dofs))
     if block == u:  # contact on the subdomain's own dofs: some may be prescribed
         fixed, values = sub.dirichlet

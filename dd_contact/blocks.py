@@ -147,24 +147,22 @@ def split_by_blocks(
     return out
 
 
-def refuse_unsolvable(regions: Iterable[ContactRegion]) -> None:
+def refuse_unsolvable(regions: Iterable[ContactRegion], monolithic: bool = False) -> None:
     """Raise NotImplementedError for a region the solvers cannot solve yet.
 
     A contact pair's two blocks are solved (the schedule's groups, the surface's contact
     matrices by block pair, FULL's dofs over both blocks); an unsymmetric contact block
-    needs an LU factorisation (its seam: the surface's dense factor), a region with history needs it
-    checkpointed (its seam: the run state).
+    (friction) is factorised with LU where it lies: a dense surface group, or FULL's
+    matrix (``monolithic``). On a subdomain's own boundary (v-u) it would make the
+    subdomain unsymmetric, which the orders never factorise.
     """
     for region in regions:
-        if not region.symmetric:
-            what = "has an unsymmetric matrix (friction)"
-        elif region.history:
-            what = "carries history from step to step (friction)"
-        else:
+        if region.symmetric or monolithic or region.block.kind != "u":
             continue
         raise NotImplementedError(
-            f"contact region {region.name!r} {what}: the solvers do not solve such a region "
-            "yet (docs/architecture.md, 'Seams')"
+            f"contact region {region.name!r} has friction on a subdomain's own boundary: the "
+            "orders keep every subdomain symmetric; use a ContactInterface (w-u, v-w-u, w-v-u) "
+            "or algorithm='FULL' (docs/contact.md, 'Friction')"
         )
 
 

@@ -36,6 +36,7 @@ __all__ = [
     "PLAUSIBLE_RATES",
     "RATE_KINDS",
     "MachineRates",
+    "cached_rates",
     "calibrate",
     "machine_fingerprint",
     "machine_rates",
@@ -161,6 +162,20 @@ def machine_fingerprint() -> dict[str, Any]:
 def _cache_file() -> Path:
     root = os.environ.get("DD_CONTACT_CACHE") or Path.home() / ".cache" / "dd_contact"
     return Path(root) / "machine_rates.json"
+
+
+def cached_rates() -> MachineRates | None:
+    """This machine's rates if they are cached and plausible, else ``None`` (no measuring).
+
+    For a price that must not stop to calibrate (a solver choosing how to take a change).
+    """
+    file = _cache_file()
+    key = json.dumps(machine_fingerprint(), sort_keys=True)
+    try:
+        rates = MachineRates.from_dict(json.loads(file.read_text())[key])
+    except (OSError, KeyError, ValueError):
+        return None
+    return None if rates.implausible() else rates
 
 
 def machine_rates(

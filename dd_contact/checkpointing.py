@@ -3,9 +3,10 @@
 A run's state is the owned subdomains' displacement, velocity and acceleration, the
 interface's and the owned contact surfaces' displacement (massless, but the next step's
 start forces read their tie forces at t_n), the contact iteration's active sets and counts,
-and the step, time and integration settings (which a resumed run must share). Its files
-are :class:`Checkpoint`'s, written so that a process killed at any moment, on any rank,
-leaves a state every rank holds.
+each friction's history (:meth:`dd_contact.friction.Friction.arrays`), and the step, time
+and integration settings (which a resumed run must share). Its files are
+:class:`Checkpoint`'s, written so that a process killed at any moment, on any rank, leaves a
+state every rank holds.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ import json
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from mpi4py import MPI
 
@@ -30,6 +32,11 @@ __all__ = ["Checkpoint", "RunState"]
 
 #: The fields of a subdomain a checkpoint holds.
 KINEMATICS = ("u", "velocity", "acceleration")
+
+
+def _friction_of(zone) -> Any:
+    """A zone's friction (``None``: frictionless, or a stand-in zone without an operator)."""
+    return getattr(getattr(zone, "operator", None), "friction", None)
 
 
 class RunState:
@@ -79,7 +86,27 @@ class RunState:
             state[f"alpha/{name}"] = np.array(it.alpha[name])
             state[f"releases/{name}"] = np.array(it.releases[name])
         state.update(self._surfaces())
+        for name, friction in self._frictions().items():
+            state.update({f"friction/{name}/{k}": v for k, v in friction.arrays().items()})
         return state
+
+    def _frictions(self) -> dict:
+        """The friction of each zone that has one, by contact name (its history is state)."""
+        out = {z.contact.name: _friction_of(z) for z in self.zones}
+        return {name: friction for name, friction in out.items() if friction is not None}
+
+    def _restore_friction(self, state: dict[str, np.ndarray]) -> None:
+        """Each zone's friction history (tractions, slip, stick/slip states) from ``state``."""
+        for name, friction in self._frictions().items():
+            prefix = f"friction/{name}/"
+            arrays = {k[len(prefix) :]: v for k, v in state.items() if k.startswith(prefix)}
+            if arrays.keys() != friction.arrays().keys():
+                raise InputError(
+                    f"resume: the checkpoint holds no friction history of contact {name!r} "
+                    "(written without friction, or by an earlier version); start a new "
+                    "output directory"
+                )
+            friction.restore(arrays)
 
     def restore(
         self, state: dict[str, np.ndarray], dt: float, integration: str
@@ -127,6 +154,7 @@ class RunState:
             key = f"releases/{name}"  # absent in checkpoints written before the count
             it.releases[name] = int(state[key]) if key in state else 0
         it.release_solves = int(state.get("release_solves", 0))
+        self._restore_friction(state)
         return int(state["step"]), float(state["t"])
 
 

@@ -44,8 +44,10 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
+from dd_contact.blocks import Block, ContactRegion
 from dd_contact.coupling import newell_normal
 from dd_contact.errors import InputError
+from dd_contact.friction import TANGENTIAL_PENALTY, Friction
 from dd_contact.meshes import cyclic_vertices
 from dd_contact.obstacles import Obstacle
 from dd_contact.scene import CONTACT_POINTS
@@ -54,6 +56,7 @@ __all__ = [
     "ContactOperator",
     "ContactPoints",
     "check_contact_geometry",
+    "contact_operator",
     "contact_points",
     "largest_turn",
     "mean_cell_size",
@@ -133,6 +136,10 @@ class ContactOperator:
         epsilon: The contact penalty eps_C (traction = penetration / eps_C).
     """
 
+    #: Coulomb friction at the points (:mod:`dd_contact.friction`); ``None``: frictionless
+    #: (a class attribute: a pair's operator, which builds its own state, has none).
+    friction: Friction | None = None
+
     def __init__(self, points: ContactPoints, obstacle: Obstacle, epsilon: float):
         self.points = points
         self.obstacle = obstacle
@@ -172,13 +179,24 @@ class ContactOperator:
         return self.penetration(w) > 0.0
 
     def matrix(self, active: np.ndarray) -> sp.csr_array:
-        """P_C of (A8) for the active points."""
+        """P_C of (A8) for the active points (and friction's terms)."""
         scale = np.where(active, self.points.weight / self.epsilon, 0.0)
-        return sp.csr_array(self.G.T @ (scale[:, None] * self.G))
+        normal = sp.csr_array(self.G.T @ (scale[:, None] * self.G))
+        return (
+            normal
+            if self.friction is None
+            else sp.csr_array(normal + self.friction.terms(active)[0])
+        )
 
     def rhs(self, active: np.ndarray) -> np.ndarray:
-        """p_C2 of (A9) for the active points."""
-        return self.G.T @ np.where(active, self.points.weight * self.gap / self.epsilon, 0.0)
+        """p_C2 of (A9) for the active points (and friction's terms)."""
+        normal = self.G.T @ np.where(active, self.points.weight * self.gap / self.epsilon, 0.0)
+        return normal if self.friction is None else normal + self.friction.terms(active)[1]
+
+    def region(self, name: str, block: Block, dofs: np.ndarray) -> ContactRegion:
+        """What a solver reserves for this contact (friction: unsymmetric, with history)."""
+        plain = self.friction is None
+        return ContactRegion(name, block, dofs, self.pattern(), symmetric=plain, history=not plain)
 
     def point_pressure(self, w: np.ndarray) -> np.ndarray:
         """Contact pressure ``<w . n - s>+ / eps_C`` at the points (compression positive)."""
@@ -192,12 +210,25 @@ class ContactOperator:
     def force(self, w: np.ndarray) -> np.ndarray:
         """Total force the obstacle exerts on the body (3-vector)."""
         p = self.point_pressure(w) * self.points.weight
-        return -(p[:, None] * self.normal).sum(axis=0)
+        force = -(p[:, None] * self.normal).sum(axis=0)
+        if self.friction is None:
+            return force
+        return force + (self.points.weight[:, None] * self.friction.tractions(w)).sum(axis=0)
 
     def energy(self, w: np.ndarray) -> float:
         """Penalty energy ``(1/2 eps_C) int <w . n - s>+^2``."""
         g = np.maximum(self.penetration(w), 0.0)
-        return 0.5 * float(np.dot(self.points.weight, g * g)) / self.epsilon
+        normal = 0.5 * float(np.dot(self.points.weight, g * g)) / self.epsilon
+        return normal if self.friction is None else normal + self.friction.energy(w)
+
+
+def contact_operator(contact, epsilon: float) -> ContactOperator:
+    """The operator of a contact region against its obstacle (penalty eps_C), with friction."""
+    operator = ContactOperator(contact_points(contact.V, contact.points), contact.obstacle, epsilon)
+    if contact.friction > 0.0:
+        operator.friction = Friction(operator, contact.friction, TANGENTIAL_PENALTY * epsilon)
+        contact.friction_law = operator.friction  # what its output fields read
+    return operator
 
 
 def patch_average(mass: sp.sparray) -> sp.csr_array:

@@ -199,6 +199,8 @@ class StartForces:
             if z.block in self.internal:  # contact on the subdomain's own boundary
                 start = self.start[z.contact.name].astype(float)
                 np.add.at(self.internal[z.block], z.dofs, self._point_forces(z, start))
+                if (friction := getattr(z.operator, "friction", None)) is not None:
+                    np.add.at(self.internal[z.block], z.dofs, -(z.free * friction.start_force()))
 
     def correction(
         self, active: Mapping[str, np.ndarray], x: Mapping[Block, np.ndarray] | None

@@ -113,6 +113,12 @@ def digest(active: np.ndarray) -> str:
     return hashlib.blake2b(np.packbits(active).tobytes(), digest_size=12).hexdigest()
 
 
+def _state_digest(zone: ContactZone, active: np.ndarray) -> str:
+    """A zone's contact state: its active set, and its points' stick or slip (friction)."""
+    friction = getattr(zone.operator, "friction", None)
+    return digest(active) + ("" if friction is None else friction.digest())
+
+
 @dataclass
 class ContactSettings:
     """How the contact iteration runs.
@@ -269,7 +275,7 @@ class ContactIteration:
                     x = self._shifted(self._checked(solver, self._finished(solver), where))
                     if moved:
                         x = self._at_end(solver, x, whole=True)
-                    return x, iteration, changes_this_solve
+                    return self._committed(x), iteration, changes_this_solve
             if self._held_in_now:
                 seen = {}  # the points pressed back stay in: no cycle through them
             self._count_change(changed)
@@ -282,7 +288,8 @@ class ContactIteration:
                 changes_this_solve += self._union_of_cycle(sets[seen[key] :], message)
                 self._solve_once(solver, rhs, where)
                 x = self._shifted(self._checked(solver, self._finished(solver), where))
-                return self._at_end(solver, x, whole=True), iteration + 1, changes_this_solve
+                x = self._at_end(solver, x, whole=True)
+                return self._committed(x), iteration + 1, changes_this_solve
             seen[key] = iteration
             sets.append(dict(self.active))
         raise ContactIterationError(
@@ -336,7 +343,21 @@ class ContactIteration:
             new[name] = np.where(undecided, self.active[name], g > 0.0)
         if self._correction is not None:
             self._keep_released_out(new, start, released, held_in)
-        return new, [n for n in new if not np.array_equal(new[n], self.active[n])]
+        changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
+        for z in self.zones:  # a point between stick and slip is a contact state change too
+            friction = getattr(z.operator, "friction", None)
+            name = z.contact.name
+            if friction is not None and friction.decide(z.gather(end), new[name]):
+                changed += [] if name in changed else [name]
+        return new, changed
+
+    def _committed(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """``x``, the settled solution, after each zone's friction took it as its history."""
+        for z in self.zones:
+            friction = getattr(z.operator, "friction", None)
+            if friction is not None:
+                friction.commit(z.gather(x))
+        return x
 
     def _at_end(
         self, solver: ContactSolver, x: dict[str, np.ndarray], whole: bool
@@ -522,7 +543,7 @@ class ContactIteration:
         return x
 
     def _global_digest(self) -> tuple:
-        local = tuple(digest(self.active[z.contact.name]) for z in self.zones)
+        local = tuple(_state_digest(z, self.active[z.contact.name]) for z in self.zones)
         return tuple(allgathered(self.comm, local))
 
     def _cycle_message(self, previous, new, first, iteration, where) -> str:
@@ -535,7 +556,13 @@ class ContactIteration:
                     f"contact {z.contact.name!r}: {flips.size} point(s) flip in/out of contact, "
                     f"e.g. at {x}"
                 )
+
         lines = [line for part in allgathered(self.comm, lines) for line in part]
+        if not lines:  # no point flips in or out: the cycle is friction's stick and slip
+            lines = [
+                "the stick/slip state of points with friction goes round (the load step "
+                "cannot decide it: take smaller load steps)"
+            ]
         return (
             f"contact iteration cycles at {where}: iteration {iteration} returns to the active "
             f"set of iteration {first}. " + "; ".join(lines)

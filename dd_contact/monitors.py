@@ -91,9 +91,14 @@ class EpisodeImpulses:
         return impulse >= MINOR_EPISODE * max(self.largest, impulse)
 
 
-def obstacles_moved(contacts: Sequence, t0: float, t1: float) -> bool:
-    """Whether an obstacle of ``contacts`` (pairs have none) moved between ``t0`` and ``t1``."""
+def obstacles_moved(contacts: Sequence, t0: float, t1: float, frictional: bool = False) -> bool:
+    """Whether an obstacle of ``contacts`` moved between ``t0`` and ``t1`` (pairs have none).
+
+    ``frictional``: only the obstacles of contacts with friction.
+    """
     for c in contacts:
+        if frictional and not getattr(c, "friction", 0.0) > 0.0:
+            continue
         motion = getattr(getattr(c, "obstacle", None), "motion", None)
         if motion is not None and not np.array_equal(motion(t0), motion(t1)):
             return True
@@ -107,12 +112,16 @@ def _force(record: dict, name: str) -> float:
 class EnergyBalance:
     """Collective: warn once if a step's energy grew by more than the loads' work.
 
+    Friction's dissipation over the step (the record's ``dissipated``) is taken out: energy
+    now = energy before + loads' work - dissipation.
+
     The trapezoidal rule conserves energy exactly but for contact points that change state;
     a gain beyond round-off is energy the contact created (:mod:`dd_contact.impact`). A
     scheme that does not conserve energy (generalized-alpha: its energy may swing up within
     a step while it decays overall) is held to the energy at the start plus the loads' work.
     A step in which prescribed displacements move is not checked (their reactions' work is
-    not counted); a moving obstacle's work through contact is counted with the loads'.
+    not counted); a moving obstacle's work through contact is counted with the loads' (with
+    friction on it, its step is not checked: the friction's share is not counted).
 
     Args:
         comm: Communicator of the run.
@@ -199,10 +208,13 @@ class EnergyBalance:
             return
         t = record["t"]
         if obstacles_moved(self.contacts, t - self.dt, t):  # its work goes through contact
+            if obstacles_moved(self.contacts, t - self.dt, t, frictional=True):
+                return  # the work of its friction (tangential) is not counted
             loads_work += sum_over_ranks(self.comm, obstacle_work())
+        dissipated = record["energy"].get("dissipated", 0.0)  # friction's work, >= 0
         if not self.conserves_energy:
-            self.before = energy_before + loads_work
-        gain = energy_after - energy_before - loads_work
+            self.before = energy_before + loads_work - dissipated
+        gain = energy_after - energy_before - loads_work + dissipated
         allowed = ENERGY_GROWTH_TOLERANCE * max(self.largest, abs(energy_before))
         if self.energy_safe:  # what its release iteration settles within (classic: none)
             allowed = max(allowed, RELEASE_TOLERANCE * contact_before)

@@ -26,9 +26,10 @@ import numpy as np
 import threadpoolctl
 
 from dd_contact.blocks import Block, BlockKeyed
-from dd_contact.errors import InputError
+from dd_contact.errors import InputError, SingularMatrixError
 
 __all__ = [
+    "REFUSALS",
     "ROOT",
     "Traffic",
     "allgather_blocks",
@@ -290,19 +291,39 @@ def allgather_blocks(
     return out
 
 
+#: What :func:`collective` raises on every rank when one rank raises it: refusals of the
+#: input (InputError), of what is not built (NotImplementedError), of a singular matrix.
+REFUSALS: tuple[type[Exception], ...] = (InputError, NotImplementedError, SingularMatrixError)
+
+
 def collective(comm: MPI.Comm, action: Callable[[], Any]) -> Any:
-    """Run ``action`` on every rank; if any rank raises InputError, raise it on all ranks."""
-    result, message = None, None
+    """Run ``action`` on every rank; a refusal on one rank is raised on all ranks.
+
+    A refusal is one of :data:`REFUSALS`: the lowest refusing rank's class and message are
+    raised everywhere (that rank keeps its traceback), so no rank is left waiting in the
+    next collective.
+    """
+    result, refusal = None, None
     try:
         result = action()
-    except InputError as error:
-        message = str(error)
+    except REFUSALS as error:
+        refusal = error
     if comm.size == 1:
-        if message is not None:
-            raise InputError(message)
+        if refusal is not None:
+            raise refusal
         return result
+    mine = None if refusal is None else (REFUSALS.index(_kind(refusal)), str(refusal))
     with traffic.call("collective"):
-        messages = [m for m in comm.allgather(message) if m is not None]
-    if messages:
-        raise InputError(messages[0])
+        refusals = [m for m in comm.allgather(mine) if m is not None]
+    if refusals and refusals[0] == mine:
+        assert refusal is not None  # mine is not None
+        raise refusal
+    if refusals:
+        kind, message = refusals[0]
+        raise REFUSALS[kind](message)
     return result
+
+
+def _kind(error: Exception) -> type[Exception]:
+    """The entry of :data:`REFUSALS` that ``error`` is an instance of."""
+    return next(k for k in REFUSALS if isinstance(error, k))

@@ -88,7 +88,8 @@ def energy(
             start forces); by default computed here.
 
     Returns:
-        ``"kinetic"``, ``"elastic"`` and ``"contact"``.
+        ``"kinetic"``, ``"elastic"``, ``"contact"`` (the penalties' stored energy, friction's
+        tangential one in) and ``"dissipated"`` (friction's work over the last step, >= 0).
     """
     product = products.row if products else model.system.row_product
     rows = sorted({block for pair in model.system.matrices for block in pair})
@@ -101,7 +102,23 @@ def energy(
         if block in model.mass:
             kinetic += 0.5 * float(v @ (model.mass[block] @ v))
     contact = float(sum(z.operator.energy(z.published()) for z in zones))
-    return {"kinetic": kinetic, "elastic": elastic, "contact": contact}
+    frictions = [f for z in zones if (f := getattr(z.operator, "friction", None)) is not None]
+    dissipated = float(sum(f.dissipation for f in frictions))
+    return {"kinetic": kinetic, "elastic": elastic, "contact": contact, "dissipated": dissipated}
+
+
+def friction_unfit(scene) -> tuple[str, ...]:
+    """The algorithms the friction of ``scene`` rules out (its unsymmetric blocks).
+
+    v-u where a subdomain's own boundary has friction: the subdomain would be unsymmetric.
+    """
+    own = any(getattr(c, "friction", 0.0) > 0.0 and c.block.kind == "u" for c in scene.contacts)
+    return ("v-u",) if own else ()
+
+
+def frictional(scene) -> bool:
+    """Whether some contact of ``scene`` has friction (on every rank alike)."""
+    return any(getattr(c, "friction", 0.0) > 0.0 for c in scene.regions)
 
 
 @dataclass
@@ -139,6 +156,9 @@ def _subdomain_fields(sub: Subdomain, dynamic: bool) -> MeshFields:
 def _contact_fields(contact: ContactInterface | ContactBoundary) -> MeshFields:
     """w, nodal pressure, gap ``s - w . n`` at the nodes and the active nodes (1 or 0).
 
+    With friction also the accumulated slip, the tangential traction on the body and the
+    stick/slip map (0 open, 1 stick, 2 slip; a node's points averaged with quadrature).
+
     A node is active where its pressure is positive: with contact checked at the nodes
     (the default) these are exactly the active points of the contact iteration.
     """
@@ -148,13 +168,24 @@ def _contact_fields(contact: ContactInterface | ContactBoundary) -> MeshFields:
     n = scalars.dofmap.index_map.size_local
     x = scalars.tabulate_dof_coordinates()[:n]
 
+    friction = getattr(contact, "friction_law", None)  # set at assembly where mu > 0
+    slip, traction, state = (
+        fem.Function(space, name=f"{what}_{contact.name}")
+        for space, what in ((contact.V, "slip"), (contact.V, "traction"), (scalars, "stick"))
+    )
+
     def refresh(t: float) -> None:
         s, normal = contact.obstacle.gap_normal(x, t)
         w = contact.w.x.array[: 3 * n].reshape(n, 3)
         gap.x.array[:n] = s - np.einsum("ij,ij->i", w, normal)
         active.x.array[:n] = contact.pressure.x.array[:n] > 0.0
+        if friction is not None:
+            slip.x.array[: 3 * n] = friction.nodal(friction.slip).ravel()
+            traction.x.array[: 3 * n] = friction.nodal(friction.traction).ravel()
+            state.x.array[:n] = friction.nodal(friction.state.astype(float)[:, None]).ravel()
 
-    return MeshFields(contact.w.name, [contact.w, contact.pressure, gap, active], refresh)
+    extra = [] if friction is None else [slip, traction, state]
+    return MeshFields(contact.w.name, [contact.w, contact.pressure, gap, active, *extra], refresh)
 
 
 def part_fields(
@@ -211,6 +242,7 @@ class Reactions:
         x: Mapping[str, np.ndarray],
         loads: Mapping[str, np.ndarray],
         accelerations: Mapping[str, np.ndarray],
+        supports: Mapping[str, np.ndarray],
     ) -> dict[Block, np.ndarray]:
         """Reaction 3-vector per owned subdomain block (zero without supports).
 
@@ -218,10 +250,12 @@ class Reactions:
             x: Every block's displacement.
             loads: The external load vector of each owned subdomain block.
             accelerations: Acceleration of each owned block (empty for statics).
+            supports: Each owned reduced block's load on its prescribed dofs (its ``loads``
+                entry is in reduced coordinates, without them).
         """
         out: dict[Block, np.ndarray] = {}
         for block, basis in self.model.reduced.items():  # in reduced coordinates
-            r = basis.reaction(x[block], accelerations.get(block))
+            r = basis.reaction(x[block], accelerations.get(block), supports[block])
             out[block] = np.bincount(basis.fixed % 3, weights=r, minlength=3)
         for block, rows in self.rows.items():
             if block in self.model.reduced:
@@ -299,6 +333,7 @@ class Results:
         x: Mapping[str, np.ndarray],
         loads: Mapping[str, np.ndarray],
         accelerations: Mapping[str, np.ndarray],
+        supports: Mapping[str, np.ndarray],
         active: Mapping[str, np.ndarray],
         alpha: Mapping[str, int],
     ) -> dict:
@@ -315,7 +350,7 @@ class Results:
             local[("active", name)] = int(active[name].sum())
             local[("contact_area", name)] = contact_area(z, active[name])
             local[("carrying", name)] = carrying_points(z, z.gather(x), active[name])
-        for block, reaction in self.reactions.of(x, loads, accelerations).items():
+        for block, reaction in self.reactions.of(x, loads, accelerations, supports).items():
             local[("reaction", self.names[block])] = reaction.tolist()
         agreed = gathered(self.comm, local)
         contacts = [c.name for c in self.scene.regions]

@@ -43,7 +43,7 @@ from dd_contact.parallel import (
     gathered,
     sum_over_ranks,
 )
-from dd_contact.post import energy
+from dd_contact.post import energy, frictional
 from dd_contact.readout import AnalysisReadout
 from dd_contact.scene import Scene
 from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
@@ -130,10 +130,11 @@ class StaticProblem(AnalysisReadout):
         self._check_open()
         analysis = self.analysis
         self.iteration.start(t)
-        loads = analysis.loads(t)
+        loads, supports = analysis.loads(t)
         x, self.iterations, _ = analysis.solve(t, analysis.rhs(t, loads), f"t = {t}")
         analysis.publish(x)
-        record = {"t": t, "iterations": self.iterations, **analysis.agree(x, loads, {})}
+        record = {"t": t, "iterations": self.iterations}
+        record.update(analysis.agree(x, loads, {}, supports))
         self.resolution.solved(record, analysis.agreed.carrying)
         analysis.agreed.latest = record
         return analysis.functions()
@@ -160,9 +161,8 @@ class TransientProblem(AnalysisReadout):
 
     Args:
         scene: What is modelled.
-        dt: Time step (fixed: the subdomain matrices are factorised once for it; default:
-            with an ``accuracy`` preset named, the preset's, in units of the contacts' wave
-            time).
+        dt: Time step (fixed: the subdomain matrices are factorised once for it); ``None``
+            takes the named ``accuracy`` preset's.
         algorithm: Elimination order.
         inertia: ``False`` for quasi-static load stepping (no mass terms).
         contact: Contact iteration settings.
@@ -188,17 +188,14 @@ class TransientProblem(AnalysisReadout):
             discrete-gradient share of its start force (docs/validation.md measures what it
             changes). ``False``: the classic trapezoidal contact (the paper's; it creates
             energy when points leave contact, which is reported).
-        mass: ``"consistent"`` (the default, or the ``accuracy`` preset's), ``"lumped"``
-            (row sums for degree 1, the diagonal scaled to the exact total mass for degree
-            2) or ``"averaged"`` (half each: an impact's peak force overshoots least).
+        mass: ``"consistent"`` (default, or the preset's), ``"lumped"`` (row sums; degree 2:
+            scaled to the total mass) or ``"averaged"`` (half each: least overshoot).
         scheme: ``"trapezoidal"`` (the default: no numerical damping, energy conserved) or
             ``"generalized-alpha"`` (damps the modes short against dt; second order).
         rho_infinity: generalized-alpha's spectral radius for dt / period -> infinity, in
             [0, 1] (default 0.8; 1 is the trapezoidal rule, 0 damps the most).
-        accuracy: ``"fast"``, ``"balanced"`` or ``"reference"``: sets ``dt`` and ``mass``
-            where they are not given. Default ``None``: ``mass`` as ``"balanced"``, and ``dt``
-            must be given (a step from the contacts' wave time is far finer than a slowly
-            loaded scene needs, so it is taken only when a preset is named).
+        accuracy: ``"fast"``, ``"balanced"`` or ``"reference"``: sets ``dt`` (in wave times
+            of the contacts) and ``mass`` where not given; ``None``: "balanced"'s mass.
     """
 
     def __init__(
@@ -223,7 +220,6 @@ class TransientProblem(AnalysisReadout):
         accuracy: str | None = None,
     ):
         dt, mass = transient_preset(scene, accuracy, dt, mass, inertia)
-        #: The accuracy preset named (``None``: none; dt given, mass as ``"balanced"``).
         self.accuracy = accuracy
         #: The mass matrix's kind.
         self.mass_kind = mass
@@ -315,7 +311,7 @@ class TransientProblem(AnalysisReadout):
     def _initial_acceleration(self) -> None:
         """M u''(t0) = r(t0) - K u(t0) - tie forces (massless surfaces in equilibrium)."""
         owned, system = self.analysis.owned, self.model.system
-        loads = self.analysis.loads(self.t0)
+        loads = self.analysis.loads(self.t0)[0]
         now = self.kinematics.now
         u0 = {sub.block: now(sub)[0].copy() for sub in owned}
         moved = any_rank(self.comm, any(np.any(u != 0) for u in u0.values()))
@@ -346,17 +342,10 @@ class TransientProblem(AnalysisReadout):
         velocities = {sub.block: self.kinematics.now(sub)[1] for sub in self.analysis.owned}
         state = self.analysis.state_now()
         local = energy(self.model, state, velocities, self.zones, self._products)
-        parts = np.array(
-            sum_over_ranks(
-                self.comm, np.array([local["kinetic"], local["elastic"], local["contact"]])
-            )
-        )
-        return {
-            "kinetic": parts[0],
-            "elastic": parts[1],
-            "contact": parts[2],
-            "total": float(parts.sum()),
-        }
+        # with friction, also the step's frictional dissipation (the balance takes it out)
+        names = ["kinetic", "elastic", "contact"] + ["dissipated"] * frictional(self.scene)
+        parts = np.array(sum_over_ranks(self.comm, np.array([local[n] for n in names])))
+        return {**dict(zip(names, parts, strict=True)), "total": float(parts[:3].sum())}
 
     # -- stepping -----------------------------------------------------------------------
     def _inertia_loads(self, loads: dict, previous: dict) -> StartForces:
@@ -408,9 +397,8 @@ class TransientProblem(AnalysisReadout):
         analysis, owned = self.analysis, self.analysis.owned
         t_new = self.t + self.dt
         if self.inertia and self._previous_loads[0] != self.t:  # the last step's: r(t_n)
-            # before r(t_n+1): a reduced subdomain's reaction reads the last load projected
-            self._previous_loads = (self.t, analysis.loads(self.t))
-        loads = analysis.loads(t_new)
+            self._previous_loads = (self.t, analysis.loads(self.t)[0])
+        loads, supports = analysis.loads(t_new)
         external = dict(loads)
         where = f"step {self.step + 1} (t = {t_new:.6g})"
         release = None
@@ -433,7 +421,7 @@ class TransientProblem(AnalysisReadout):
         self._previous_loads = (t_new, external)
         accelerations = {s.block: self.kinematics.now(s)[2] for s in owned if self.inertia}
         record = {"step": self.step, "t": t_new, "iterations": iterations, "changes": changes}
-        record.update(analysis.agree(x, external, accelerations))
+        record.update(analysis.agree(x, external, accelerations, supports))
         if self.inertia and self.track_energy:
             energy_before = self.history[-1].get("energy") if self.history else None
             record["energy"] = self._energy()

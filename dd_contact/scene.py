@@ -2,8 +2,7 @@
 
 Each subdomain (:mod:`dd_contact.subdomains`) is an independent dolfinx mesh on a
 communicator of size one (one rank owns a whole subdomain); the interface is an independent
-surface mesh with its own displacement v, tied to its subdomains by penalties (eqs. 6, 9,
-10).
+surface mesh with its own displacement v, tied to its subdomains by penalties (eqs. 6, 9, 10).
 """
 
 from __future__ import annotations
@@ -223,6 +222,7 @@ class _ContactBase:
         contact_epsilon: float | None,
         points: str,
         name: str,
+        friction: float = 0.0,
     ) -> None:
         arguments.name(name, "contact")
         arguments.instance(subdomain, Subdomain, f"contact {name!r}: subdomain")
@@ -241,14 +241,12 @@ class _ContactBase:
                 f"contact {name!r}: obstacle must be a dd_contact.obstacles.Obstacle (Plane, "
                 f"Sphere, Cylinder or UserObstacle), got {type(obstacle).__name__}"
             )
-        if points not in CONTACT_POINTS:
-            raise InputError(
-                f"contact {name!r}: points must be one of {CONTACT_POINTS}, got {points!r}"
-            )
+        arguments.choice(points, CONTACT_POINTS, f"contact {name!r}: points")
         self.mesh = mesh
         self.subdomain = subdomain
         self.obstacle = obstacle
         self.contact_penalty = Penalty(kappa=contact_kappa, epsilon=contact_epsilon)
+        self.friction = arguments.friction(friction, f"contact {name!r}", obstacle is None)
         self.points = points
         self.name = name
         self.V = fem.functionspace(mesh, ("Lagrange", 1, (3,)))
@@ -282,6 +280,7 @@ class ContactInterface(_ContactBase):
         contact_epsilon: Absolute contact penalty eps_C instead.
         points: Where contact is checked, ``"nodes"`` or ``"quadrature"``
             (see :mod:`dd_contact.contact`).
+        friction: The Coulomb coefficient mu against the obstacle (docs/contact.md).
         tolerance: Largest surface-to-boundary distance still counted as touching.
         name: Name in messages and output.
     """
@@ -298,9 +297,12 @@ class ContactInterface(_ContactBase):
         points: str = "nodes",
         tolerance: float | None = None,
         name: str = "contact",
+        friction: float = 0.0,
     ):
         arguments.tolerance(tolerance, f"contact {name!r}")
-        self._setup_contact(mesh, subdomain, obstacle, contact_kappa, contact_epsilon, points, name)
+        self._setup_contact(
+            mesh, subdomain, obstacle, contact_kappa, contact_epsilon, points, name, friction
+        )
         self.penalty = Penalty(kappa=kappa, epsilon=epsilon)
         self.tolerance = tolerance
 
@@ -349,6 +351,7 @@ class ContactBoundary(_ContactBase):
         contact_kappa: Dimensionless contact penalty h / (E eps_C) (default DEFAULT_KAPPA).
         contact_epsilon: Absolute contact penalty eps_C instead.
         points: ``"nodes"`` or ``"quadrature"`` (see :mod:`dd_contact.contact`).
+        friction: The Coulomb coefficient mu against the obstacle (docs/contact.md).
         name: Name in messages and output.
     """
 
@@ -361,6 +364,7 @@ class ContactBoundary(_ContactBase):
         contact_epsilon: float | None = None,
         points: str = "nodes",
         name: str = "contact",
+        friction: float = 0.0,
     ):
         arguments.instance(subdomain, Subdomain, f"contact {name!r}: subdomain")
         if subdomain.V.element.basix_element.degree != 1:
@@ -370,7 +374,9 @@ class ContactBoundary(_ContactBase):
             )
         self.facets = subdomain.locate_facets(where)
         mesh = meshes.facet_surface(subdomain.mesh, self.facets, MPI.COMM_SELF)
-        self._setup_contact(mesh, subdomain, obstacle, contact_kappa, contact_epsilon, points, name)
+        self._setup_contact(
+            mesh, subdomain, obstacle, contact_kappa, contact_epsilon, points, name, friction
+        )
         # Surface node -> subdomain node, matched by position (the copy has the same nodes).
         volume_x = subdomain.V.tabulate_dof_coordinates()
         surface_x = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local]
@@ -431,15 +437,11 @@ class ContactPair:
                 "self-contact (a body touching itself) is not supported: pair surfaces of two "
                 "different subdomains"
             )
-        if points not in CONTACT_POINTS:
-            raise InputError(
-                f"ContactPair {name!r}: points must be one of {CONTACT_POINTS}, got {points!r}"
-            )
+        arguments.choice(points, CONTACT_POINTS, f"ContactPair {name!r}: points")
         arguments.tolerance(tolerance, f"ContactPair {name!r}")
         self.a, self.b, self.name, self.points = a, b, name, points
         self.unbiased, self.tolerance = bool(unbiased), tolerance
         self.contact_penalty = Penalty(kappa=kappa, epsilon=epsilon)
-
         self.subdomain, self.sides = a.subdomain, (a, b)  # owned by side a's rank
 
 

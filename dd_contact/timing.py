@@ -76,6 +76,8 @@ def rate_kind(record: WorkRecord) -> str:
         return "sparse_solve"
     if record.kind == "dense_product":
         return "dense_solve_block" if record.what == "condense" else "dense_solve"
+    if record.kind == "dense_update":  # a low-rank correction's small dense LU and products
+        return "dense_factor"
     return "dense_solve" if record.kind == "schur" else record.kind
 
 
@@ -96,6 +98,8 @@ def record_seconds(record: WorkRecord, rates: MachineRates) -> float:
         return rates.seconds("dense_solve", 2.0 * n * n)
     if kind == "dense_factor":
         return rates.seconds("dense_factor", n**3 / 3.0)
+    if kind == "dense_update":  # a low-rank correction's k x k work: (M G and its LU)
+        return rates.seconds("dense_factor", record.flops or 8.0 * n**3 / 3.0)
     if kind == "dense_solve":
         if record.nrhs == 1:
             return rates.seconds("dense_solve", 2.0 * n * n)

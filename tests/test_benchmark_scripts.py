@@ -38,3 +38,51 @@ def test_the_cpu_clock_of_auto_choice_patches_the_timers_the_work_records_use():
         for module, clock in zip(modules, before, strict=True):
             module.time = clock
     assert [m.time.perf_counter for m in modules] == [time.perf_counter] * 3
+
+
+def test_the_iterative_peer_patches_what_full_solves_with_and_repeats_its_answers():
+    """benchmarks/iterative_peer.py: FULL's solver with CG for its substitution, installed
+    where the analysis builds FULL's solver; a few steps of a small bar pressed on its
+    wall (its contact changing) equal the direct FULL's to the peers' tolerance."""
+    import sys
+
+    from mpi4py import MPI
+
+    import numpy as np
+
+    import dd_contact as dd
+    import dd_contact.analysis as analysis
+    from dd_contact.paper.examples import parallelepiped
+    from dd_contact.solvers.full import MonolithicSolver
+
+    sys.path.insert(0, str(BENCHMARKS))
+    peer = _script("iterative_peer")
+    assert analysis.MonolithicSolver is MonolithicSolver
+    assert all(hasattr(MonolithicSolver, name) for name in ("_refactorise", "_apply"))
+
+    def run(label):
+        scene = parallelepiped("FULL", (12, 3, 2), comm=MPI.COMM_SELF)
+        with peer.peer(label, scene) if label else _nothing():
+            problem = dd.TransientProblem(scene, 1e-6, "FULL", track_energy=False)
+        assert analysis.MonolithicSolver is MonolithicSolver  # put back
+        fields, changes = [], 0
+        for _ in range(6):
+            changes += problem.advance()["changes"]
+            fields.append(np.concatenate(list(problem.solver.finish().values())))
+        iterations = getattr(problem.solver, "iterations", None)
+        problem.close()
+        return np.array(fields), changes, iterations
+
+    direct, changes, _ = run(None)
+    assert changes >= 1
+    for label in peer.PEERS:
+        x, peer_changes, iterations = run(label)
+        assert peer_changes == changes
+        assert len(iterations) == 6 + changes  # one CG solve per contact iteration
+        assert np.abs(x - direct).max() <= 1e-11 * np.abs(direct).max()
+
+
+def _nothing():
+    import contextlib
+
+    return contextlib.nullcontext()

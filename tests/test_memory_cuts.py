@@ -178,8 +178,8 @@ def test_the_surface_frees_each_condensation_once_its_pairs_hold_it(monkeypatch)
 
 
 def _keeping(init):
-    def keep(self, schedule, log, recondensed=True):
-        init(self, schedule, log, True)
+    def keep(self, schedule, log, recondensed=True, *rest):
+        init(self, schedule, log, True, *rest)
 
     return keep
 

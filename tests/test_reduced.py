@@ -44,6 +44,33 @@ def test_static_response_is_exact_with_load_modes():
     basis.destroy()
 
 
+def test_a_load_in_the_patterns_span_up_to_its_assemblys_round_off_needs_no_substitution():
+    """A re-assembled load differs from its patterns' combination by round-off that grows
+    with the mesh (above 1e-12 of it at 342k dofs, where each step then paid a substitution
+    of the interior factor): up to LOAD_SPAN_FLOOR it is projected through the patterns."""
+    from dd_contact.solvers.reduced import LOAD_SPAN_FLOOR
+
+    scene = _cantilever(nx=8)
+    rng = np.random.default_rng(2)
+    n = scene.subdomains[0].num_dofs
+    pattern = rng.standard_normal(n)
+    basis, _, _, dofs = _basis(scene, 3, patterns=[pattern])
+    try:
+        noise = rng.standard_normal(n)
+        noise[dofs] = 0.0
+        for fraction, substitutions in ((0.1 * LOAD_SPAN_FLOOR, 0), (10 * LOAD_SPAN_FLOOR, 1)):
+            f = 0.7 * pattern
+            f += fraction * np.linalg.norm(f) / np.linalg.norm(noise) * noise
+            before = len(basis.log.records)
+            projected = basis.project_load(f)
+            done = [r for r in basis.log.records[before:] if r.what == "projection"]
+            assert len(done) == substitutions
+            exact = basis.project(f)
+            assert np.linalg.norm(projected - exact) <= 2 * fraction * np.linalg.norm(exact)
+    finally:
+        basis.destroy()
+
+
 def test_cantilever_eigenfrequencies_match_slepc_on_the_full_matrices():
     # the 20 lowest of the reduced cantilever (m = 20) against SLEPc's on the full matrices
     assert np.abs(full_frequencies_ratio(20)).max() < 1e-6
@@ -215,6 +242,29 @@ def test_reduced_subdomains_on_every_rank_count():
     f, e, _, _ = _impact("w-v-u", lambda s: [10] * len(s.subdomains), steps=10)
     assert 0 < np.abs(f - force).max() <= 0.5 * np.abs(force).max()
     assert e.max() <= e[0] * (1 + 1e-9)
+
+
+@pytest.mark.mpi
+def test_a_refusal_during_reduction_on_one_rank_is_raised_on_every_rank():
+    """A reduced piece with a non-zero prescribed displacement is refused by its owner only
+    (rank 0 on two ranks); the other rank raises it too instead of waiting in the next
+    collective (faulthandler ends a hang after 60 s)."""
+    import faulthandler
+
+    from mpi4py import MPI
+
+    from dd_contact.paper.verify.reduced import cantilever
+
+    scene = cantilever(nx=6, parts=2)
+    left = scene.subdomains[0]
+    left.fix(lambda x: np.isclose(x[0], 0.0), value=[1e-9, 0.0, 0.0]).reduce(modes=2)
+    faulthandler.dump_traceback_later(60, exit=True)
+    try:
+        with pytest.raises(NotImplementedError, match="non-zero prescribed displacement"):
+            dd.TransientProblem(scene, 1e-3, "w-v-u")
+        MPI.COMM_WORLD.Barrier()  # every rank got here
+    finally:
+        faulthandler.cancel_dump_traceback_later()
 
 
 def test_a_reduced_subdomains_support_reaction_is_its_step_s_from_the_first_step():

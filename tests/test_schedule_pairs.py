@@ -8,7 +8,6 @@ import scipy.sparse as sp
 
 from dd_contact.blocks import Block, BlockSystem, ContactRegion, refuse_unsolvable
 from dd_contact.solvers.engine import BlockEliminationSolver
-from dd_contact.solvers.full import MonolithicSolver
 from dd_contact.solvers.schedule import Schedule, region_blocks
 from dd_contact.solvers.worklog import WorkLog
 
@@ -67,23 +66,18 @@ def test_a_pair_region_splits_its_matrix_into_the_block_pairs_it_fills():
     refuse_unsolvable([region])  # solved now: nothing raised
 
 
-@pytest.mark.parametrize(
-    ("seam", "what"),
-    [
-        ({"symmetric": False}, "unsymmetric"),
-        ({"history": True}, "carries history"),
-    ],
-)
-def test_both_solvers_refuse_a_region_they_cannot_solve_yet(seam, what):
+def test_friction_seams_are_solved_except_on_a_subdomain_in_the_orders():
+    """An unsymmetric region with history (friction) is solved where it is a surface block;
+    on a subdomain's own boundary only FULL solves it (the orders keep subdomains symmetric)."""
+    seam = {"symmetric": False, "history": True}
     region = ContactRegion("pad", Block("w", "a"), np.arange(3), sp.eye_array(3).tocsr(), **seam)
     assert region.blocks == (Block("w", "a"),)
-    with pytest.raises(NotImplementedError, match=f"'pad' .*{what}"):
-        refuse_unsolvable([region])
-    system = BlockSystem({Block("w", "a"): 3}, {Block("w", "a"): 0})
-    system.add(Block("w", "a"), Block("w", "a"), sp.eye_array(3))
-    for build in (
-        lambda: MonolithicSolver(MPI.COMM_SELF, system, [region], WorkLog()),
-        lambda: BlockEliminationSolver(MPI.COMM_SELF, system, [region], WorkLog(), "w-u"),
-    ):
-        with pytest.raises(NotImplementedError, match="the solvers do not solve such a region"):
-            build()
+    refuse_unsolvable([region])  # solved: nothing raised
+    own = ContactRegion("pad", Block("u", "a"), np.arange(3), sp.eye_array(3).tocsr(), **seam)
+    refuse_unsolvable([own], monolithic=True)  # FULL takes MUMPS's LU
+    with pytest.raises(NotImplementedError, match="'pad' has friction on a subdomain's own"):
+        refuse_unsolvable([own])
+    system = BlockSystem({Block("u", "a"): 3}, {Block("u", "a"): 0})
+    system.add(Block("u", "a"), Block("u", "a"), sp.eye_array(3))
+    with pytest.raises(NotImplementedError, match="use a ContactInterface"):
+        BlockEliminationSolver(MPI.COMM_SELF, system, [own], WorkLog(), "v-u")

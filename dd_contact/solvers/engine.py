@@ -38,6 +38,7 @@ import scipy.sparse as sp
 from dd_contact.blocks import Block, BlockSystem, ContactRegion, refuse_unsolvable
 from dd_contact.parallel import ROOT, allgathered, any_rank, bcast_array, gather_to_root, gathered
 from dd_contact.solvers.linalg import dense_threads
+from dd_contact.solvers.lowrank import LowRankSurface
 from dd_contact.solvers.reduced import reduced_subdomains
 from dd_contact.solvers.schedule import (
     Schedule,
@@ -46,7 +47,6 @@ from dd_contact.solvers.subdomains import (
     SubdomainSolver,
     owned_subdomains,
 )
-from dd_contact.solvers.surface import Surface
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
@@ -93,6 +93,11 @@ def surface_structure(
 
 
 # -- the solver ---------------------------------------------------------------------------
+def _unsymmetric(contacts: Sequence[ContactRegion]) -> list[Block]:
+    """The blocks of the regions whose contact matrix is unsymmetric (friction)."""
+    return [b for region in contacts if not region.symmetric for b in region.blocks]
+
+
 class BlockEliminationSolver:
     """Solves system (14) by block elimination in a given order.
 
@@ -138,12 +143,13 @@ class BlockEliminationSolver:
         self._needed_u = set(self.schedule.needed_u) & set(self.subdomains)
         mine = [(r, c, A) for (r, c), A in system.matrices.items() if r.kind != "u" != c.kind]
         pieces = gather_to_root(comm, mine)
-        self.surface: Surface | None = None
+        self.surface: LowRankSurface | None = None
         # a subdomain with contact on its own boundary is re-factorised: it sends a new Z
         recondensed = any_rank(comm, any(r.block.kind == "u" for r in contacts))
+        unsymmetric = {b for part in allgathered(comm, _unsymmetric(contacts)) for b in part}
         if comm.rank == ROOT:
             assert pieces is not None  # gathered here
-            self.surface = Surface(self.schedule, log, recondensed)
+            self.surface = LowRankSurface(self.schedule, log, recondensed, unsymmetric)
             for part in pieces:
                 for r, c, A in part:
                     self.surface.add_base(r, c, A)

@@ -22,6 +22,7 @@ from dd_contact.solvers.linalg import (
     SparseStatistics,
     sparse_statistics,
 )
+from dd_contact.solvers.unsymmetric import SparseLU
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = ["MonolithicSolver", "monolithic_statistics"]
@@ -49,7 +50,7 @@ class MonolithicSolver:
         contacts: Sequence[ContactRegion],
         log: WorkLog,
     ):
-        refuse_unsolvable(contacts)
+        refuse_unsolvable(contacts, monolithic=True)
         self.comm, self.system, self.log = comm, system, log
         order = sorted(system.sizes, key=lambda b: system.owners[b])
         self.offsets: dict[str, int] = {}
@@ -68,6 +69,10 @@ class MonolithicSolver:
             [region.shifted(self.offsets) for region in contacts],
         )
         self._factor: SparseCholesky | None = None
+        #: MUMPS's LU where friction makes the matrix unsymmetric, Cholesky otherwise.
+        self._kind = (
+            SparseLU if any_rank(comm, any(not r.symmetric for r in contacts)) else SparseCholesky
+        )
         self._last: dict[str, np.ndarray] = {}
 
     def set_contact(self, key: str, matrix: sp.csr_array) -> None:
@@ -81,7 +86,7 @@ class MonolithicSolver:
         self.matrix.push()
         if self._factor is None:
             assert self.matrix.A is not None  # a PETSc matrix: not upper_coo
-            self._factor = SparseCholesky(self.matrix.A, self.log, "FULL")
+            self._factor = self._kind(self.matrix.A, self.log, "FULL")
         else:
             self._factor.refactorise()
 
@@ -92,7 +97,7 @@ class MonolithicSolver:
 
     def _solve(self, rhs: BlockKeyed[np.ndarray]) -> dict[str, np.ndarray]:
         self._refactorise()
-        assert self.matrix.A is not None and self._factor is not None
+        assert self.matrix.A is not None
         b = self.matrix.A.createVecRight()
         for name, vector in rhs.items():
             idx = np.arange(len(vector), dtype=PETSc.IntType) + self.offsets[name]
@@ -100,7 +105,7 @@ class MonolithicSolver:
             # insert mode as InsertMode (its values are ints)
             b.setValues(idx, vector, addv=PETSc.InsertMode.ADD_VALUES)  # type: ignore[arg-type]
         b.assemble()
-        x = self._factor.solve(b)
+        x = self._apply(b)
         if self.comm.size == 1:  # x holds every row already
             values = x.getArray(readonly=True).copy()
         else:
@@ -116,6 +121,11 @@ class MonolithicSolver:
             for name, off in self.offsets.items()
         }
         return self._last
+
+    def _apply(self, b: PETSc.Vec) -> PETSc.Vec:
+        """A^-1 b, a new vector (the factor's substitution; a subclass may iterate instead)."""
+        assert self._factor is not None  # _refactorise came first
+        return self._factor.solve(b)
 
     def finish(self) -> dict[str, np.ndarray]:
         """Every block of the last solution (nothing is left to back-substitute)."""

@@ -171,6 +171,9 @@ class SparseCholesky:
         schur: Size of the trailing Schur block (0: none).
     """
 
+    #: The factorisation: an unsymmetric matrix takes LU (``solvers.unsymmetric.SparseLU``).
+    PC_TYPE, SYMMETRIC = PETSc.PC.Type.CHOLESKY, True
+
     def __init__(self, A: PETSc.Mat, log: WorkLog, block: str, schur: int = 0):
         _check_required_options()
         self.A, self.log, self.block, self.schur = A, log, block, schur
@@ -178,8 +181,8 @@ class SparseCholesky:
         self.entries = 0.0
         self._analysed = False
         # petsc4py's stubs: enum values typed as int, arrays as Sequences (see petsc_matrix)
-        A.setOption(PETSc.Mat.Option.SYMMETRIC, True)  # type: ignore[arg-type]
-        A.setOption(PETSc.Mat.Option.SPD, True)  # type: ignore[arg-type]
+        A.setOption(PETSc.Mat.Option.SYMMETRIC, self.SYMMETRIC)  # type: ignore[arg-type]
+        A.setOption(PETSc.Mat.Option.SPD, self.SYMMETRIC)  # type: ignore[arg-type]
         self.ksp = PETSc.KSP().create(A.comm)
         self.ksp.setOptionsPrefix(options_prefix())  # the factor matrix inherits it
         self.ksp.setOperators(A)
@@ -203,7 +206,7 @@ class SparseCholesky:
     def _set_types(self) -> None:
         self.ksp.setType(PETSc.KSP.Type.PREONLY)
         pc = self.ksp.getPC()
-        pc.setType(PETSc.PC.Type.CHOLESKY)
+        pc.setType(self.PC_TYPE)
         pc.setFactorSolverType("mumps")
 
     def refactorise(self) -> None:
@@ -444,15 +447,8 @@ class DenseCholesky:
         X = sla.cho_solve(self.factor, B, check_finite=False)
         nrhs = 1 if B.ndim == 1 else B.shape[1]
         n = self.size
-        self.log.add(
-            self.block,
-            "dense_solve",
-            n,
-            nrhs,
-            time.perf_counter() - start,
-            2.0 * n * n * nrhs,
-            what,
-        )
+        seconds = time.perf_counter() - start
+        self.log.add(self.block, "dense_solve", n, nrhs, seconds, 2.0 * n * n * nrhs, what)
         return X
 
 

@@ -21,6 +21,7 @@ from dd_contact.solvers.schedule import (
     Group,
     Schedule,
 )
+from dd_contact.solvers.unsymmetric import DenseLU, lu_groups
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = ["Surface"]
@@ -32,6 +33,7 @@ class _GroupState:
 
     factor: DenseCholesky | None = None
     B: np.ndarray | None = None  # the non-zero coupling columns to the neighbours
+    C: np.ndarray | None = None  # the rows' coupling, transposed, if not B (an LU group)
     subtracted: np.ndarray | None = None  # B^T A_GG^-1 B: what eliminating the group subtracts
     columns: list[tuple[Block, np.ndarray]] = field(default_factory=list)
     offsets: np.ndarray | None = None
@@ -45,6 +47,7 @@ class Surface:
     Args:
         schedule: The elimination schedule.
         log: Where the dense work is recorded.
+        unsymmetric: Blocks with an unsymmetric contact block (friction).
         recondensed: Whether a subdomain can send a new Z (it has contact on its own boundary
             and is re-factorised on a change). The Schur pairs are then rebuilt from the
             base and every subdomain's Z, which are kept. Otherwise both are freed once every
@@ -59,8 +62,9 @@ class Surface:
         eliminated: The pairs after the earlier levels' groups are eliminated.
     """
 
-    def __init__(self, schedule: Schedule, log: WorkLog, recondensed: bool = True):
+    def __init__(self, schedule: Schedule, log: WorkLog, recondensed: bool = True, unsymmetric=()):
         self.schedule, self.sizes, self.log = schedule, schedule.surface, log
+        self.lu = lu_groups(schedule, unsymmetric)  # groups friction makes unsymmetric
         self.recondensed = recondensed
         self.base: dict[tuple[Block, Block], np.ndarray] = {}
         self.condensed: dict[Block, np.ndarray] = {}  # latest Z of each subdomain (if kept)
@@ -164,12 +168,12 @@ class Surface:
         self.changed, self.new_pairs = set(), set()
 
     def _dense_factor(self, A: np.ndarray, g: Group) -> DenseCholesky:
-        """The factor of a group's matrix: Cholesky, every contact block being symmetric.
-
-        The seam of friction: a group holding an unsymmetric contact block (slip) gets an LU
-        factor here; :func:`~dd_contact.blocks.refuse_unsolvable` refuses one until then.
-        """
-        return DenseCholesky(A, self.log, g.name)
+        """The factor of a group's matrix: Cholesky, or LU where friction made it unsymmetric."""
+        return (
+            DenseLU(A, self.log, g.name)
+            if g.name in self.lu
+            else DenseCholesky(A, self.log, g.name)
+        )
 
     def _assemble(self, g: Group, level_pairs) -> np.ndarray:
         offsets = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
@@ -187,19 +191,33 @@ class Surface:
     def _couple(self, g: Group, state: _GroupState, level_pairs) -> None:
         """X = A_GG^-1 B with B the non-zero coupling columns to the later blocks."""
         rows = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
-        state.columns, parts = [], []
+        lu = g.name in self.lu  # the rows' coupling is not the columns' transposed
+        state.columns, parts, left = [], [], []
         for r in g.neighbours:
             B = np.zeros((rows[-1], self.sizes[r]))
+            C = np.zeros_like(B) if lu else B
             for i, a in enumerate(g.blocks):
                 if level_pairs.get((a, r)) is not None:
                     B[rows[i] : rows[i + 1]] = level_pairs[(a, r)]
-            J = np.flatnonzero(np.any(B != 0.0, axis=0))
+                if lu and level_pairs.get((r, a)) is not None:
+                    C[rows[i] : rows[i + 1]] = level_pairs[(r, a)].T
+            nonzero = np.any(B != 0.0, axis=0)
+            if lu:
+                nonzero |= np.any(C != 0.0, axis=0)
+            J = np.flatnonzero(nonzero)
             state.columns.append((r, J))
             parts.append(B[:, J])
+            if lu:
+                left.append(C[:, J])
         state.B = np.hstack(parts)
+        state.C = np.hstack(left) if lu else None
         state.offsets = np.cumsum([0] + [len(J) for _, J in state.columns])
         assert state.factor is not None  # factorised before it is coupled
-        state.subtracted = state.factor.congruence(state.B, "condense")
+        if lu:
+            assert isinstance(state.factor, DenseLU)
+            state.subtracted = state.factor.congruence(state.B, "condense", left=state.C)
+        else:
+            state.subtracted = state.factor.congruence(state.B, "condense")
 
     def solve(self, g: dict[str, np.ndarray], complete: bool) -> dict[str, np.ndarray]:
         """Eliminate the right-hand side forward and solve the last level.
@@ -223,7 +241,8 @@ class Surface:
                     state.y, state.g_in = state.factor.solve(rhs, "y"), rhs
                 if grp.neighbours:
                     assert state.B is not None and state.y is not None and state.offsets is not None
-                    correction = state.factor.product(state.B, state.y, "y", transpose=True)
+                    rows = state.B if state.C is None else state.C
+                    correction = state.factor.product(rows, state.y, "y", transpose=True)
                     for i, (r, J) in enumerate(state.columns):
                         g[r][J] -= correction[state.offsets[i] : state.offsets[i + 1]]
         self.stale = set()

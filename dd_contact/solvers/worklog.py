@@ -28,7 +28,8 @@ class WorkRecord:
     # "sparse_factor", "sparse_solve", "sparse_forward", "sparse_backward" (half a
     # substitution each: MUMPS's Schur reduction and expansion), "dense_factor",
     # "dense_solve", "dense_product" (a group's coupling matrix times vectors: nrhs is its
-    # columns), "schur"
+    # columns), "schur", "dense_update" (a low-rank correction of contact changes instead of
+    # a re-factorisation: dd_contact/solvers/lowrank.py; size its rank, nrhs the change's)
     kind: str
     size: int
     nrhs: int
@@ -110,6 +111,7 @@ class WorkLog:
                     "substitutions": 0,
                     "schur": 0,
                     "products": 0,
+                    "updates": 0,
                     "seconds_decomposition": 0.0,
                     "seconds_substitution": 0.0,
                     "seconds_schur": 0.0,
@@ -126,6 +128,9 @@ class WorkLog:
                 b["substitutions"] += r.nrhs if r.kind.endswith("_solve") else r.nrhs / 2
                 b["seconds_substitution"] += r.seconds
                 b["gflops_substitution"] += (r.flops or 0.0) / 1e9
+            elif r.kind == "dense_update":
+                b["updates"] += 1
+                b["seconds_product"] += r.seconds
             elif r.kind.endswith("_product"):
                 b["products"] += 1
                 b["seconds_product"] += r.seconds

@@ -8,6 +8,7 @@ from dataclasses import asdict
 from dd_contact.paper.verify.bar import bar_impact
 from dd_contact.paper.verify.drops import case_falling_block, case_sphere_drop, energy_record
 from dd_contact.paper.verify.extremes import extremes
+from dd_contact.paper.verify.friction import case_sliding_block
 from dd_contact.paper.verify.models import (
     Record,
     bent_bar,
@@ -189,6 +190,7 @@ CASES: dict[str, Callable[[], list[Record]]] = {
     "pair-bars": case_pair_bars,
     "reduced-static": case_reduced_static,
     "reduced-modes": case_reduced_modes,
+    "sliding-block": case_sliding_block,
 }
 
 

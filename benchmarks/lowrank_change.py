@@ -1,0 +1,215 @@
+"""A contact change of a few points: the low-rank correction against re-factorising.
+
+Issue 28's target: a change in which at most 5 % of a contact group's points change state
+costs at least 10 times less than re-factorising that group, with the same answers to
+1e-10. On the joint with elastic pins (``models.pin_joint(pins="elastic")``, every pin in
+contact, no clearance), solved statically at the load's peak; then, on that settled state,
+a fraction of the contact points chosen at random (the same in every process) flip their
+state and the contact iteration's linear solve is repeated (``ContactIteration``'s solve
+with the flipped active sets), then flipped back: two changes per trial. In w-v-u every
+pair is in one dense group (the all-walls group); in v-w-u each pin's two pairs are one
+group, eliminated into the interface's.
+
+Per change: the seconds of its change work in the work log (``problem.work``:
+factorisations, or the update's forward elimination and ``dense_update``) and the solve's
+wall time. The same in a process with the correction off (``LowRankSurface.enabled =
+False``: the group re-factorised), the two interleaved (A, B, A, B), each with BLAS on one
+thread; medians over the trials and processes, peak memory of each process. The solutions
+of the first trial are compared (relative to the largest entry).
+
+    python benchmarks/lowrank_change.py                   # 6,7,4,34: 87,405 dofs
+    python benchmarks/lowrank_change.py --scale 3,2,1,4   # 5,460 dofs, seconds
+
+Writes benchmarks/results/lowrank_change.json (another scale's file is named after it).
+"""
+
+import argparse
+import dataclasses
+import json
+import os
+import platform
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+PINNED = {k: "1" for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+DEFAULT_SCALE = "6,7,4,34"
+PERIOD = 2e-3
+FRACTIONS = (0.01, 0.05)
+#: Work records of a change: factorisations, or a correction in their place.
+CHANGE_KINDS = ("sparse_factor", "dense_factor", "schur", "dense_update")
+
+
+def change_seconds(records) -> float:
+    """Seconds of a solve's change work (not its substitutions)."""
+    return sum(r.seconds for r in records if r.kind in CHANGE_KINDS or r.what == "lowrank")
+
+
+def one(order: str, lowrank: bool, scale: str, trials: int, out: str) -> dict:
+    """Flip points on the settled joint in this process; per change its cost."""
+    from mpi4py import MPI
+
+    import dd_contact as dc
+    from dd_contact.paper import models
+    from dd_contact.solvers.lowrank import LowRankSurface
+
+    LowRankSurface.enabled = False  # the settled state the same in every process
+    names = list(models.PIN_JOINT_SCALES["small"])
+    counts = dict(zip(names, map(int, scale.split(",")), strict=True))
+    layout = dataclasses.replace(models.pin_joint_layout("small"), **counts)
+    scene = models.pin_joint(layout, clearance=0.0, pins="elastic", comm=MPI.COMM_SELF)
+    rows = []
+    with dc.StaticProblem(scene, algorithm=order) as problem:
+        problem.solve(PERIOD / 4)
+        it, solver = problem.iteration, problem.analysis.tie_solver
+        problem.analysis.solver.surface.lowrank = lowrank
+        settled = {k: a.copy() for k, a in it.active.items()}
+        rhs = {k: v.copy() for k, v in it.last_solve[0].items()}  # any right-hand side will do
+        points = sum(len(a) for a in settled.values())
+        rng = np.random.default_rng(28)
+        saved = None
+        for fraction in FRACTIONS:
+            for trial in range(trials):
+                flips = rng.choice(points, size=max(1, int(fraction * points)), replace=False)
+                flipped = np.concatenate(list(settled.values())).copy()
+                flipped[flips] = ~flipped[flips]
+                start = 0
+                for k, a in settled.items():
+                    it.active[k] = flipped[start : start + len(a)]
+                    start += len(a)
+                for what in ("flip", "back"):
+                    if what == "back":
+                        it.active = {k: a.copy() for k, a in settled.items()}
+                    first = len(problem.work.records)
+                    tic = time.perf_counter()
+                    x = it._solve_once(solver, rhs, "benchmark")
+                    seconds = time.perf_counter() - tic
+                    records = problem.work.records[first:]
+                    rows.append(
+                        {
+                            "fraction": fraction,
+                            "points_changed": len(flips),
+                            "what": what,
+                            "seconds": seconds,
+                            "change_seconds": change_seconds(records),
+                            "updates": sum(r.kind == "dense_update" for r in records),
+                            "factorisations": sum(r.kind == "dense_factor" for r in records),
+                        }
+                    )
+                    if saved is None and what == "flip":  # the contact interfaces' w
+                        saved = np.concatenate([x[k] for k in sorted(x) if k.startswith("w:")])
+        np.save(out, saved)
+    return {
+        "order": order,
+        "lowrank": lowrank,
+        "dofs": sum(s.num_dofs for s in scene.subdomains),
+        "points": points,
+        "changes": rows,
+        "peak_memory_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+    }
+
+
+def compare(order: str, args) -> dict:
+    """The correction and re-factorising, interleaved, each in processes of their own."""
+    env = {**os.environ, **PINNED}
+    runs: dict[bool, list] = {True: [], False: []}
+    with tempfile.TemporaryDirectory() as tmp:
+        for repeat in range(args.repeats):
+            for lowrank in (True, False):
+                out = str(Path(tmp) / f"{lowrank}_{repeat}.npy")
+                command = [sys.executable, __file__, "--one", order, "--scale", args.scale]
+                command += ["--trials", str(args.trials), "--out-array", out]
+                command += [] if lowrank else ["--refactorise"]
+                done = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
+                runs[lowrank].append(json.loads(done.stdout.strip().splitlines()[-1]))
+                runs[lowrank][-1]["solution"] = np.load(out)
+    reference = runs[False][0]["solution"]
+    args.refactorised[order] = reference
+    scale = np.abs(reference).max()
+    difference = max(np.abs(r.pop("solution") - reference).max() / scale for r in runs[True])
+    for r in runs[False]:
+        r.pop("solution")
+    out = {"difference": float(difference), "fractions": {}}
+    for fraction in FRACTIONS:
+        per = {}
+        for lowrank, label in ((True, "corrected"), (False, "refactorised")):
+            rows = [c for r in runs[lowrank] for c in r["changes"] if c["fraction"] == fraction]
+            per[label] = {
+                "change_seconds_median": float(np.median([c["change_seconds"] for c in rows])),
+                "solve_seconds_median": float(np.median([c["seconds"] for c in rows])),
+                "updates": sum(c["updates"] for c in rows),
+                "factorisations": sum(c["factorisations"] for c in rows),
+                "changes": len(rows),
+            }
+        per["points_changed"] = rows[0]["points_changed"]
+        per["ratio"] = (
+            per["refactorised"]["change_seconds_median"] / per["corrected"]["change_seconds_median"]
+        )
+        per["solve_ratio"] = (
+            per["refactorised"]["solve_seconds_median"] / per["corrected"]["solve_seconds_median"]
+        )
+        out["fractions"][str(fraction)] = per
+    out["points"] = runs[True][0]["points"]
+    out["dofs"] = runs[True][0]["dofs"]
+    out["peak_memory_mib"] = {
+        "corrected": max(r["peak_memory_mib"] for r in runs[True]),
+        "refactorised": max(r["peak_memory_mib"] for r in runs[False]),
+    }
+    out["runs"] = {"corrected": runs[True], "refactorised": runs[False]}
+    return out
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__)
+    parser.add_argument("--scale", default=DEFAULT_SCALE, help="c,r,t,grip cell counts")
+    parser.add_argument("--orders", default="w-v-u,v-w-u")
+    parser.add_argument("--trials", type=int, default=3, help="flips per fraction and process")
+    parser.add_argument("--repeats", type=int, default=2, help="processes per variant")
+    parser.add_argument("--one", help=argparse.SUPPRESS)
+    parser.add_argument("--refactorise", action="store_true", help=argparse.SUPPRESS)
+    parser.add_argument("--out-array", help=argparse.SUPPRESS)
+    parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
+    args = parser.parse_args()
+    args.refactorised = {}
+    if args.one:
+        result = one(args.one, not args.refactorise, args.scale, args.trials, args.out_array)
+        print(json.dumps(result))
+        return
+    start = time.perf_counter()
+    report = {
+        "scale": args.scale,
+        "machine": platform.node(),
+        "blas_threads": 1,
+        "trials": args.trials,
+        "repeats": args.repeats,
+        "orders": {order: compare(order, args) for order in args.orders.split(",")},
+    }
+    solutions = list(args.refactorised.values())
+    if len(solutions) == 2 and len(solutions[0]) == len(solutions[1]):
+        # two exact solvers of the same flipped system (each re-factorising): their spread
+        a, b = solutions
+        report["orders_spread"] = float(np.abs(a - b).max() / np.abs(b).max())
+    report["seconds"] = time.perf_counter() - start
+    suffix = "" if args.scale == DEFAULT_SCALE else f"_{args.scale}"
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"lowrank_change{suffix}.json").write_text(json.dumps(report, indent=1))
+    for order, r in report["orders"].items():
+        head = f"{order}: {r['dofs']:,} dofs, {r['points']} contact points"
+        print(f"{head}, |x - x_refactorised| {r['difference']:.1e}")
+        for fraction, f in r["fractions"].items():
+            print(
+                f"  {float(fraction):.0%} ({f['points_changed']} points): change "
+                f"{1e3 * f['corrected']['change_seconds_median']:.1f} ms corrected, "
+                f"{1e3 * f['refactorised']['change_seconds_median']:.1f} ms re-factorised: "
+                f"{f['ratio']:.1f}x; solve {f['solve_ratio']:.1f}x"
+            )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,491 @@
+"""Low-rank contact changes: a Woodbury correction instead of a re-factorisation.
+
+A contact state change changes the condensed surface system S by the difference of the
+contact matrices, ``dC = C_now - C_factorised``, non-zero only on the dofs J that the
+changed points' shape functions touch: ``S' = S + E M E^T`` with E the unit columns of J
+and ``M = dC[J, J]`` (k x k, symmetric, indefinite when points release). With every factor
+of the order's chain kept as it is (each group of each level, the interface's condensed
+block included),
+
+    S'^-1 g = S^-1 (g - E z),   (I + M G) z = M (S^-1 g)_J,   G = E^T S^-1 E.
+
+M is kept as ``U D U^T`` (its non-zero eigenpairs: about one per changed point), so the
+correction works with ``U`` 's columns: ``U^T G U`` costs one forward elimination of them
+through the groups they reach (the group holding J and the later levels it is eliminated
+into; no other group and no back-substitution), then an LU of the small capacitance
+matrix. A solve is two passes through the chain instead of one, plus refinements. The
+correction is on the whole condensed surface system, so it is the same for every order,
+and a change re-factorises neither the interface nor the other groups.
+
+Changes accumulate until re-factorising the groups they make stale is priced cheaper than
+the correction (:meth:`LowRankSurface.update_seconds`, :data:`UPDATE_MARGIN`), or until a
+corrected solve's accuracy degrades: each one is refined with its true residual, and one
+whose backward error stays above :data:`UPDATE_TOLERANCE` re-factorises and solves again.
+
+Work log: the forward elimination's substitutions are ``"dense_solve"`` records with
+``what="lowrank"``, each correction one ``"dense_update"`` record (size its rank): their count
+against ``"dense_factor"``'s says how many changes were updated and how many re-factorised.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+from scipy.sparse.csgraph import connected_components
+
+from dd_contact.blocks import Block
+from dd_contact.calibration import cached_rates
+from dd_contact.solvers.linalg import DenseCholesky
+from dd_contact.solvers.schedule import Operation, Schedule
+from dd_contact.solvers.surface import Surface
+from dd_contact.solvers.worklog import WorkLog
+
+__all__ = [
+    "CAPACITANCE_RCOND",
+    "REFINED",
+    "REFINEMENTS",
+    "UPDATE_MARGIN",
+    "UPDATE_TOLERANCE",
+    "Correction",
+    "LowRankSurface",
+    "low_rank",
+]
+
+#: Largest accepted normwise backward error ``|g - S' x| / (|S'| |x| + |g|)`` of a
+#: corrected solve (a Cholesky solve's is about 1e-16); beyond it the groups are
+#: re-factorised and the solve repeated.
+UPDATE_TOLERANCE = 1e-13
+
+#: Reciprocal condition numbers of the capacitance matrix ``I + D G``: below the first, the
+#: changes (some nearly cancelling) are merged into one; below the second, re-factorised.
+#: Releasing a point of penalty kappa from a factor that holds it is ill-conditioned by
+#: nature (about 1 / (kappa s), s the compliance there: 1e-6 to 1e-11 at the default
+#: penalty); the refinement with the true residual gives the digits back.
+CAPACITANCE_RCOND = (1e-10, 1e-14)
+
+#: An update is chosen when priced at most 1 / UPDATE_MARGIN of the re-factorisation: its
+#: price counts the BLAS work only, not the eigenproblems of its clusters, the sparse
+#: differences and the Python around them (on the 87k elastic-pin joint, updates of rank 200
+#: to 700 priced below a re-factorisation measured 1.06 s a change against its 0.69 s).
+UPDATE_MARGIN = 3.0
+
+#: Normwise backward error below which a corrected solve is not refined.
+REFINED = 1e-16
+
+#: Refinements of a corrected solve at most (each one more pass through the chain).
+REFINEMENTS = 3
+
+
+@dataclass
+class Correction:
+    """The Woodbury correction of the contact changes since the last factorisation.
+
+    Each change is kept as ``U D U^T`` on its dofs J (its non-zero eigenpairs, found per
+    connected cluster of changed dofs): a change of r points' normal penalties has rank r,
+    a few times less than the dofs they touch. A change adds its columns to the earlier
+    ones (a point that changes back adds the opposite term), so a change costs its own
+    rank, not the accumulated one: the forward elimination of each group's columns is kept
+    (:attr:`kept`) for the cross terms of the next.
+
+    Attributes:
+        pieces: Per change, the dofs J per surface block (sorted) and U (k x its rank).
+        D: The eigenvalues, every change's in turn.
+        G: ``V^T S^-1 V`` for ``V = E U`` of every change.
+        kept: Per group, the columns of V that reach it and their forward elimination
+            (``L^-1 R`` in the last level, ``A_GG^-1 R`` before it).
+        capacitance: LU factors of ``I + D G``.
+        conditioned: Its reciprocal condition number (1-norm, LAPACK's estimate).
+    """
+
+    pieces: list[tuple[dict[Block, np.ndarray], np.ndarray]] = field(default_factory=list)
+    D: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    G: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    kept: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
+    capacitance: tuple[np.ndarray, np.ndarray] | None = None
+    conditioned: float = 1.0  # the capacitance matrix's reciprocal condition number (1-norm)
+
+    @property
+    def rank(self) -> int:
+        """Columns of every change so far."""
+        return len(self.D)
+
+    def projected(self, x: dict[str, np.ndarray]) -> np.ndarray:
+        """``D U^T x_J``: what the changes apply to ``x``, in the columns' coordinates."""
+        parts = [
+            U.T @ np.concatenate([x[b][J] for b, J in dofs.items()]) for dofs, U in self.pieces
+        ]
+        return self.D * np.concatenate(parts)
+
+    def shifted(self, g: dict[str, np.ndarray], z: np.ndarray) -> dict[str, np.ndarray]:
+        """``g - E U z``."""
+        out = {b: v.copy() for b, v in g.items()}
+        column = 0
+        for dofs, U in self.pieces:
+            Uz, start = U @ z[column : column + U.shape[1]], 0
+            column += U.shape[1]
+            for b, J in dofs.items():
+                out[b][J] -= Uz[start : start + len(J)]
+                start += len(J)
+        return out
+
+
+def low_rank(M: sp.csr_array, tolerance: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
+    """``M = U diag(D) U^T`` with the eigenpairs above ``tolerance`` times the largest.
+
+    M is sparse, its non-zeros in clusters (the dofs of neighbouring changed points): each
+    cluster is decomposed alone, so the cost is the clusters' sizes cubed, not k's.
+    """
+    k = M.shape[0]
+    count, labels = connected_components(M, directed=False)
+    vectors, values = [], []
+    for c in range(count):
+        rows = np.flatnonzero(labels == c)
+        lam, Q = np.linalg.eigh(M[rows][:, rows].toarray())
+        vectors.append((rows, Q))
+        values.append(lam)
+    largest = max((np.abs(lam).max(initial=0.0) for lam in values), default=0.0)
+    keep = [np.abs(lam) > tolerance * largest for lam in values]
+    rank = int(sum(int(np.sum(kept)) for kept in keep))
+    U, D, column = np.zeros((k, rank)), np.zeros(rank), 0
+    for (rows, Q), lam, kept in zip(vectors, values, keep, strict=True):
+        n = int(np.sum(kept))
+        U[rows, column : column + n] = Q[:, kept]
+        D[column : column + n] = lam[kept]
+        column += n
+    return U, D
+
+
+def _norm(blocks: dict[str, np.ndarray]) -> float:
+    """The 2-norm of vectors by block, as one vector."""
+    return float(np.sqrt(sum(float(v @ v) for v in blocks.values())))
+
+
+class LowRankSurface(Surface):
+    """A :class:`Surface` that corrects contact changes with Woodbury instead of re-factorising.
+
+    Args:
+        schedule, log, recondensed, unsymmetric: As :class:`Surface` (with friction, every
+            change is re-factorised: its changes are unsymmetric, its groups LU).
+        rates: Machine rates pricing the update against a re-factorisation
+            (:func:`dd_contact.timing.record_seconds`); default: this machine's if cached
+            (:func:`dd_contact.calibration.cached_rates`), else by flops (dense
+            factorisations and blocked substitutions run at about the same rate).
+        lowrank: ``False``: re-factorise on every change, as :class:`Surface`. Default:
+            :attr:`enabled`.
+    """
+
+    #: Whether a surface corrects contact changes unless told otherwise (a comparison
+    #: with re-factorising sets it ``False``).
+    enabled = True
+
+    def __init__(
+        self,
+        schedule: Schedule,
+        log: WorkLog,
+        recondensed: bool = True,
+        unsymmetric=(),
+        rates=None,
+        lowrank: bool | None = None,
+    ):
+        super().__init__(schedule, log, recondensed, unsymmetric)
+        self.rates = rates if rates is not None else cached_rates()
+        self.lowrank = self.enabled if lowrank is None else lowrank
+        #: The contact matrices the factors hold, and those the correction adds up to.
+        self.factorised: dict[tuple[Block, Block], sp.csr_array] = {}
+        self.corrected: dict[tuple[Block, Block], sp.csr_array] = {}
+        self.moved: set[tuple[Block, Block]] = set()  # pairs changed since the factorisation
+        self.fresh: set[tuple[Block, Block]] = set()  # pairs changed since the correction
+        self.correction = Correction()
+        self._solved: dict[str, np.ndarray] | None = None  # the last corrected solve's x
+        self._pairs_norm: float | None = None  # |S|_F^2 of the surface pairs
+
+    def set_contact(self, pair: tuple[Block, Block], matrix: sp.csr_array) -> None:
+        """The new contact matrix of a block pair: corrected for, or re-factorised later."""
+        if self.stale or self.changed or not self.lowrank:
+            super().set_contact(pair, matrix)
+            return
+        self.contact[pair] = matrix
+        self.moved.add(pair)
+        self.fresh.add(pair)
+
+    def factorise(self) -> None:
+        """Correct for the contact changes if that is cheaper, else re-factorise."""
+        if not (self.stale or self.changed or self.fresh):
+            return  # the factors, and the correction if any, are current
+        if self.fresh and not (self.stale or self.changed) and self._update():
+            self.fresh = set()
+            return
+        self._refactorise()
+
+    def _refactorise(self) -> None:
+        self.changed |= {b for pair in self.moved for b in pair}
+        self.moved, self.fresh, self.correction = set(), set(), Correction()
+        super().factorise()
+        self.factorised = dict(self.contact)
+        self.corrected = dict(self.contact)
+
+    def _delta(self, pairs: set, since: dict) -> tuple[dict[Block, np.ndarray], sp.csr_array]:
+        """J per block and ``M = dC[J, J]`` (sparse): the change of ``pairs`` since ``since``."""
+        pieces = {}
+        for pair in sorted(pairs):
+            old = since.get(pair)
+            new = self.contact[pair]
+            piece = sp.coo_array(new - old if old is not None else new).tocsr().tocoo()
+            piece.eliminate_zeros()
+            pieces[pair] = piece
+        touched: dict[Block, list[np.ndarray]] = {}
+        for (a, b), piece in pieces.items():
+            touched.setdefault(a, []).append(piece.row)
+            touched.setdefault(b, []).append(piece.col)
+        dofs = {b: np.unique(np.concatenate(touched[b])) for b in sorted(touched)}
+        dofs = {b: J for b, J in dofs.items() if len(J)}
+        offsets = np.cumsum([0] + [len(J) for J in dofs.values()])
+        where = dict(zip(dofs, offsets[:-1], strict=True))
+        rows, cols, data = [np.zeros(0, int)], [np.zeros(0, int)], [np.zeros(0)]
+        for (a, b), piece in pieces.items():
+            if piece.nnz:
+                rows.append(where[a] + np.searchsorted(dofs[a], piece.row))
+                cols.append(where[b] + np.searchsorted(dofs[b], piece.col))
+                data.append(piece.data)
+        k = int(offsets[-1])
+        triplets = (np.concatenate(data), (np.concatenate(rows), np.concatenate(cols)))
+        return dofs, sp.csr_array(triplets, shape=(k, k))
+
+    def _update(self) -> bool:
+        """Add the changes since the correction to it; False: re-factorise instead.
+
+        A change that undoes part of an earlier one (a point back in its state) adds the
+        opposite term; when that leaves the capacitance matrix ill-conditioned (the terms
+        nearly cancel), the correction is built again from every change since the
+        factorisation at once, whose rank is then the true one.
+        """
+        start, first = time.perf_counter(), len(self.log.records)
+        blocks = {b for pair in self.moved for b in pair}
+        refactorise = self.refactorise_seconds(blocks)
+        if self.lu:  # friction: its changes are unsymmetric, its groups' factors LU
+            return False
+        dofs, M = self._delta(self.fresh, self.corrected)
+        U, D = low_rank(M)
+        if not len(D):  # the contact matrices are back to the corrected ones
+            return True
+        if UPDATE_MARGIN * self.update_seconds(dofs, len(D), self.correction.rank) >= refactorise:
+            return False
+        c = self._extended(self.correction, dofs, U, D)
+        if c.conditioned < CAPACITANCE_RCOND[0] and self.correction.rank:
+            dofs, M = self._delta(self.moved, self.factorised)
+            U, D = low_rank(M)
+            if not len(D):
+                self.correction, self.corrected = Correction(), dict(self.contact)
+                return True
+            if UPDATE_MARGIN * self.update_seconds(dofs, len(D), 0) >= refactorise:
+                return False
+            c = self._extended(Correction(), dofs, U, D)
+        if c.conditioned < CAPACITANCE_RCOND[1]:
+            return False
+        self.correction, self.corrected = c, dict(self.contact)
+        logged = sum(r.seconds for r in self.log.records[first:])  # the elimination's own
+        seconds = time.perf_counter() - start - logged
+        flops = 2.0 * M.shape[0] ** 3 / 3.0 + (2.0 / 3.0) * c.rank**3
+        self.log.add("lowrank", "dense_update", c.rank, len(D), seconds, flops)
+        return True
+
+    def _extended(self, c: Correction, dofs, U: np.ndarray, D: np.ndarray) -> Correction:
+        """A correction with a new change's columns added to ``c``'s (``c`` unchanged)."""
+        out = Correction(list(c.pieces), c.D, c.G, dict(c.kept))
+        out.G = self._extend(out, dofs, U)
+        out.pieces.append((dofs, U))
+        out.D = np.concatenate([c.D, D])
+        C = np.eye(out.rank) + out.D[:, None] * out.G
+        out.capacitance = sla.lu_factor(C, check_finite=False)
+        rcond, _ = sla.lapack.dgecon(out.capacitance[0], np.abs(C).sum(axis=0).max(), norm="1")
+        out.conditioned = float(rcond)
+        return out
+
+    # -- the chain ------------------------------------------------------------------------
+    def _extend(self, c: Correction, dofs: dict[Block, np.ndarray], U: np.ndarray) -> np.ndarray:
+        """``G`` with the columns ``V = E U`` of a new change: forward elimination only.
+
+        With S eliminated group by group (``S = L D L^T``, D the groups' eliminated
+        matrices), ``V^T S^-1 V`` is the sum over groups of ``R^T A_GG^-1 R``, R the columns
+        of V as they arrive at the group: only the groups they reach are touched, only the
+        columns non-zero there, and nothing is back-substituted. The cross terms with the
+        earlier changes' columns come from what their elimination kept.
+        """
+        r0, r = c.rank, U.shape[1]
+        columns: dict[Block, np.ndarray] = {}
+        start = 0
+        for b, J in dofs.items():
+            columns[b] = np.zeros((self.sizes[b], r))
+            columns[b][J] = U[start : start + len(J)]
+            start += len(J)
+        G = np.zeros((r0 + r, r0 + r))
+        G[:r0, :r0] = c.G
+        for grp in self.schedule.flat:
+            if not columns.keys() & set(grp.blocks):
+                continue
+            R = np.vstack([columns.pop(b, np.zeros((self.sizes[b], r))) for b in grp.blocks])
+            nz = np.flatnonzero(np.any(R != 0.0, axis=0))
+            if not len(nz):
+                continue
+            X = self._eliminate(grp, R[:, nz])
+            new = r0 + nz
+            G[np.ix_(new, new)] += X.T @ X if grp.last or not grp.neighbours else R[:, nz].T @ X
+            if grp.name in c.kept:
+                old, X_old = c.kept[grp.name]
+                cross = X_old.T @ (X if grp.last or not grp.neighbours else R[:, nz])
+                G[np.ix_(old, new)] += cross
+                G[np.ix_(new, old)] += cross.T
+                c.kept[grp.name] = (np.concatenate([old, new]), np.hstack([X_old, X]))
+            else:
+                c.kept[grp.name] = (new, X)
+            if grp.last or not grp.neighbours:
+                continue
+            state = self.state[grp.name]
+            assert state.B is not None and state.offsets is not None and state.factor is not None
+            pushed = state.factor.product(state.B, X, "lowrank", transpose=True)
+            for i, (target, J) in enumerate(state.columns):
+                arrived = columns.setdefault(target, np.zeros((self.sizes[target], r)))
+                arrived[np.ix_(J, nz)] -= pushed[state.offsets[i] : state.offsets[i + 1]]
+        return 0.5 * (G + G.T)
+
+    def _eliminate(self, grp, R: np.ndarray) -> np.ndarray:
+        """``L^-1 R`` in the last level (its ``W^T W`` is ``R^T A^-1 R``), else ``A^-1 R``."""
+        factor = self.state[grp.name].factor
+        assert isinstance(factor, DenseCholesky)  # the symmetric changes are corrected
+        start = time.perf_counter()
+        n, m = R.shape
+        if grp.last or not grp.neighbours:
+            X = sla.solve_triangular(factor.factor[0], R, lower=True, check_finite=False)
+            flops = float(n * n * m)
+        else:
+            X = sla.cho_solve(factor.factor, R, check_finite=False)
+            flops = 2.0 * n * n * m
+        seconds = time.perf_counter() - start
+        self.log.add(grp.name, "dense_solve", n, m, seconds, flops, "lowrank")
+        return X
+
+    def _reached(self, blocks: set[Block]) -> list:
+        """The groups a forward elimination from ``blocks`` passes through."""
+        reached, out = set(blocks), []
+        for grp in self.schedule.flat:
+            if reached & set(grp.blocks):
+                out.append(grp)
+                reached |= set(grp.neighbours)
+        return out
+
+    def _price(self, ops: list[Operation]) -> float:
+        """Seconds of ``ops`` by the machine rates; without them, their flops."""
+        if self.rates is None:
+            return sum(
+                o.size**3 / 3.0 if o.kind == "dense_factor" else float(o.size**2 * o.nrhs)
+                for o in ops
+            )
+        from dd_contact.timing import record_seconds  # timing imports the solvers
+
+        return sum(record_seconds(r, self.rates) for r in WorkLog.planned(ops).records)
+
+    def update_seconds(self, dofs: dict[Block, np.ndarray], rank: int, r0: int) -> float:
+        """Price of adding a change of ``rank`` on ``dofs`` to a correction of rank ``r0``.
+
+        The forward elimination of its columns through the groups they reach (the first
+        ones each take their own columns only: priced as all of them, an upper bound), the
+        cross terms with the earlier columns, and the LU of the grown capacitance matrix.
+        """
+        ops = []
+        for grp in self._reached(set(dofs)):
+            n = sum(self.sizes[b] for b in grp.blocks)
+            twice = 1 if grp.last or not grp.neighbours else 3  # A^-1 R, then B^T Y
+            ops += twice * [Operation(grp.name, "dense_solve", n, rank, "lowrank")]
+            if r0:
+                ops.append(Operation(grp.name, "dense_solve", n, max(r0 * rank // n, 1)))
+        ops += 2 * [Operation("lowrank", "dense_factor", r0 + rank)]  # an LU: twice the flops
+        return self._price(ops)
+
+    def refactorise_seconds(self, blocks: set[Block]) -> float:
+        """Price of re-factorising the groups a change on ``blocks`` makes stale."""
+        stale = self.schedule.stale_groups(set(blocks))
+        factorise = self.schedule.factorise_group
+        return self._price(
+            [op for g in self.schedule.flat if g.name in stale for op in factorise(g)]
+        )
+
+    # -- solving --------------------------------------------------------------------------
+    def solve(self, g: dict[str, np.ndarray], complete: bool) -> dict[str, np.ndarray]:
+        """Solve ``S' x = g``: through the chain, corrected for the changes since it was made.
+
+        With a correction, every block is solved for (``complete`` or not) and checked by
+        its normwise backward error ``|g - S' x| / (|S'| |x| + |g|)`` (Frobenius norms; the
+        residual from the surface pairs and contact matrices times x): refined while it is
+        above :data:`REFINED` and falling, at most :data:`REFINEMENTS` times. A release of a
+        stiff contact point subtracts a penalty from a factor that holds it, which loses
+        digits the refinement gives back. Above :data:`UPDATE_TOLERANCE` (a re-factorised
+        Cholesky solve stays near 1e-16), the groups are re-factorised and the solve
+        repeated.
+        """
+        self._solved = None
+        c = self.correction
+        if c.capacitance is None:
+            return super().solve(g, complete)
+        x = self._corrected(c, g)
+        size, before = _norm(g), np.inf
+        for refinement in range(REFINEMENTS + 1):
+            r = self._residual(g, x)
+            error = _norm(r) / (self._matrix_norm() * _norm(x) + size)
+            if error <= REFINED or error > 0.5 * before or refinement == REFINEMENTS:
+                break
+            before = error
+            dx = self._corrected(c, r)
+            x = {b: v + dx[b] for b, v in x.items()}
+        if error > UPDATE_TOLERANCE:
+            self._refactorise()
+            return super().solve(g, complete)
+        self._solved = x
+        return x
+
+    def _matrix_norm(self) -> float:
+        """``|S'|`` (Frobenius): the surface pairs' (kept until S changes) and the contact's."""
+        if self._pairs_norm is None:
+            squares = 0.0
+            for pair in self.schedule.pairs:
+                matrix = self._schur_pair(pair)
+                squares += 0.0 if matrix is None else float(np.sum(matrix * matrix))
+            self._pairs_norm = squares
+        contact = sum(float(np.sum(m.data * m.data)) for m in self.contact.values())
+        return float(np.sqrt(self._pairs_norm + contact))
+
+    def set_condensed(self, block: Block, Z: np.ndarray) -> None:
+        """A subdomain's new condensation (S changes: its norm is taken again)."""
+        super().set_condensed(block, Z)
+        self._pairs_norm = None
+
+    def _corrected(self, c: Correction, g: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Woodbury: ``S^-1 (g - E U z)`` with ``(I + D G) z = D U^T (S^-1 g)_J``."""
+        x = super().solve(g, True)
+        z = sla.lu_solve(c.capacitance, c.projected(x), check_finite=False)
+        return super().solve(c.shifted(g, z), True)
+
+    def _residual(
+        self, g: dict[str, np.ndarray], x: dict[str, np.ndarray]
+    ) -> dict[str, np.ndarray]:
+        """``g - S' x``: the surface pairs (S) and the contact matrices times x."""
+        start = time.perf_counter()
+        r = {b: v.copy() for b, v in g.items()}
+        for a, b in self.schedule.pairs:
+            matrix = self._schur_pair((a, b))
+            if matrix is not None:
+                r[a] -= matrix @ x[b]
+        for (a, b), matrix in self.contact.items():
+            r[a] -= matrix @ x[b]
+        n, seconds = sum(map(len, x.values())), time.perf_counter() - start
+        self.log.add("lowrank", "dense_product", n, n, seconds, 2.0 * n * n, "residual")
+        return r
+
+    def back_substitute(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The earlier levels: solved already if the last solve was corrected."""
+        if self._solved is not None:
+            return {**x, **{b: v for b, v in self._solved.items() if b not in x}}
+        return super().back_substitute(x)
