@@ -50,7 +50,8 @@ acceleration reported is the step's mean ``(u'_{n+1} - u'_n) / dt`` (nothing reu
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 
 import numpy as np
 import scipy.sparse as sp
@@ -140,6 +141,8 @@ class StartForces:
             it already); by default computed here, not kept.
         end_loads: The loads ``r_n+1`` on the owned subdomain blocks (for :meth:`at_end`).
         end_offset: The stiff ties' forces of the last solve (for :meth:`at_end`).
+        time: ``t_n``. A moving obstacle's operator is put at ``t_n`` for the start forces
+            and their penetrations are kept: the contact iteration moves it to ``t_n+1``.
     """
 
     def __init__(
@@ -155,8 +158,22 @@ class StartForces:
         products: BlockProducts | None = None,
         end_loads: Mapping[Block, np.ndarray] | None = None,
         end_offset: Callable[[], Mapping[Block, np.ndarray]] | None = None,
+        time: float | None = None,
     ):
         self.system, self.zones, self.x, self.free = system, zones, x, free
+        self.time = time
+        #: Each contact's penetration and G at ``t_n``: every start force and theta reads
+        #: them (the obstacle at ``t_n+1`` would give back a force never applied).
+        self.g0: dict[str, np.ndarray] = {}
+        self._G0: dict[str, sp.csr_array] = {}
+        self._gap0: dict[str, np.ndarray] = {}
+        self._x0: dict[str, np.ndarray] = {}  # x may be updated in place by the step
+        for z in zones:
+            name = z.contact.name
+            with _operator_at(z, time):
+                self._x0[name] = np.array(z.gather(x), dtype=float)
+                self.g0[name] = z.operator.penetration(self._x0[name])
+                self._G0[name], self._gap0[name] = z.operator.G, z.operator.gap
         self._end_loads = end_loads or {}
         #: The blocks the last :meth:`at_end` changed on this rank.
         self.settled_blocks: list[Block] = []
@@ -167,6 +184,8 @@ class StartForces:
         self.kept: dict[str, np.ndarray] = {}
         self._releasing: set[str] = set()
         self._calls = 0  # corrections asked for in this step
+        #: Each contact's end as solved, before :meth:`at_end` settled its massless dofs.
+        self._solved_end: dict[str, np.ndarray] = {}
         #: ``K x_n - f_C(x_n; A_n)`` on each owned subdomain block (ties and stiff-tie forces in).
         self.internal = {}
         for block in owned:
@@ -253,7 +272,7 @@ class StartForces:
                 continue
             leaving = self.start[name] & ~active[name]
             k = z.operator.points.weight / z.operator.epsilon
-            g0 = np.maximum(z.operator.penetration(z.gather(self.x)), 0.0)
+            g0 = np.maximum(self.g0[name], 0.0)
             g1 = np.minimum(z.operator.penetration(z.gather(x)), 0.0)
             change = np.abs(_discrete_gradient(g0, g1) - self.kept[name])
             if not (change[leaving] > RELEASE_TOLERANCE * self.kept[name][leaving]).any():
@@ -274,7 +293,7 @@ class StartForces:
         out = {}
         for z in self.zones:
             name = z.contact.name
-            g0 = np.maximum(z.operator.penetration(z.gather(self.x)), 0.0)
+            g0 = np.maximum(self.g0[name], 0.0)
             g1 = z.operator.penetration(z.gather(x))
             deeper = self.start[name] & (g1 > g0)
             k = z.operator.points.weight / z.operator.epsilon
@@ -309,10 +328,11 @@ class StartForces:
         """
         out = dict(x)
         offset = self._end_offset()
-        self.settled_blocks = []
+        self.settled_blocks, self._solved_end = [], {}
         for z in self.zones:
             name = z.contact.name
             if (self.start[name] & ~active[name]).any() and _holds_rows(self.system, z, out):
+                self._solved_end[name] = z.gather(out)  # the step's own end, for the work
                 state = _in_equilibrium(
                     self.system, z, out, active[name], self._end_loads, offset, self.free
                 )
@@ -320,11 +340,45 @@ class StartForces:
                 self.settled_blocks += list(state)
         return out
 
+    def obstacle_work(
+        self, active: Mapping[str, np.ndarray], x: BlockKeyed[np.ndarray], safe: bool
+    ) -> float:
+        """This rank's work of the moving obstacles on the bodies over the step [J].
+
+        Each point's mean force (start ``c0 = s k g_n``, ``s`` as the step applied it: 1 in
+        contact at both ends, theta leaving (``safe``) or 1 (classic), end ``c1 = k g_n+1``)
+        times the obstacle's advance at the point, ``g(y, t_n+1) - g(y, t_n)`` at fixed y,
+        taken at ``x_n+1`` for c0 and ``x_n`` for c1: with the linear penetrations exactly
+        what contact in and contact out of every point adds beyond the release's discrete
+        gradient (for a translating plane: the mean force times the obstacle's
+        displacement).
+        """
+        work = 0.0
+        for z in self.zones:
+            name = z.contact.name
+            motion = getattr(getattr(z.operator, "obstacle", None), "motion", None)
+            if motion is None or name not in self.g0:
+                continue
+            op, start, end = z.operator, self.start[name], active[name]
+            x1, x0 = self._solved_end.get(name, z.gather(x)), self._x0[name]
+            share = np.where(start & end, 1.0, 0.0)
+            leaving = start & ~end
+            kept = self.kept.get(name, np.ones(op.num_points)) if safe else 1.0
+            share = np.where(leaving, kept, share)
+            k = op.points.weight / op.epsilon
+            c0 = share * k * self.g0[name]
+            c1 = np.where(end, k * op.penetration(x1), 0.0)
+            advance1 = op.penetration(x1) - (self._G0[name] @ x1 - self._gap0[name])
+            advance0 = op.penetration(x0) - self.g0[name]
+            w = self.weight
+            work += float(w * c0 @ advance1 + c1 @ advance0) / (1 + w)
+        return work
+
     def _kept(self, z: ContactZone, x: Mapping[Block, np.ndarray] | None) -> np.ndarray:
         """The theta to use next: 1 before any solution, then towards the last solution's."""
         if x is None:
             return np.ones(z.operator.num_points)
-        g0 = np.maximum(z.operator.penetration(z.gather(self.x)), 0.0)
+        g0 = np.maximum(self.g0[z.contact.name], 0.0)
         theta = _discrete_gradient(g0, z.operator.penetration(z.gather(x)))
         previous = self.kept.get(z.contact.name)
         if previous is not None and self._calls > GEOMETRIC_STEPS:
@@ -335,9 +389,9 @@ class StartForces:
 
     def _point_forces(self, z: ContactZone, factor: np.ndarray) -> np.ndarray:
         """``factor`` times each point's penalty force at ``t_n``, on the zone's dofs."""
-        op = z.operator
-        pen = op.penetration(z.gather(self.x))
-        return z.free * (op.G.T @ (factor * op.points.weight / op.epsilon * pen))
+        op, name = z.operator, z.contact.name
+        pen = self.g0[name]
+        return z.free * (self._G0[name].T @ (factor * op.points.weight / op.epsilon * pen))
 
     def _surface_at_start(
         self, z: ContactZone, active: Mapping[str, np.ndarray], forces: np.ndarray
@@ -347,12 +401,27 @@ class StartForces:
         In contact matrix numbering: a contact interface's dofs are its w block's, whole.
         """
         blocks = [w for w, _ in z.parts]
-        matrix, vector = z.contribution(active[z.contact.name])
+        with _operator_at(z, self.time):
+            matrix, vector = z.contribution(active[z.contact.name])
         A = sp.block_array([[self.system.block(a, b) for b in blocks] for a in blocks])
         A = sp.csc_array(A + matrix)  # the zone's dofs are its blocks', in order
         rest = {k: v for k, v in self.x.items() if k not in blocks}
         b = np.concatenate([-self.system.row_product(w, rest) for w in blocks])
         return spsolve(A, b + vector - forces)
+
+
+@contextmanager
+def _operator_at(z: ContactZone, t: float | None) -> Iterator[None]:
+    """``z``'s operator at time ``t`` inside (``None``: as it is), back at its time after."""
+    now = z.operator.t
+    if t is None or t == now:
+        yield
+        return
+    z.operator.update(t)
+    try:
+        yield
+    finally:
+        z.operator.update(now)
 
 
 def _massless_dofs(

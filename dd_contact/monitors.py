@@ -91,9 +91,14 @@ class EpisodeImpulses:
         return impulse >= MINOR_EPISODE * max(self.largest, impulse)
 
 
-def obstacles_moved(contacts: Sequence, t0: float, t1: float) -> bool:
-    """Whether an obstacle of ``contacts`` (pairs have none) moved between ``t0`` and ``t1``."""
+def obstacles_moved(contacts: Sequence, t0: float, t1: float, frictional: bool = False) -> bool:
+    """Whether an obstacle of ``contacts`` moved between ``t0`` and ``t1`` (pairs have none).
+
+    ``frictional``: only the obstacles of contacts with friction.
+    """
     for c in contacts:
+        if frictional and not getattr(c, "friction", 0.0) > 0.0:
+            continue
         motion = getattr(getattr(c, "obstacle", None), "motion", None)
         if motion is not None and not np.array_equal(motion(t0), motion(t1)):
             return True
@@ -115,7 +120,8 @@ class EnergyBalance:
     scheme that does not conserve energy (generalized-alpha: its energy may swing up within
     a step while it decays overall) is held to the energy at the start plus the loads' work.
     A step in which prescribed displacements move is not checked (their reactions' work is
-    not counted).
+    not counted); a moving obstacle's work through contact is counted with the loads' (with
+    friction on it, its step is not checked: the friction's share is not counted).
 
     Args:
         comm: Communicator of the run.
@@ -132,8 +138,8 @@ class EnergyBalance:
         dt: float = 0.0,
     ):
         self.comm = comm
-        #: The scene's contacts and time step: a step in which an obstacle moved is not held
-        #: to the balance (the obstacle's work goes through contact, in no load vector).
+        #: The scene's contacts and time step: in a step in which an obstacle moved, its
+        #: work (through contact, in no load vector) is counted with the loads'.
         self.contacts, self.dt = list(contacts), dt
         self.conserves_energy = conserves_energy
         self.energy_safe = energy_safe
@@ -177,11 +183,19 @@ class EnergyBalance:
             work += 0.5 * float((free_dofs * (previous[block] + external[block])) @ du)
         return sum_over_ranks(self.comm, work), any_rank(self.comm, moved)
 
-    def check(self, record: dict, work: Callable[[], tuple[float, bool]]) -> None:
+    def check(
+        self,
+        record: dict,
+        work: Callable[[], tuple[float, bool]],
+        obstacle_work: Callable[[], float] = lambda: 0.0,
+    ) -> None:
         """Collective: hold the step of ``record`` (with its agreed ``energy``) to the balance.
 
         ``work`` gives the loads' work over the step and whether supports moved
-        (:meth:`loads_work`); it is called only while the balance is still watched.
+        (:meth:`loads_work`), ``obstacle_work`` the moving obstacles' work through contact
+        (:meth:`dd_contact.impact.StartForces.obstacle_work`, this rank's: summed here); both
+        are called only while the balance is still watched, the second in steps in which an
+        obstacle moves.
         """
         energy_before, contact_before = self.before, self.contact_before
         energy_after = record["energy"]["total"]
@@ -189,12 +203,14 @@ class EnergyBalance:
         self.largest = max(self.largest, abs(energy_after))
         if energy_before is None or self.warned:
             return
-        t = record["t"]
-        if obstacles_moved(self.contacts, t - self.dt, t):
-            return
         loads_work, moved = work()
         if moved:
             return
+        t = record["t"]
+        if obstacles_moved(self.contacts, t - self.dt, t):  # its work goes through contact
+            if obstacles_moved(self.contacts, t - self.dt, t, frictional=True):
+                return  # the work of its friction (tangential) is not counted
+            loads_work += sum_over_ranks(self.comm, obstacle_work())
         dissipated = record["energy"].get("dissipated", 0.0)  # friction's work, >= 0
         if not self.conserves_energy:
             self.before = energy_before + loads_work - dissipated

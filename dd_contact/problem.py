@@ -276,11 +276,7 @@ class TransientProblem(AnalysisReadout):
 
     # -- state ---------------------------------------------------------------------------
     def start(self) -> None:
-        """Collective: set up the initial state (done by the first step if not called).
-
-        Checks the initial data, puts the interface and contact interfaces in equilibrium
-        with the initial displacement, and computes the initial acceleration.
-        """
+        """Collective: check the initial data, settle the surfaces, take the acceleration."""
         if not self._started:
             with counted(self.traffic):
                 self._start()
@@ -371,6 +367,7 @@ class TransientProblem(AnalysisReadout):
             self._products,
             end_loads=dict(loads),
             end_offset=lambda: self.tie_solver.rhs_offset,
+            time=self.t,
         )
         for sub in owned:
             block = sub.block
@@ -428,11 +425,11 @@ class TransientProblem(AnalysisReadout):
         if self.inertia and self.track_energy:
             energy_before = self.history[-1].get("energy") if self.history else None
             record["energy"] = self._energy()
+            free, active = analysis.free, self.iteration.active
             self.energy_balance.check(
                 record,
-                lambda: self.energy_balance.loads_work(
-                    before, x, previous, external, self.analysis.free
-                ),
+                lambda: self.energy_balance.loads_work(before, x, previous, external, free),
+                lambda: start.obstacle_work(active, analysis.state_now(), self.energy_safe),
             )
         else:
             energy_before = None
@@ -541,10 +538,7 @@ class TransientProblem(AnalysisReadout):
         return self.history
 
     def _resume_or_refuse(self, n_steps: int, files: RunOutput | None, output) -> None:
-        """Collective: restore the checkpoint in ``files``, if there is one.
-
-        Refuses a run that has nothing to do (its step already past ``n_steps``).
-        """
+        """Collective: restore the checkpoint in ``files``, if any; refuse a run past n_steps."""
         restored = files is not None and files.checkpoint.exists()
         if restored:
             assert files is not None  # restored from its checkpoint

@@ -122,9 +122,7 @@ scene.fix((facets, CLAMP))
 # ## The transient run: the pins pull, results back on the one mesh
 
 # +
-# Classic contact: energy-safe contact (the default) loses the pins' contact at step 12 of
-# this run (moving obstacles; see docs/decompose.md).
-run = dc.TransientProblem(scene, DURATION / STEPS, algorithm="w-v-u", energy_safe_contact=False)
+run = dc.TransientProblem(scene, DURATION / STEPS, algorithm="w-v-u")
 with run as problem:
     history = problem.run(STEPS, summary=False)
     work = problem.work_table()

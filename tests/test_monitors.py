@@ -204,3 +204,36 @@ def test_the_classic_contact_gets_no_release_allowance():
     balance.check(_record(1, 1.0, contact=0.5), _no_work)
     with pytest.warns(EnergyGrowthWarning, match="energy_safe_contact=True"):
         balance.check(_record(2, 1.0 + 0.9 * RELEASE_TOLERANCE * 0.5), _no_work)
+
+
+def test_a_moving_obstacles_work_is_counted_in_its_steps_only():
+    wall = SimpleNamespace(motion=lambda t: (0.0, 0.0, 0.01 * max(t - 0.15, 0.0)))
+    contacts = [SimpleNamespace(obstacle=wall)]
+    balance = EnergyBalance(MPI.COMM_SELF, True, energy_safe=True, contacts=contacts, dt=0.1)
+    balance.start({"total": 1.0, "contact": 0.0})
+    asked = []
+
+    def obstacle_work():
+        asked.append(1)
+        return 0.5
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        balance.check(_record(1, 1.0), _no_work, obstacle_work)  # t 0 -> 0.1: at rest
+        balance.check(_record(2, 1.5), _no_work, obstacle_work)  # moved: its 0.5 J counted
+    assert len(asked) == 1
+    with pytest.warns(EnergyGrowthWarning, match=r"step 3 .* grew by 0\.1 J"):
+        balance.check(_record(3, 2.1), _no_work, obstacle_work)  # 0.6 J against 0.5 J
+
+
+def test_a_moving_obstacle_with_friction_leaves_its_steps_unchecked():
+    """Its friction's (tangential) work is not counted: the step is not judged."""
+    wall = SimpleNamespace(motion=lambda t: (0.01 * t, 0.0, 0.0))
+    contacts = [SimpleNamespace(obstacle=wall, friction=0.3)]
+    balance = EnergyBalance(MPI.COMM_SELF, True, energy_safe=True, contacts=contacts, dt=0.1)
+    balance.start({"total": 1.0, "contact": 0.0})
+    asked = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        balance.check(_record(1, 2.0), _no_work, lambda: asked.append(1) or 0.0)
+    assert asked == [] and balance.before == 2.0

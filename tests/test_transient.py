@@ -62,8 +62,8 @@ def test_moving_wall_pushes_a_held_block():
 
 
 def test_a_moving_wall_pushing_a_block_with_inertia_is_no_energy_growth(recwarn):
-    """The wall's work goes through contact, in no load vector: its steps are not held to the
-    loads' balance (on main this warned EnergyGrowthWarning at the first contact step)."""
+    """The wall's work goes through contact, in no load vector: it is counted in the balance
+    (StartForces.obstacle_work); uncounted, the first contact step warned EnergyGrowthWarning."""
     block = dd.Subdomain(
         meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 1], [2, 2, 2]),
         dd.Material(1000.0, 0.0, rho=1.0),

@@ -129,7 +129,7 @@ def sliding_balance(
     balance, out = problem.energy_balance, []
     check = balance.check
 
-    def watched(record, work):
+    def watched(record, work, obstacle_work=lambda: 0.0):  # no obstacle moves here
         loads, moved = work()
         if balance.before is not None:
             energy = record["energy"]
@@ -143,7 +143,7 @@ def sliding_balance(
                     "total": energy["total"],
                 }
             )
-        check(record, lambda: (loads, moved))
+        check(record, lambda: (loads, moved), obstacle_work)
 
     balance.check = watched  # type: ignore[method-assign]
     problem.run(steps, progress=False, summary=False)
