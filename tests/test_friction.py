@@ -185,7 +185,7 @@ def test_energy_balance_counts_a_dragging_planes_tangential_work(kind, algorithm
     """The plane drags the pressed block (travel DRAG t^3): it sticks, then slips; the
     balance with the plane's work (normal and tangential) and the dissipation closes.
 
-    Measured: |residual| <= 3.3e-14 J (w-u), 1.4e-15 J (FULL) in the steps without a
+    Measured: |residual| <= 3.3e-14 J (w-u), 1.3e-15 J (FULL) in the steps without a
     contact change, energy ~4e-4 J, the plane's work up to 1.05e-5 J a step; the landing's
     step (6) loses 1.2e-7 J.
     """
