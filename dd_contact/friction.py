@@ -67,7 +67,11 @@ class Friction:
         t_start: The time at the start of the step (where the obstacle was).
         slip: Accumulated slip (the irreversible tangential displacement) per point.
         dissipation: The work friction took out of the last step (>= 0): the mean
-            traction's work less the change of the tangential penalty's energy.
+            traction's work over the slip relative to the obstacle less the change of the
+            tangential penalty's energy.
+        obstacle_work: The work the obstacle's tangential motion did on the body through
+            friction over the last step: the mean traction times the obstacle's
+            displacement (zero for an obstacle at rest).
     """
 
     def __init__(self, operator: Any, mu: float, epsilon: float):
@@ -90,6 +94,7 @@ class Friction:
         self.t_start = 0.0
         self.slip = np.zeros((p, 3))
         self.dissipation = 0.0
+        self.obstacle_work = 0.0
 
     # -- kinematics ------------------------------------------------------------------------
     def _tangential(self, v: np.ndarray) -> np.ndarray:
@@ -202,6 +207,10 @@ class Friction:
         work = self.epsilon * (np.einsum("pd,pd->p", mean, trial - before) - stored)
         work[self.state == STICK] = 0.0  # the spring's work is what it stored: round-off
         self.dissipation = float(np.dot(self.operator.points.weight, work))
+        # The body moved by the relative slip plus the obstacle's displacement: the mean
+        # traction's work over the latter is the obstacle's, beyond the dissipation's books.
+        moved = np.einsum("pd,d->p", mean, self._moved())
+        self.obstacle_work = float(np.dot(self.operator.points.weight, moved))
         self.slip += slipped
         self.traction, self.start, self.t_start = t, np.array(w, float), self.operator.t
 

@@ -351,7 +351,8 @@ class StartForces:
         taken at ``x_n+1`` for c0 and ``x_n`` for c1: with the linear penetrations exactly
         what contact in and contact out of every point adds beyond the release's discrete
         gradient (for a translating plane: the mean force times the obstacle's
-        displacement).
+        displacement). With friction, its tangential work too
+        (:attr:`dd_contact.friction.Friction.obstacle_work`).
         """
         work = 0.0
         for z in self.zones:
@@ -372,6 +373,8 @@ class StartForces:
             advance0 = op.penetration(x0) - self.g0[name]
             w = self.weight
             work += float(w * c0 @ advance1 + c1 @ advance0) / (1 + w)
+            if (friction := getattr(op, "friction", None)) is not None:
+                work += friction.obstacle_work  # its tangential work, as the step committed it
         return work
 
     def _kept(self, z: ContactZone, x: Mapping[Block, np.ndarray] | None) -> np.ndarray:

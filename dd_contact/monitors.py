@@ -91,14 +91,9 @@ class EpisodeImpulses:
         return impulse >= MINOR_EPISODE * max(self.largest, impulse)
 
 
-def obstacles_moved(contacts: Sequence, t0: float, t1: float, frictional: bool = False) -> bool:
-    """Whether an obstacle of ``contacts`` moved between ``t0`` and ``t1`` (pairs have none).
-
-    ``frictional``: only the obstacles of contacts with friction.
-    """
+def obstacles_moved(contacts: Sequence, t0: float, t1: float) -> bool:
+    """Whether an obstacle of ``contacts`` moved between ``t0`` and ``t1`` (pairs have none)."""
     for c in contacts:
-        if frictional and not getattr(c, "friction", 0.0) > 0.0:
-            continue
         motion = getattr(getattr(c, "obstacle", None), "motion", None)
         if motion is not None and not np.array_equal(motion(t0), motion(t1)):
             return True
@@ -120,8 +115,8 @@ class EnergyBalance:
     scheme that does not conserve energy (generalized-alpha: its energy may swing up within
     a step while it decays overall) is held to the energy at the start plus the loads' work.
     A step in which prescribed displacements move is not checked (their reactions' work is
-    not counted); a moving obstacle's work through contact is counted with the loads' (with
-    friction on it, its step is not checked: the friction's share is not counted).
+    not counted); a moving obstacle's work through contact (normal, and tangential with
+    friction) is counted with the loads'.
 
     Args:
         comm: Communicator of the run.
@@ -208,8 +203,6 @@ class EnergyBalance:
             return
         t = record["t"]
         if obstacles_moved(self.contacts, t - self.dt, t):  # its work goes through contact
-            if obstacles_moved(self.contacts, t - self.dt, t, frictional=True):
-                return  # the work of its friction (tangential) is not counted
             loads_work += sum_over_ranks(self.comm, obstacle_work())
         dissipated = record["energy"].get("dissipated", 0.0)  # friction's work, >= 0
         if not self.conserves_energy:

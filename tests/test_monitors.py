@@ -226,14 +226,24 @@ def test_a_moving_obstacles_work_is_counted_in_its_steps_only():
         balance.check(_record(3, 2.1), _no_work, obstacle_work)  # 0.6 J against 0.5 J
 
 
-def test_a_moving_obstacle_with_friction_leaves_its_steps_unchecked():
-    """Its friction's (tangential) work is not counted: the step is not judged."""
+def test_a_moving_obstacle_with_friction_is_checked_with_its_work():
+    """Its work (normal and, through friction, tangential) is counted; a gain beyond it warns."""
     wall = SimpleNamespace(motion=lambda t: (0.01 * t, 0.0, 0.0))
     contacts = [SimpleNamespace(obstacle=wall, friction=0.3)]
     balance = EnergyBalance(MPI.COMM_SELF, True, energy_safe=True, contacts=contacts, dt=0.1)
     balance.start({"total": 1.0, "contact": 0.0})
     asked = []
+
+    def obstacle_work():
+        asked.append(1)
+        return 0.5
+
+    dissipating = _record(1, 1.3)
+    dissipating["energy"]["dissipated"] = 0.2  # 1.0 + 0.5 - 0.2
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        balance.check(_record(1, 2.0), _no_work, lambda: asked.append(1) or 0.0)
-    assert asked == [] and balance.before == 2.0
+        balance.check(dissipating, _no_work, obstacle_work)
+    assert asked == [1] and balance.before == 1.3
+    created = _record(2, 1.3 + 0.5 + 1e-3)  # 1 mJ beyond the obstacle's work
+    with pytest.warns(EnergyGrowthWarning, match=r"step 2 .* grew by 0\.001 J"):
+        balance.check(created, _no_work, obstacle_work)

@@ -19,6 +19,7 @@ from mpi4py import MPI
 import numpy as np
 
 from dd_contact import meshes
+from dd_contact.friction import SLIP
 from dd_contact.obstacles import Plane
 from dd_contact.paper.verify.models import Record, locator, record
 from dd_contact.problem import StaticProblem, TransientProblem
@@ -26,6 +27,7 @@ from dd_contact.scene import ContactBoundary, ContactInterface, Interface, Scene
 from dd_contact.subdomains import Material, Subdomain
 
 __all__ = [
+    "DRAG",
     "SLIDING_SCENES",
     "case_sliding_block",
     "sliding_balance",
@@ -105,19 +107,37 @@ def sliding_block(
     return out
 
 
+#: The dragging plane's travel along x: ``DRAG t^3`` [m]. Its acceleration 6 DRAG t grows
+#: through mu N / m = 1.2 m/s^2 (mu = 0.3, the block's 0.25 kg under 1 N) at 15 ms: the
+#: block, landed at 6 ms, sticks, then slips (from 25 ms; all its points from 27 ms).
+DRAG = 13.0
+
+
 def sliding_balance(
-    kind: str, algorithm: str, mu: float, steps: int, comm: MPI.Comm = MPI.COMM_WORLD
+    kind: str,
+    algorithm: str,
+    mu: float,
+    steps: int,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    drag: float = 0.0,
 ) -> list[dict]:
     """The block thrown along a fixed plane (0.1 m/s) under its top pressure, with inertia.
 
-    Per step (dt = 1 ms): ``changes``, ``dissipated`` and ``residual``, the energy now less
-    the energy before, the loads' work and the dissipation (``EnergyBalance``'s books).
+    ``drag``: instead, the block starts at rest and the plane drags it, moving by
+    ``drag t^3`` along x (the obstacle's work counted).
+
+    Per step (dt = 1 ms): ``changes``, ``dissipated``, ``obstacle`` (the obstacle's work),
+    ``slipping`` (points slipping), and ``residual``, the energy now less the energy
+    before, the loads' and the obstacle's work and plus the dissipation
+    (``EnergyBalance``'s books).
     """
     mesh = meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, 0.25], [4, 4, 2])
     block = Subdomain(mesh, MATERIAL, "B0")
     block.add_traction(locator(2, 0.25), [0.0, 0.0, -PRESSURE])
-    block.velocity.interpolate(lambda x: np.vstack([0.1 + 0 * x[0], 0 * x[0], 0 * x[0]]))
-    plane = Plane([0, 0, 0], [0, 0, 1])
+    speed = 0.0 if drag else 0.1
+    block.velocity.interpolate(lambda x: np.vstack([speed + 0 * x[0], 0 * x[0], 0 * x[0]]))
+    travel = (lambda t: (drag * t**3, 0.0, 0.0)) if drag else None
+    plane = Plane([0, 0, 0], [0, 0, 1], motion=travel)
     contact: ContactBoundary | ContactInterface
     if kind == "boundary":
         contact = ContactBoundary(block, locator(2, 0.0), plane, friction=mu, name="base")
@@ -127,23 +147,28 @@ def sliding_balance(
         )
     problem = TransientProblem(Scene(comm, [block], contacts=[contact]), 1e-3, algorithm=algorithm)
     balance, out = problem.energy_balance, []
+    zones = problem.analysis.zones
+    friction = zones[0].operator.friction if zones else None
     check = balance.check
 
-    def watched(record, work, obstacle_work=lambda: 0.0):  # no obstacle moves here
+    def watched(record, work, obstacle_work=lambda: 0.0):
         loads, moved = work()
+        obstacle = obstacle_work() if drag else 0.0  # this rank's
         if balance.before is not None:
             energy = record["energy"]
-            change = energy["total"] - balance.before - loads
+            change = energy["total"] - balance.before - loads - obstacle
             dissipated = energy.get("dissipated", 0.0)
             out.append(
                 {
                     "changes": record["changes"],
                     "dissipated": dissipated,
+                    "obstacle": obstacle,
+                    "slipping": int(np.sum(friction.state == SLIP)) if friction else 0,
                     "residual": change + dissipated,
                     "total": energy["total"],
                 }
             )
-        check(record, lambda: (loads, moved), obstacle_work)
+        check(record, lambda: (loads, moved), lambda: obstacle)
 
     balance.check = watched  # type: ignore[method-assign]
     problem.run(steps, progress=False, summary=False)
