@@ -48,12 +48,17 @@ __all__ = [
     "CAPACITANCE_RCOND",
     "REFINED",
     "REFINEMENTS",
+    "UPDATES",
     "UPDATE_MARGIN",
     "UPDATE_TOLERANCE",
     "Correction",
     "LowRankSurface",
     "low_rank",
 ]
+
+#: The work log's name for the corrections (its row of the work table: their count, size
+#: the rank of the last, and their residual products).
+UPDATES = "low-rank updates"
 
 #: Largest accepted normwise backward error ``|g - S' x| / (|S'| |x| + |g|)`` of a
 #: corrected solve (a Cholesky solve's is about 1e-16); beyond it the groups are
@@ -290,7 +295,7 @@ class LowRankSurface(Surface):
         logged = sum(r.seconds for r in self.log.records[first:])  # the elimination's own
         seconds = time.perf_counter() - start - logged
         flops = 2.0 * M.shape[0] ** 3 / 3.0 + (2.0 / 3.0) * c.rank**3
-        self.log.add("lowrank", "dense_update", c.rank, len(D), seconds, flops)
+        self.log.add(UPDATES, "dense_update", c.rank, len(D), seconds, flops)
         return True
 
     def _extended(self, c: Correction, dofs, U: np.ndarray, D: np.ndarray) -> Correction:
@@ -402,7 +407,7 @@ class LowRankSurface(Surface):
             ops += twice * [Operation(grp.name, "dense_solve", n, rank, "lowrank")]
             if r0:
                 ops.append(Operation(grp.name, "dense_solve", n, max(r0 * rank // n, 1)))
-        ops += 2 * [Operation("lowrank", "dense_factor", r0 + rank)]  # an LU: twice the flops
+        ops += 2 * [Operation(UPDATES, "dense_factor", r0 + rank)]  # an LU: twice the flops
         return self._price(ops)
 
     def refactorise_seconds(self, blocks: set[Block]) -> float:
@@ -481,7 +486,7 @@ class LowRankSurface(Surface):
         for (a, b), matrix in self.contact.items():
             r[a] -= matrix @ x[b]
         n, seconds = sum(map(len, x.values())), time.perf_counter() - start
-        self.log.add("lowrank", "dense_product", n, n, seconds, 2.0 * n * n, "residual")
+        self.log.add(UPDATES, "dense_product", n, n, seconds, 2.0 * n * n, "residual")
         return r
 
     def back_substitute(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

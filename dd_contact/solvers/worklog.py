@@ -149,12 +149,14 @@ class WorkLog:
         """The per-block summary as a text table."""
         rows = [
             f"{'block':<24} {'matrix':<6} {'size':>8} {'decompositions':>14} "
-            f"{'substitutions':>13} {'s decomp.':>10} {'s subst.':>9} {'GFLOP decomp.':>13}"
+            f"{'substitutions':>13} {'s decomp.':>10} {'s subst.':>9} {'GFLOP decomp.':>13} "
+            f"{'updates':>7}"
         ]
         for name, b in self.per_block().items():
             rows.append(
                 f"{name:<24} {b['matrix']:<6} {b['size']:>8} {b['decompositions']:>14} "
                 f"{b['substitutions']:>13g} {b['seconds_decomposition']:>10.3f} "
-                f"{b['seconds_substitution']:>9.3f} {b['gflops_decomposition']:>13.3g}"
+                f"{b['seconds_substitution']:>9.3f} {b['gflops_decomposition']:>13.3g} "
+                f"{b['updates']:>7}"
             )
         return "\n".join(rows)
