@@ -444,12 +444,16 @@ class DenseCholesky:
     def solve(self, B: np.ndarray, what: str = "") -> np.ndarray:
         """Forward/back substitution for a vector or the columns of a matrix."""
         start = time.perf_counter()
-        X = sla.cho_solve(self.factor, B, check_finite=False)
+        X = self._substitute(B)
         nrhs = 1 if B.ndim == 1 else B.shape[1]
         n = self.size
         seconds = time.perf_counter() - start
         self.log.add(self.block, "dense_solve", n, nrhs, seconds, 2.0 * n * n * nrhs, what)
         return X
+
+    def _substitute(self, B: np.ndarray) -> np.ndarray:
+        """``A^-1 B`` by the factor (potrs)."""
+        return sla.cho_solve(self.factor, B, check_finite=False)
 
 
 class PatternedMatrix:

@@ -70,15 +70,9 @@ class DenseLU(DenseCholesky):
         )
         return out
 
-    def solve(self, B: np.ndarray, what: str = "") -> np.ndarray:
-        """Forward/back substitution for a vector or the columns of a matrix."""
-        start = time.perf_counter()
-        X = sla.lu_solve(self.lu, B, check_finite=False)
-        nrhs = 1 if B.ndim == 1 else B.shape[1]
-        n = self.size
-        seconds = time.perf_counter() - start
-        self.log.add(self.block, "dense_solve", n, nrhs, seconds, 2.0 * n * n * nrhs, what)
-        return X
+    def _substitute(self, B: np.ndarray) -> np.ndarray:
+        """``A^-1 B`` by the factor (getrs); :meth:`DenseCholesky.solve` times and logs it."""
+        return sla.lu_solve(self.lu, B, check_finite=False)
 
 
 def lu_groups(schedule: Schedule, unsymmetric: Iterable[Block]) -> set[str]:
