@@ -95,6 +95,7 @@ class Friction:
         self.slip = np.zeros((p, 3))
         self.dissipation = 0.0
         self.obstacle_work = 0.0
+        self._last_turn = np.zeros((p, 3))  # each point's last turn of its slip direction
 
     # -- kinematics ------------------------------------------------------------------------
     def _tangential(self, v: np.ndarray) -> np.ndarray:
@@ -181,10 +182,16 @@ class Friction:
         size, limit = np.linalg.norm(trial, axis=1), self._limit(w)
         undecided = np.abs(size - limit) <= LIMIT_BAND * limit
         slipping = np.where(undecided, self.state == SLIP, size > limit)
+        # A slipping point whose trial turned against its slip direction overshot: the
+        # full Coulomb force stopped it within the step. Its answer lies between the two
+        # directions, so it sticks next (else +s and -s alternate without end).
+        along = np.einsum("pd,pd->p", trial, self.direction)
+        slipping &= ~((self.state == SLIP) & (along < 0.0))
         state = np.where(active, np.where(slipping, SLIP, STICK), OPEN).astype(np.int8)
         slip = state == SLIP
         direction = np.zeros_like(self.direction)
         direction[slip] = trial[slip] / np.maximum(size[slip], 1e-300)[:, None]
+        direction = self._damped(direction, slip)
         turned = np.abs(direction - self.direction)[slip].max(initial=0.0) > DIRECTION_TOLERANCE
         changed = bool(turned or not np.array_equal(state, self.state))
         self.state = state
@@ -193,6 +200,29 @@ class Friction:
             self.direction = direction
             self.scale = np.where(slip, limit / np.maximum(size, 1e-300), 0.0)
         return changed
+
+    def _damped(self, direction: np.ndarray, slip: np.ndarray) -> np.ndarray:
+        """The new slip directions, with a point's alternating turns cut to their fixed point.
+
+        A point whose direction swings back and forth between solves (a sliding face
+        released by its neighbours: +-0.1 rad, 4 % less each solve) is a fixed point
+        iteration with a negative rate; the rate measured from its last two turns
+        (Aitken) gives the direction it tends to. Turns that do not alternate are left as
+        they are (the return mapping's tangent converges those fast).
+        """
+        kept = slip & (self.state == SLIP)
+        step = np.where(kept[:, None], direction - self.direction, 0.0)
+        last = self._last_turn
+        rate = np.einsum("pd,pd->p", step, last) / np.maximum(
+            np.einsum("pd,pd->p", last, last), 1e-300
+        )
+        swing = kept & (rate < 0.0)
+        if swing.any():
+            moved = self.direction[swing] + step[swing] / (1.0 - rate[swing, None])
+            direction[swing] = moved / np.linalg.norm(moved, axis=1)[:, None]
+            step[swing] = direction[swing] - self.direction[swing]
+        self._last_turn = step
+        return direction
 
     def commit(self, w: np.ndarray) -> None:
         """The end of a step: its tractions become the history, its slip and dissipation."""
@@ -213,6 +243,7 @@ class Friction:
         self.obstacle_work = float(np.dot(self.operator.points.weight, moved))
         self.slip += slipped
         self.traction, self.start, self.t_start = t, np.array(w, float), self.operator.t
+        self._last_turn = np.zeros_like(self.direction)  # a new step's turns
 
     def nodal(self, values: np.ndarray) -> np.ndarray:
         """Point values (points x k) at the nodes, weighted by the points' areas."""

@@ -347,10 +347,14 @@ class ContactIteration:
         if self._correction is not None:
             self._keep_released_out(new, start, released, held_in)
         changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
+        # Stick and slip are judged on the solve itself, not on its end state: an order's
+        # iterates settle a releasing interface's walls only when taken whole, and a slip
+        # direction judged on both kinds went round between them (an oblique impact).
+        solved = self._solved if self._correction is not None else end
         for z in self.zones:  # a point between stick and slip is a contact state change too
             friction = getattr(z.operator, "friction", None)
             name = z.contact.name
-            if friction is not None and friction.decide(z.gather(end), new[name]):
+            if friction is not None and friction.decide(z.gather(solved), new[name]):
                 changed += [] if name in changed else [name]
         return new, changed
 
