@@ -251,9 +251,13 @@ class Friction:
         weighted = points.N.T @ (points.weight[:, None] * values)
         return weighted / np.maximum(points.lumped, 1e-300)[:, None]
 
-    def start_force(self) -> np.ndarray:
-        """The friction force on the surface dofs at the start of the step (its history)."""
-        return self._E.T @ (self.operator.points.weight[:, None] * self.traction).ravel()
+    def start_force(self, points: np.ndarray | None = None) -> np.ndarray:
+        """The friction force on the surface dofs at the start of the step (its history).
+
+        ``points``: only these points' (a mask; default all).
+        """
+        a = self.operator.points.weight if points is None else self.operator.points.weight * points
+        return self._E.T @ (a[:, None] * self.traction).ravel()
 
     def energy(self, w: np.ndarray) -> float:
         """The tangential penalty's stored energy ``(eps_T / 2) int |t|^2``."""

@@ -238,6 +238,10 @@ class StartForces:
                 continue
             both = {name: self.start[name] & active[name]}
             remaining = self._point_forces(z, np.where(leaving, kept, 0))
+            if (friction := getattr(z.operator, "friction", None)) is not None:
+                # its start traction stays whole in the step's mean force, as the
+                # dissipation counts it (Friction.commit)
+                remaining -= z.free * friction.start_force(leaving)
             start = z.gather(self.x) - self._surface_at_start(z, both, remaining)
             shift = z.scatter(start, self.system.sizes)
             if self.system.stiff_ties:
