@@ -76,8 +76,8 @@ def friction(value: Any, what: str, pair_side: bool) -> float:
         )
     if value > 0 and pair_side:
         raise InputError(
-            f"{what}: friction between two bodies (a side of a ContactPair) is not built "
-            "yet; give friction only on contacts with a rigid obstacle"
+            f"{what}: a side of a ContactPair has no friction of its own: friction between "
+            "two bodies is the pair's, give it there (ContactPair(a, b, friction=mu))"
         )
     return float(value)
 

@@ -132,9 +132,9 @@ def test_bad_friction(bad):
 
 
 def test_friction_on_pair_side_refused():
-    """Friction between bodies (a pair side) is not built yet: said so."""
+    """A pair side has no friction of its own: the message says it is the pair's."""
     a = blocks("single")[0]
-    with pytest.raises(InputError, match="not built yet"):
+    with pytest.raises(InputError, match="friction between two bodies is the pair's"):
         ContactInterface.from_boundary(a, locator(0, 0.0), None, friction=0.2)
 
 

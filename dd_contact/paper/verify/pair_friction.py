@@ -1,0 +1,124 @@
+"""The sliding pair: Coulomb friction between two bodies against its closed form.
+
+Block B [0,1]^2 x [0.25,0.5] (3x3x2 hexahedra) is pressed by a uniform pressure q on its
+top (N = q A) on block A [0,1]^2 x [0,0.25] (4x4x2 hexahedra: the surfaces do not match),
+whose base is held. B's top is held in y and moved along x in load steps: the tangential
+load T is the friction force of A on B. Below mu N the contact sticks but at its corners;
+once the whole face slides, T = mu N exactly. The pair's side a is B's bottom (the coarser
+side), b is A's top. Scenes: ``"single"`` (FULL, w-u) and ``"interface"``, A cut in two
+subdomains tied through an interface (FULL, v-w-u, w-v-u).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+from mpi4py import MPI
+
+import numpy as np
+
+from dd_contact import meshes
+from dd_contact.paper.verify.friction import MATERIAL, PRESSURE, watch_balance
+from dd_contact.paper.verify.models import locator
+from dd_contact.problem import StaticProblem, TransientProblem
+from dd_contact.scene import ContactInterface, ContactPair, Interface, Scene
+from dd_contact.subdomains import Subdomain
+
+__all__ = ["PAIR_SCENES", "PUSH", "pair_balance", "pair_scene", "sliding_pair"]
+
+#: Scene kinds of :func:`pair_scene` and the algorithms each is solved with.
+PAIR_SCENES = {"single": ("FULL", "w-u"), "interface": ("FULL", "v-w-u", "w-v-u")}
+
+#: Height of each block; B's top travels PUSH along x per unit of time (the centre of the
+#: contact sticks longer than its edges: A's top shears with it, unlike a rigid plane).
+HEIGHT, PUSH = 0.25, 5e-5
+
+
+def _lower(kind: str) -> tuple[list[Subdomain], Interface | None]:
+    """Block A, its base held: one subdomain, or two tied through an interface at mid-height."""
+    if kind == "single":
+        mesh = meshes.box(MPI.COMM_SELF, [0, 0, 0], [1, 1, HEIGHT], [4, 4, 2])
+        return [Subdomain(mesh, MATERIAL, "A").fix(locator(2, 0.0))], None
+    cuts = [0.0, HEIGHT / 2, HEIGHT]
+    parts = [
+        Subdomain(meshes.box(MPI.COMM_SELF, [0, 0, z0], [1, 1, z1], [4, 4, 1]), MATERIAL, f"A{i}")
+        for i, (z0, z1) in enumerate(itertools.pairwise(cuts))
+    ]
+    parts[0].fix(locator(2, 0.0))
+    where = locator(2, HEIGHT / 2)
+    surface = meshes.surface_from_boundary(parts[0].mesh, where, comm=MPI.COMM_SELF)
+    return parts, Interface(surface, parts)
+
+
+def pair_scene(
+    kind: str, mu: float, comm: MPI.Comm = MPI.COMM_WORLD, speed: float | None = None, **options
+) -> Scene:
+    """B pressed on A in a ContactPair with friction ``mu`` (``options``: the pair's).
+
+    B's top moves by ``PUSH`` along x per unit of time: solve at t = 1, 2, ... ``speed``:
+    instead, B's top is free and B starts moving along x at ``speed`` (for a dynamic run).
+    """
+    lower, interface = _lower(kind)
+    top = 2 * HEIGHT
+    mesh = meshes.box(MPI.COMM_SELF, [0, 0, HEIGHT], [1, 1, top], [3, 3, 2])
+    upper = Subdomain(mesh, MATERIAL, "B")
+    if speed is None:
+        upper.fix(locator(2, top), components=[0, 1], value=lambda x, t: (PUSH * t, 0.0, 0.0))
+    else:
+        upper.velocity.interpolate(lambda x: np.vstack([speed + 0 * x[0], 0 * x[0], 0 * x[0]]))
+    upper.add_traction(locator(2, top), [0.0, 0.0, -PRESSURE])
+    a = ContactInterface.from_boundary(upper, locator(2, HEIGHT), None, name="bottom")
+    b = ContactInterface.from_boundary(lower[-1], locator(2, HEIGHT), None, name="top")
+    pair = ContactPair(a, b, friction=mu, name="base", **options)
+    return Scene(comm, [*lower, upper], interface, contacts=[pair])
+
+
+def sliding_pair(
+    kind: str,
+    algorithm: str,
+    mu: float,
+    steps: int,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+    **options,
+) -> dict:
+    """Load steps of B's travel; per step N, T, the slip and the points slipping.
+
+    Returns ``N``, ``T`` (per step, A's force on B: normal, along x), ``slip`` (the largest
+    accumulated slip of a point), ``slipping`` (points slipping), ``dissipated`` (per step),
+    ``changes`` (contact state changes over the run), ``u`` (every subdomain displacement
+    after the last step) and ``w`` (the contact surfaces', on the pair's rank).
+    """
+    scene = pair_scene(kind, mu, comm, **options)
+    problem = StaticProblem(scene, algorithm=algorithm)
+    out: dict = {"N": [], "T": [], "slip": [], "slipping": [], "dissipated": []}
+    zone = problem.analysis.zones[0] if problem.analysis.zones else None
+    friction = None if zone is None else zone.operator.friction
+    for step in range(1, steps + 1):
+        problem.solve(float(step))
+        force = problem.contact_forces()["base"]
+        out["N"].append(float(force[2]))
+        out["T"].append(float(force[0]))
+        slip = 0.0 if friction is None else float(np.abs(friction.slip).max())
+        out["slip"].append(slip)
+        out["slipping"].append(0 if friction is None else int(np.sum(friction.state == 2)))
+        out["dissipated"].append(0.0 if friction is None else friction.dissipation)
+    out["changes"] = problem.changes["gamma"]
+    out["u"] = np.concatenate([s.u.x.array for s in scene.subdomains])
+    out["w"] = np.concatenate([c.w.x.array for c in scene.contacts])  # its owner's
+    problem.close()
+    return out
+
+
+def pair_balance(
+    kind: str, algorithm: str, mu: float, steps: int, comm: MPI.Comm = MPI.COMM_WORLD, **options
+) -> list[dict]:
+    """B thrown along A (0.1 m/s) under its top pressure, with inertia (dt = 1 ms).
+
+    Per step the books of :func:`~dd_contact.paper.verify.friction.watch_balance`.
+    """
+    scene = pair_scene(kind, mu, comm, speed=0.1, **options)
+    problem = TransientProblem(scene, 1e-3, algorithm=algorithm)
+    out = watch_balance(problem, False)
+    problem.run(steps, progress=False, summary=False)
+    problem.close()
+    return out
