@@ -259,8 +259,8 @@ class PairFriction(Friction):
 
     Each point's slip is its displacement relative to the other side's at its projection
     (``PairOperator.relative``), so the tangential terms couple both w blocks; the penalty
-    weights are the points' (half each way when unbiased), as the normal term's. Nothing
-    moves the other side rigidly: no obstacle work.
+    weights are the points', as the normal term's. Nodal points taken one way only
+    (``arguments.pair_friction``). Nothing moves the other side rigidly: no obstacle work.
     """
 
     def __init__(self, operator: PairOperator, mu: float, epsilon: float):

@@ -438,7 +438,7 @@ class ContactPair:
             )
         arguments.choice(points, CONTACT_POINTS, f"ContactPair {name!r}: points")
         arguments.tolerance(tolerance, f"ContactPair {name!r}")
-        self.friction = arguments.friction(friction, f"ContactPair {name!r}", False)
+        self.friction = arguments.pair_friction(friction, f"ContactPair {name!r}", points, unbiased)
         self.a, self.b, self.name, self.points, self.tolerance = a, b, name, points, tolerance
         self.unbiased = bool(unbiased)
         self.contact_penalty = Penalty(kappa=kappa, epsilon=epsilon)

@@ -104,6 +104,14 @@ def test_bad_pair_friction(bad):
         ContactPair(a, b, friction=bad, name="p")
 
 
+@pytest.mark.parametrize("options", [{"unbiased": True}, {"points": "quadrature"}])
+def test_friction_on_points_it_is_not_built_for_is_refused(options):
+    """Unbiased or quadrature points with friction: refused, saying what works."""
+    with pytest.raises(InputError, match="use the default points='nodes', unbiased=False"):
+        pair_scene("single", MU, **options)
+    assert pair_scene("single", 0.0, **options).pairs[0].friction == 0.0  # frictionless: as before
+
+
 def test_friction_on_a_pair_side_says_to_give_it_to_the_pair():
     """A side has no friction of its own: the message says where it goes."""
     upper = pair_scene("single", 0.0).pairs[0].a.subdomain
