@@ -173,6 +173,7 @@ def test_both_sides_write_their_slip_and_traction(tmp_path):
     stored = load_results(tmp_path)
     for side, sign in (("bottom", -1.0), ("top", 1.0)):
         fields = stored.arrays(STEPS, f"w_{side}")
+        assert f"gap_{side}" not in fields  # the gap is the pair's (it failed here before)
         assert np.allclose(fields[f"stick_{side}"], SLIP, rtol=1e-12)  # the whole face slides
         traction = fields[f"traction_{side}"].reshape(-1, 3)
         pressure = fields[f"pressure_{side}"]

@@ -19,12 +19,19 @@ import numpy as np
 
 from dd_contact import meshes
 from dd_contact.paper.verify.friction import MATERIAL, PRESSURE, watch_balance
-from dd_contact.paper.verify.models import locator
+from dd_contact.paper.verify.models import Record, locator, record
 from dd_contact.problem import StaticProblem, TransientProblem
 from dd_contact.scene import ContactInterface, ContactPair, Interface, Scene
 from dd_contact.subdomains import Subdomain
 
-__all__ = ["PAIR_SCENES", "PUSH", "pair_balance", "pair_scene", "sliding_pair"]
+__all__ = [
+    "PAIR_SCENES",
+    "PUSH",
+    "case_sliding_pair",
+    "pair_balance",
+    "pair_scene",
+    "sliding_pair",
+]
 
 #: Scene kinds of :func:`pair_scene` and the algorithms each is solved with.
 PAIR_SCENES = {"single": ("FULL", "w-u"), "interface": ("FULL", "v-w-u", "w-v-u")}
@@ -122,3 +129,43 @@ def pair_balance(
     problem.run(steps, progress=False, summary=False)
     problem.close()
     return out
+
+
+def _run_records(kind: str, algorithm: str, run: dict, full: dict, mu: float) -> list[Record]:
+    """T = mu N sliding, no slip below mu N / 2, the steady dissipation, against FULL."""
+    name, case = f"{kind}, {algorithm}", "sliding-pair"
+    N, T = np.abs(run["N"]), np.abs(run["T"])
+    out = [record(case, f"T / (mu N) sliding, {name}", T[-1] / (mu * N[-1]), 1.0, 1e-6)]
+    slip = float(np.max(np.array(run["slip"])[T < 0.5 * mu * N], initial=0.0))
+    # value: 1 + the largest slip while T < mu N / 2; reference: no slip at all
+    out.append(record(case, f"1 + slip [m] below mu N / 2, {name}", 1.0 + slip, 1.0, 0.0))
+    # sliding steadily, each step dissipates mu N times B's push
+    steady = run["dissipated"][-1] / (mu * N[-1] * PUSH)
+    out.append(record(case, f"dissipation / (mu N push), {name}", steady, 1.0, 1e-6))
+    if run is not full:
+        error = float(np.linalg.norm(run["u"] - full["u"]) / np.linalg.norm(full["u"]))
+        out.append(record(case, f"1 + |u - u_FULL| / |u|, {name}", 1.0 + error, 1.0, 1e-8))
+    return out
+
+
+def case_sliding_pair() -> list[Record]:
+    """The sliding pair in every algorithm that fits; mu -> 0; the books with inertia."""
+    mu, steps, records = 0.3, 20, []
+    for kind, algorithms in PAIR_SCENES.items():
+        runs = {a: sliding_pair(kind, a, mu, steps) for a in algorithms}
+        for algorithm, run in runs.items():
+            records += _run_records(kind, algorithm, run, runs["FULL"], mu)
+    plain, tiny = (sliding_pair("single", "w-u", m, 2)["u"] for m in (0.0, 1e-10))
+    error = float(np.linalg.norm(tiny - plain) / np.linalg.norm(plain))
+    quantity = "1 + |u(mu=1e-10) - u(mu=0)| / |u|, single, w-u"
+    records.append(record("sliding-pair", quantity, 1.0 + error, 1.0, 1e-8))
+    books = pair_balance("single", "w-u", mu, 30)
+    # value: 1 + the most negative dissipation of a step, relative to the largest (none)
+    least = min(s["dissipated"] for s in books) / max(s["dissipated"] for s in books)
+    quantity = "1 + max(0, -min dissipation) / max, w-u"
+    records.append(record("sliding-pair", quantity, 1.0 + max(0.0, -least), 1.0, 0.0))
+    settled = [s for s in books if s["changes"] == 0]
+    worst = max(abs(s["residual"]) / s["total"] for s in settled)
+    quantity = "1 + |energy balance| / energy, steps without a change, w-u"
+    records.append(record("sliding-pair", quantity, 1.0 + worst, 1.0, 1e-8))
+    return records
