@@ -37,7 +37,7 @@ import scipy.sparse as sp
 from dd_contact import coupling
 from dd_contact.contact import ContactOperator, ContactPoints, mean_cell_size, outward_normals
 from dd_contact.errors import InputError
-from dd_contact.friction import SLIP, TANGENTIAL_PENALTY, Friction
+from dd_contact.friction import SLIP, STICK, TANGENTIAL_PENALTY, Friction
 from dd_contact.scene import ContactPair
 
 __all__ = [
@@ -269,6 +269,19 @@ class PairFriction(Friction):
 
     def _moved(self) -> np.ndarray:
         return np.zeros(3)
+
+    def decide(self, w: np.ndarray, active: np.ndarray) -> bool:
+        """:meth:`Friction.decide`; a point whose slip direction turned against itself sticks.
+
+        Its relative motion went through zero: slipping either way the solve overshot.
+        """
+        before = self.direction.copy()
+        changed = super().decide(w, active)
+        back = np.einsum("pd,pd->p", self.direction, before) < 0.0
+        if back.any():
+            self.state[back] = STICK
+            self.direction[back], self.scale[back] = 0.0, 0.0
+        return changed
 
     def _made(self, active: np.ndarray) -> tuple[sp.csr_array, np.ndarray]:
         """:meth:`Friction._made`, a slipping point pressed by the pair's own penetration.

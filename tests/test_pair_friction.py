@@ -15,12 +15,13 @@ import pytest
 from friction_checks import assert_resumed_is_whole, assert_sticks_below_half
 
 from dd_contact.errors import EnergyGrowthWarning, InputError
-from dd_contact.friction import DIRECTION_TOLERANCE, SLIP
+from dd_contact.friction import DIRECTION_TOLERANCE, SLIP, STICK
 from dd_contact.paper.verify.pair_friction import (
     PAIR_SCENES,
     PUSH,
     pair_balance,
     pair_scene,
+    pressed_pair,
     sliding_pair,
 )
 from dd_contact.problem import StaticProblem, TransientProblem
@@ -87,6 +88,37 @@ def test_mu_zero_is_the_frictionless_pair(algorithm):
     with StaticProblem(pair_scene("single", MU), algorithm=algorithm) as problem:
         region = problem.analysis.zones[0].region
         assert not region.symmetric and region.history
+
+
+def _pressed(kind: str, algorithm: str, push: float) -> tuple[list, int, np.ndarray]:
+    """Each step's contact iterations, the changes and the displacements of a pressed pair."""
+    with StaticProblem(pressed_pair(kind, MU, 6, 10, push), algorithm=algorithm) as problem:
+        iterations = []
+        for step in range(1, 11):
+            problem.solve(float(step))
+            iterations.append(problem.iterations)
+        assert (problem.analysis.zones[0].operator.friction.state == STICK).any()
+        u = np.concatenate([sub.u.x.array for sub in problem.scene.subdomains])
+        return iterations, problem.changes["gamma"], u
+
+
+@pytest.mark.parametrize(("kind", "orders"), [("single", ["w-u"]), ("interface", ["v-w-u"])])
+@pytest.mark.parametrize("push", [0.0, 2e-5])
+def test_a_pair_closing_with_friction_settles_and_follows_full(kind, orders, push):
+    """B pressed on A with a tilt, its points closing row by row while they slide along
+    (nu = 0.3; and pushed along x): every step settles, the orders follow FULL's path.
+
+    Without turning a point whose slip direction reversed into a sticking one
+    (``PairFriction.decide``), the directions of the slipping points reversed at every
+    iteration and the iteration did not settle (w-u: at step 7 pressed, at step 8 pressed
+    and pushed; on 8x8 cells at step 8 both).
+    """
+    iterations, changes, full = _pressed(kind, "FULL", push)
+    assert max(iterations) < 20 and changes >= 10
+    for algorithm in orders:
+        mine, theirs, u = _pressed(kind, algorithm, push)
+        assert (mine, theirs) == (iterations, changes)
+        assert np.linalg.norm(u - full) <= 1e-8 * np.linalg.norm(full)
 
 
 @pytest.mark.parametrize("bad", [-0.1, float("nan"), float("inf"), "0.3", True])

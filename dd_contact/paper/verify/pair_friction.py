@@ -22,7 +22,7 @@ from dd_contact.paper.verify.friction import MATERIAL, PRESSURE, watch_balance
 from dd_contact.paper.verify.models import Record, locator, record
 from dd_contact.problem import StaticProblem, TransientProblem
 from dd_contact.scene import ContactInterface, ContactPair, Interface, Scene
-from dd_contact.subdomains import Subdomain
+from dd_contact.subdomains import Material, Subdomain
 
 __all__ = [
     "PAIR_SCENES",
@@ -30,6 +30,7 @@ __all__ = [
     "case_sliding_pair",
     "pair_balance",
     "pair_scene",
+    "pressed_pair",
     "sliding_pair",
 ]
 
@@ -77,6 +78,57 @@ def pair_scene(
     a = ContactInterface.from_boundary(upper, locator(2, HEIGHT), None, name="bottom")
     b = ContactInterface.from_boundary(lower[-1], locator(2, HEIGHT), None, name="top")
     pair = ContactPair(a, b, friction=mu, name="base", **options)
+    return Scene(comm, [*lower, upper], interface, contacts=[pair])
+
+
+#: The pressed pair's gap and the tilt of its press (the contact closes from x = 1).
+GAP = 1e-4
+
+
+def pressed_pair(
+    kind: str,
+    mu: float,
+    cells: int = 8,
+    steps: int = 10,
+    push: float = 0.0,
+    comm: MPI.Comm = MPI.COMM_WORLD,
+) -> Scene:
+    """B a gap above A, its top pressed down with a tilt: the contact closes row by row.
+
+    A has ``cells`` x ``cells`` x 4 hexahedra (``"interface"``: two subdomains of 2 layers),
+    B one cell fewer across (non-matching); nu = 0.3, so the points slide along each other
+    as they close. B's top reaches A at x = 1 at t = steps / 2 and about x = 1/3 at
+    t = steps, and moves ``push`` along x per unit of time. Solve at t = 1, ..., steps.
+    """
+    material = Material(MATERIAL.E, 0.3, MATERIAL.rho)
+    cuts = [0.0, HEIGHT] if kind == "single" else [0.0, HEIGHT / 2, HEIGHT]
+    layers = 4 // (len(cuts) - 1)
+    lower = [
+        Subdomain(
+            meshes.box(MPI.COMM_SELF, [0, 0, z0], [1, 1, z1], [cells, cells, layers]),
+            material,
+            f"A{i}",
+        )
+        for i, (z0, z1) in enumerate(itertools.pairwise(cuts))
+    ]
+    lower[0].fix(locator(2, 0.0))
+    interface = None
+    if kind == "interface":
+        where = locator(2, HEIGHT / 2)
+        surface = meshes.surface_from_boundary(lower[0].mesh, where, comm=MPI.COMM_SELF)
+        interface = Interface(surface, lower)
+    bottom, top = HEIGHT + GAP, 2 * HEIGHT + GAP
+    mesh = meshes.box(MPI.COMM_SELF, [0, 0, bottom], [1, 1, top], [cells - 1, cells - 1, 4])
+    upper = Subdomain(mesh, material, "B")
+
+    def pressed(x, t):
+        down = -2.0 * GAP * t / steps * (0.25 + 0.75 * x[0])
+        return np.stack([push * t + 0 * x[0], 0 * x[0], down])
+
+    upper.fix(locator(2, top), value=pressed)
+    a = ContactInterface.from_boundary(upper, locator(2, bottom), None, name="bottom")
+    b = ContactInterface.from_boundary(lower[-1], locator(2, HEIGHT), None, name="top")
+    pair = ContactPair(a, b, friction=mu, name="base")
     return Scene(comm, [*lower, upper], interface, contacts=[pair])
 
 
