@@ -28,13 +28,10 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import statistics
-import subprocess
-import sys
 from pathlib import Path
 
-from decomposition_speed import PINNED
+from decomposition_speed import interleaved, timed_iterations
 
 HERE = Path(__file__).parent / "results"
 #: Scene of each algorithm: the lower block whole, or cut in two with an interface.
@@ -53,7 +50,6 @@ def scene(kind: str, cells: int, mu: float, steps: int):
 def worker(args) -> dict:
     """One run of one algorithm and mu (in its own process, BLAS already pinned)."""
     import resource
-    import time
 
     import dd_contact as dd
 
@@ -61,16 +57,7 @@ def worker(args) -> dict:
     problem = dd.StaticProblem(
         scene(ALGORITHMS[algorithm], args.cells, args.mu, args.steps), algorithm=algorithm
     )
-    iterations: list[float] = []
-    solve_once = problem.iteration._solve_once
-
-    def timed(*a):
-        t0 = time.perf_counter()
-        out = solve_once(*a)
-        iterations.append(time.perf_counter() - t0)
-        return out
-
-    problem.iteration._solve_once = timed  # type: ignore[method-assign]
+    iterations = timed_iterations(problem)
     steps, failed = [], None
     for step in range(1, args.steps + 1):
         iterations.clear()
@@ -132,17 +119,8 @@ def main() -> None:
     if args.worker:
         print(json.dumps(worker(args)))
         return
-    env = {**os.environ, **PINNED}
-    runs: dict[str, list] = {}
-    for repeat in range(args.repeats):
-        for algorithm in args.algorithms:
-            for mu in (0.0, args.mu):  # interleaved: the pair shares the machine's state
-                command = [sys.executable, __file__, "--worker", algorithm, "--mu", str(mu)]
-                command += ["--cells", str(args.cells), "--steps", str(args.steps)]
-                print(f"run {repeat + 1}/{args.repeats}: {algorithm} mu={mu}", flush=True)
-                done = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
-                run = json.loads(done.stdout.strip().splitlines()[-1])
-                runs.setdefault(f"{algorithm} mu={mu:g}", []).append(run)
+    options = ["--cells", str(args.cells), "--steps", str(args.steps)]
+    runs = interleaved(__file__, args, options, (0.0, args.mu))
     summary = summarise(args, runs)
     out = Path(args.out)
     out.write_text(
