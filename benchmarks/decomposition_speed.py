@@ -102,16 +102,7 @@ def worker(args) -> dict:
     )
     problem.start()
     setup = time.perf_counter() - start
-    iterations: list[float] = []
-    solve_once = problem.iteration._solve_once
-
-    def timed(*a):
-        t0 = time.perf_counter()
-        out = solve_once(*a)
-        iterations.append(time.perf_counter() - t0)
-        return out
-
-    problem.iteration._solve_once = timed
+    iterations = timed_iterations(problem)
     steps = []
     for _ in range(n_steps):
         iterations.clear()
@@ -150,6 +141,42 @@ def worker(args) -> dict:
         "changes": problem.changes["gamma"],
         "check": float(np.linalg.norm(scene.subdomains[0].u.x.array)),
     }
+
+
+def timed_iterations(problem) -> list[float]:
+    """The seconds of each contact iteration of ``problem`` from now on: a list it fills."""
+    iterations: list[float] = []
+    solve_once = problem.iteration._solve_once
+
+    def timed(*a):
+        t0 = time.perf_counter()
+        out = solve_once(*a)
+        iterations.append(time.perf_counter() - t0)
+        return out
+
+    problem.iteration._solve_once = timed
+    return iterations
+
+
+def interleaved(script: str, args, options: list[str], mus: tuple[float, ...]) -> dict:
+    """Runs of ``script``'s workers: per repeat and algorithm one per friction of ``mus``.
+
+    Interleaved (the pair shares the machine's state), each its own process with BLAS
+    pinned; ``options``: the worker's other arguments. By ``"<algorithm> mu=<mu>"``.
+    """
+    env = {**os.environ, **PINNED}
+    runs: dict[str, list] = {}
+    for repeat in range(args.repeats):
+        for algorithm in args.algorithms:
+            for mu in mus:
+                command = [sys.executable, script, "--worker", algorithm, "--mu", str(mu)]
+                print(f"run {repeat + 1}/{args.repeats}: {algorithm} mu={mu}", flush=True)
+                done = subprocess.run(
+                    command + options, env=env, capture_output=True, text=True, check=True
+                )
+                run = json.loads(done.stdout.strip().splitlines()[-1])
+                runs.setdefault(f"{algorithm} mu={mu:g}", []).append(run)
+    return runs
 
 
 def derived(run: dict) -> dict:

@@ -76,10 +76,24 @@ def friction(value: Any, what: str, pair_side: bool) -> float:
         )
     if value > 0 and pair_side:
         raise InputError(
-            f"{what}: friction between two bodies (a side of a ContactPair) is not built "
-            "yet; give friction only on contacts with a rigid obstacle"
+            f"{what}: a side of a ContactPair has no friction of its own: friction between "
+            "two bodies is the pair's, give it there (ContactPair(a, b, friction=mu))"
         )
     return float(value)
+
+
+def pair_friction(value: Any, what: str, points: str, unbiased: bool) -> float:
+    """A pair's Coulomb coefficient, on the scheme friction is built for (nodes, one way)."""
+    mu = friction(value, what, False)
+    if mu > 0 and (points != "nodes" or unbiased):
+        scheme = "unbiased=True" if unbiased else f"points={points!r}"
+        raise InputError(
+            f"{what}: friction with {scheme} is not supported: those points carry more "
+            "conditions than the surfaces have dofs, their pressures and tangential tractions "
+            "scatter point to point and the stick/slip iteration does not settle; use the "
+            "default points='nodes', unbiased=False with friction (docs/contact.md, 'Friction')"
+        )
+    return mu
 
 
 def choice(value: Any, allowed: Sequence[str], argument: str) -> None:

@@ -357,10 +357,10 @@ class PairZone(ContactZone):
 
     @property
     def region(self) -> ContactRegion:
-        """The region of both blocks: its matrix is numbered a's dofs, then b's."""
-        pattern = self.operator.pattern()
-        a, b = self.block, self.partner
-        return ContactRegion(self.contact.name, a, self.dofs, pattern, b, self.partner_dofs)
+        """Both blocks' region (its matrix numbered a's dofs, then b's; friction: unsymmetric)."""
+        a, b, plain = self.block, self.partner, self.operator.friction is None
+        parts = (self.contact.name, a, self.dofs, self.operator.pattern(), b, self.partner_dofs)
+        return ContactRegion(*parts, symmetric=plain, history=not plain)
 
 
 @dataclass

@@ -251,6 +251,11 @@ class Friction:
         weighted = points.N.T @ (points.weight[:, None] * values)
         return weighted / np.maximum(points.lumped, 1e-300)[:, None]
 
+    def fields(self) -> list[np.ndarray]:
+        """The nodal slip, tangential traction and stick/slip map (the output's)."""
+        state = self.state.astype(float)[:, None]
+        return [self.nodal(values) for values in (self.slip, self.traction, state)]
+
     def start_force(self, points: np.ndarray | None = None) -> np.ndarray:
         """The friction force on the surface dofs at the start of the step (its history).
 

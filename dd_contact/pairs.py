@@ -28,6 +28,7 @@ right-hand side are :class:`~dd_contact.contact.ContactOperator`'s, with this G.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any, cast
 
 import dolfinx.fem as fem
 import numpy as np
@@ -36,9 +37,17 @@ import scipy.sparse as sp
 from dd_contact import coupling
 from dd_contact.contact import ContactOperator, ContactPoints, mean_cell_size, outward_normals
 from dd_contact.errors import InputError
+from dd_contact.friction import SLIP, TANGENTIAL_PENALTY, Friction
 from dd_contact.scene import ContactPair
 
-__all__ = ["PairOperator", "PairQuadrature", "check_pair_geometry", "pair_operator"]
+__all__ = [
+    "PairFriction",
+    "PairOperator",
+    "PairQuadrature",
+    "SideFriction",
+    "check_pair_geometry",
+    "pair_operator",
+]
 
 #: Cosine between the two sides' outward normals above which cells do not face each other
 #: (facing cells have opposite normals: a cosine near -1).
@@ -134,15 +143,24 @@ def _point_operator(q: PairQuadrature) -> sp.csr_array:
     return sp.csr_array((values, (rows, cols)), shape=(N.shape[0], 3 * N.shape[1]))
 
 
-def _points(q: PairQuadrature, Sa: fem.FunctionSpace, scheme: str):
-    """The contact points of one way under ``scheme``: ``(points, G, gap, normal, to_gauss)``.
+def _relative(N: sp.sparray) -> sp.csr_array:
+    """Scalar point values ``N`` (points x nodes) as 3-vectors: rows 3 p + c, dofs 3 k + c."""
+    return sp.csr_array(sp.kron(N, sp.eye_array(3), format="csr"))
 
-    ``to_gauss`` interpolates a value of the points to the Gauss points.
+
+def _points(q: PairQuadrature, Sa: fem.FunctionSpace, scheme: str):
+    """The contact points of one way under ``scheme``.
+
+    Returns ``(points, G, gap, normal, to_gauss, relative)``: ``to_gauss`` interpolates a
+    value of the points to the Gauss points, ``relative`` gives each point's displacement
+    relative to b's (3 rows a point; friction's slip).
     """
     G = _point_operator(q)
+    jump = sp.hstack([q.Na, -q.Nb], format="csr")
     if scheme == "quadrature":
         points = ContactPoints(q.x, q.weight, q.Na, q.Na.T @ q.weight)
-        return points, G, q.gap, q.normal, sp.eye_array(len(q.weight), format="csr")
+        eye = sp.eye_array(len(q.weight), format="csr")
+        return points, G, q.gap, q.normal, eye, _relative(jump)
     lumped = q.Na.T @ q.weight  # a_i = int N_i over the intersection
     nodes = np.flatnonzero(lumped > 1e-12 * lumped.max(initial=0.0))
     # D = diag(1/a_i) N_i^T diag(w): the weighted average over each node's support
@@ -154,7 +172,8 @@ def _points(q: PairQuadrature, Sa: fem.FunctionSpace, scheme: str):
         (np.ones(len(nodes)), (np.arange(len(nodes)), nodes)), shape=(len(nodes), len(lumped))
     )
     points = ContactPoints(x, lumped[nodes], pick, lumped)
-    return points, sp.csr_array(D @ G), D @ q.gap, normal, sp.csr_array(q.Na)[:, nodes]
+    to_gauss = sp.csr_array(q.Na)[:, nodes]
+    return points, sp.csr_array(D @ G), D @ q.gap, normal, to_gauss, _relative(D @ jump)
 
 
 class PairOperator(ContactOperator):
@@ -165,7 +184,8 @@ class PairOperator(ContactOperator):
 
     Args:
         ways: Per way (a onto b; and b onto a if unbiased): the Gauss points, the contact
-            points, G (columns in the pair's order), gap, normal and ``to_gauss``.
+            points, G (columns in the pair's order), gap, normal, ``to_gauss`` and the
+            relative displacement (columns in the pair's order).
         epsilon: The contact penalty eps_C.
         split: Number of a's dofs.
     """
@@ -173,7 +193,7 @@ class PairOperator(ContactOperator):
     def __init__(self, ways: list, epsilon: float, split: int):
         share = 1.0 / len(ways)  # unbiased: half the penalty each way
         self.epsilon, self.split, self.t = float(epsilon), split, 0.0
-        self.ways = [(q, to_gauss) for q, _, _, _, _, to_gauss in ways]
+        self.ways = [(q, to_gauss) for q, _, _, _, _, to_gauss, _ in ways]
         self.points = ContactPoints(
             np.concatenate([p.x for _, p, *_ in ways]),
             share * np.concatenate([p.weight for _, p, *_ in ways]),
@@ -181,8 +201,10 @@ class PairOperator(ContactOperator):
             np.concatenate([p.lumped for _, p, *_ in ways]),
         )
         self.G = sp.csr_array(sp.vstack([G for _, _, G, *_ in ways]))
-        self.gap = np.concatenate([gap for *_, gap, _, _ in ways])
-        self.normal = np.concatenate([n for *_, n, _ in ways])
+        self.gap = np.concatenate([gap for *_, gap, _, _, _ in ways])
+        self.normal = np.concatenate([n for *_, n, _, _ in ways])
+        #: Each point's displacement relative to the other side's (3 rows a point)
+        self.relative = sp.csr_array(sp.vstack([r for *_, r in ways]))
         self.num_points, self.num_dofs = self.G.shape
 
     def update(self, t: float) -> None:
@@ -190,35 +212,109 @@ class PairOperator(ContactOperator):
         self.t = t
 
     def pattern(self) -> sp.csr_array:
-        """Every entry the contact matrix can fill (all points active)."""
+        """Every entry the contact matrix can fill (all points active; friction's too)."""
         S = sp.csr_array(self.G, copy=True)
+        if self.friction is not None:  # its blocks couple every component of a point's nodes
+            rows = sp.kron(sp.eye_array(self.num_points), np.ones((1, 3)))
+            S = sp.csr_array(rows @ abs(self.relative))
         S.data[:] = 1.0
         return sp.csr_array(S.T @ S)
 
     def force(self, w: np.ndarray) -> np.ndarray:
         """Total force b exerts on a (3-vector): the nodal contact forces on a, summed."""
         p = self.point_pressure(w) * self.points.weight
-        return -(self.G.T @ p)[: self.split].reshape(-1, 3).sum(axis=0)
+        nodal = -(self.G.T @ p)
+        if self.friction is not None:  # the tangential tractions on the points' sides
+            t = self.points.weight[:, None] * self.friction.tractions(w)
+            nodal = nodal + self.relative.T @ t.ravel()
+        return nodal[: self.split].reshape(-1, 3).sum(axis=0)
 
     def side_pressures(self, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Nodal contact pressure on a and on b (compression positive).
+        """Nodal contact pressure on a and on b (compression positive)."""
+        a, b = self.side_values(self.point_pressure(w)[:, None])
+        return a[:, 0], b[:, 0]
 
-        The points' pressure at the Gauss points, averaged over each node's support (both
-        ways together when unbiased).
+    def side_values(self, values: np.ndarray, opposite: float = 1.0) -> list[np.ndarray]:
+        """Point values ``(points, k)`` at each side's nodes: a's, then b's.
+
+        Interpolated to the Gauss points and averaged over each node's support (both ways
+        together when unbiased); on the side a way projects onto, times ``opposite`` (-1
+        for a traction or a slip: what one side feels, the other feels reversed).
         """
-        pressure = self.point_pressure(w)
         force: list = [0.0, 0.0]
         area: list = [0.0, 0.0]
         start = 0
         for i, (q, to_gauss) in enumerate(self.ways):
-            p = to_gauss @ pressure[start : start + to_gauss.shape[1]]
+            v = to_gauss @ values[start : start + to_gauss.shape[1]]
             start += to_gauss.shape[1]
             first, second = (0, 1) if i == 0 else (1, 0)
-            for side, N in ((first, q.Na), (second, q.Nb)):
-                force[side] = force[side] + N.T @ (q.weight * p)
+            for side, N, sign in ((first, q.Na, 1.0), (second, q.Nb, opposite)):
+                force[side] = force[side] + N.T @ (sign * q.weight[:, None] * v)
                 area[side] = area[side] + N.T @ q.weight
-        a, b = (f / np.maximum(s, 1e-300) for f, s in zip(force, area, strict=True))
-        return a, b
+        return [f / np.maximum(s, 1e-300)[:, None] for f, s in zip(force, area, strict=True)]
+
+
+class PairFriction(Friction):
+    """Coulomb friction between the two sides of a pair: the slip is relative.
+
+    Each point's slip is its displacement relative to the other side's at its projection
+    (``PairOperator.relative``), so the tangential terms couple both w blocks; the penalty
+    weights are the points', as the normal term's. Nodal points taken one way only
+    (``arguments.pair_friction``). Nothing moves the other side rigidly: no obstacle work.
+    """
+
+    def __init__(self, operator: PairOperator, mu: float, epsilon: float):
+        super().__init__(operator, mu, epsilon)
+        self._E, self._nodal = operator.relative, False
+
+    def _moved(self) -> np.ndarray:
+        return np.zeros(3)
+
+    def _made(self, active: np.ndarray) -> tuple[sp.csr_array, np.ndarray]:
+        """:meth:`Friction._made`, a slipping point pressed by the pair's own penetration.
+
+        The base presses a slipping point with ``n . (E z)``; a pair's penetration is
+        ``G z`` (each Gauss point's normal weighted over the point's support), which the
+        pressure and the law read: the difference is put back.
+        """
+        matrix, rhs = super()._made(active)
+        op = self.operator
+        slip = self._law(active) == SLIP
+        if not slip.any():
+            return matrix, rhs
+        k = np.where(slip, op.points.weight * self.mu / op.epsilon, 0.0)
+        p = len(k)
+        along = sp.csr_array(
+            ((k[:, None] * self.direction).ravel(), (np.arange(3 * p), np.repeat(np.arange(p), 3))),
+            shape=(3 * p, p),
+        )
+        normal = sp.csr_array(
+            (op.normal.ravel(), (np.repeat(np.arange(p), 3), np.arange(3 * p))), shape=(p, 3 * p)
+        )
+        pressed = sp.csr_array(normal @ self._E) - op.G
+        return sp.csr_array(matrix + self._E.T @ along @ pressed), rhs
+
+
+class SideFriction:
+    """One side's view of a pair's friction: its output fields (slip, traction, stick/slip).
+
+    The traction is the one on that side, the slip that side's relative to the other.
+    """
+
+    def __init__(self, operator: PairOperator, side: int):
+        self.operator, self.side = operator, side
+
+    def fields(self) -> list[np.ndarray]:
+        """The side's nodal slip, tangential traction and stick/slip map."""
+        f = self.operator.friction
+        assert f is not None
+        state = f.state.astype(float)[:, None]
+        values = [self.operator.side_values(v, -1.0) for v in (f.slip, f.traction)]
+        return [
+            values[0][self.side],
+            values[1][self.side],
+            self.operator.side_values(state)[self.side],
+        ]
 
 
 def _swap(G: sp.csr_array, first: int) -> sp.csr_array:
@@ -245,11 +341,16 @@ def pair_operator(pair: ContactPair, epsilon: float) -> PairOperator:
                 f"within {tol:.3g} in front of it with opposite outward normals; pair surfaces "
                 "that face each other across the contact, or raise the pair's tolerance"
             )
-        points, G, gap, normal, to_gauss = _points(q, first.V, pair.points)
+        points, G, gap, normal, to_gauss, relative = _points(q, first.V, pair.points)
         if first is b:
-            G = _swap(G, b.num_dofs)
-        ways.append((q, points, G, gap, normal, to_gauss))
-    return PairOperator(ways, epsilon, a.num_dofs)
+            G, relative = _swap(G, b.num_dofs), _swap(relative, b.num_dofs)
+        ways.append((q, points, G, gap, normal, to_gauss, relative))
+    operator = PairOperator(ways, epsilon, a.num_dofs)
+    if pair.friction > 0.0:
+        operator.friction = PairFriction(operator, pair.friction, TANGENTIAL_PENALTY * epsilon)
+        for i, side in enumerate(pair.sides):  # what their output fields read
+            cast(Any, side).friction_law = SideFriction(operator, i)
+    return operator
 
 
 def check_pair_geometry(operator: PairOperator, name: str, tolerance: float) -> None:

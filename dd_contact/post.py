@@ -177,17 +177,19 @@ def _contact_fields(contact: ContactInterface | ContactBoundary) -> MeshFields:
     )
 
     def refresh(t: float) -> None:
-        s, normal = contact.obstacle.gap_normal(x, t)
-        w = contact.w.x.array[: 3 * n].reshape(n, 3)
-        gap.x.array[:n] = s - np.einsum("ij,ij->i", w, normal)
+        if contact.obstacle is not None:  # a pair side's gap is the pair's, not a field
+            s, normal = contact.obstacle.gap_normal(x, t)
+            w = contact.w.x.array[: 3 * n].reshape(n, 3)
+            gap.x.array[:n] = s - np.einsum("ij,ij->i", w, normal)
         active.x.array[:n] = contact.pressure.x.array[:n] > 0.0
-        if friction is not None:
-            slip.x.array[: 3 * n] = friction.nodal(friction.slip).ravel()
-            traction.x.array[: 3 * n] = friction.nodal(friction.traction).ravel()
-            state.x.array[:n] = friction.nodal(friction.state.astype(float)[:, None]).ravel()
+        if friction is not None:  # a pair side's: what that side feels
+            for field, values in zip((slip, traction, state), friction.fields(), strict=True):
+                field.x.array[: values.size] = values.ravel()
 
     extra = [] if friction is None else [slip, traction, state]
-    return MeshFields(contact.w.name, [contact.w, contact.pressure, gap, active, *extra], refresh)
+    gaps = [] if contact.obstacle is None else [gap]
+    fields = [contact.w, contact.pressure, *gaps, active, *extra]
+    return MeshFields(contact.w.name, fields, refresh)
 
 
 def part_fields(

@@ -166,11 +166,8 @@ class Interface:
         for s in subdomains:
             arguments.instance(s, Subdomain, f"interface {name!r}: subdomains")
         arguments.tolerance(tolerance, f"interface {name!r}")
-        self.mesh = mesh
-        self.subdomains = list(subdomains)
-        self.penalty = Penalty(kappa=kappa, epsilon=epsilon)
-        self.tolerance = tolerance
-        self.name = name
+        self.mesh, self.subdomains, self.tolerance = mesh, list(subdomains), tolerance
+        self.penalty, self.name = Penalty(kappa=kappa, epsilon=epsilon), name
         self.V = fem.functionspace(mesh, ("Lagrange", 1, (3,)))
         self.v = fem.Function(self.V, name=f"v_{name}")
 
@@ -409,6 +406,7 @@ class ContactPair:
         tolerance: Largest initial gap at which points of the two surfaces face each other
             (default: the mean cell size of ``a``); farther apart they never touch.
         name: Name in messages and output (default ``"<a>-<b>"``).
+        friction: The Coulomb coefficient mu between the two surfaces (docs/contact.md).
     """
 
     def __init__(
@@ -421,6 +419,7 @@ class ContactPair:
         unbiased: bool = False,
         tolerance: float | None = None,
         name: str | None = None,
+        friction: float = 0.0,
     ):
         name = f"{getattr(a, 'name', '?')}-{getattr(b, 'name', '?')}" if name is None else name
         arguments.name(name, "ContactPair")
@@ -439,8 +438,9 @@ class ContactPair:
             )
         arguments.choice(points, CONTACT_POINTS, f"ContactPair {name!r}: points")
         arguments.tolerance(tolerance, f"ContactPair {name!r}")
-        self.a, self.b, self.name, self.points = a, b, name, points
-        self.unbiased, self.tolerance = bool(unbiased), tolerance
+        self.friction = arguments.pair_friction(friction, f"ContactPair {name!r}", points, unbiased)
+        self.a, self.b, self.name, self.points, self.tolerance = a, b, name, points, tolerance
+        self.unbiased = bool(unbiased)
         self.contact_penalty = Penalty(kappa=kappa, epsilon=epsilon)
         self.subdomain, self.sides = a.subdomain, (a, b)  # owned by side a's rank
 

@@ -92,3 +92,25 @@ def _nothing():
     import contextlib
 
     return contextlib.nullcontext()
+
+
+def test_the_pair_friction_cost_worker_counts_and_times_each_change(monkeypatch):
+    """benchmarks/pair_friction_cost.py: a small run of each kind; every change is a timed
+    contact iteration, and with friction each re-factorises the pair's group (LU).
+
+    Measured (6x6x4 and 5x5x4 cells): 7 changes without friction, 5 with, 5 factorisations
+    of the pair's group.
+    """
+    import argparse
+    import sys
+
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    script = _script("pair_friction_cost")
+    for mu in (0.0, 0.3):
+        run = script.worker(argparse.Namespace(worker="w-u", mu=mu, cells=6, steps=10))
+        timed = sum(len(step["iterations"]) - 1 for step in run["steps"])
+        assert run["changes"] == timed >= 3
+        pair = [f for f in run["factorisations"] if f[0] == "w:bottom+w:top"]
+        if mu:  # the low-rank update does not take unsymmetric changes: each re-factorises
+            assert len(pair) >= run["changes"]
+    assert "decomposition_speed" in sys.modules

@@ -8,6 +8,7 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from friction_checks import assert_resumed_is_whole, assert_sticks_below_half
 
 from dd_contact.errors import EnergyGrowthWarning, InputError, SingularMatrixError
 from dd_contact.friction import SLIP, Friction
@@ -49,15 +50,7 @@ def test_sliding_reaction_is_mu_n(runs, kind, algorithm):
 @pytest.mark.parametrize(("kind", "algorithm"), RUNS)
 def test_no_slip_below_half_mu_n(runs, kind, algorithm):
     """While T < mu N / 2 nothing slips: the face follows the plane (penalty compliance)."""
-    run = runs[(kind, algorithm)]
-    T, N = np.abs(run["T"]), np.abs(run["N"])
-    below = T < 0.5 * MU * N
-    assert below.sum() >= 3
-    assert np.all(np.array(run["slip"])[below] == 0.0)
-    assert np.all(np.array(run["slipping"])[below] == 0)
-    # sticking, T grows linearly with the plane's travel (elastic and penalty compliance)
-    steps = np.flatnonzero(below) + 1
-    assert np.allclose(T[below] / steps, T[0], rtol=1e-9)
+    assert_sticks_below_half(runs[(kind, algorithm)], MU)
 
 
 @pytest.mark.parametrize("kind", ["single", "interface"])
@@ -132,9 +125,9 @@ def test_bad_friction(bad):
 
 
 def test_friction_on_pair_side_refused():
-    """Friction between bodies (a pair side) is not built yet: said so."""
+    """A pair side has no friction of its own: the message says it is the pair's."""
     a = blocks("single")[0]
-    with pytest.raises(InputError, match="not built yet"):
+    with pytest.raises(InputError, match="friction between two bodies is the pair's"):
         ContactInterface.from_boundary(a, locator(0, 0.0), None, friction=0.2)
 
 
@@ -146,20 +139,7 @@ def test_resumed_sliding_run_is_the_uninterrupted_one(algorithm, tmp_path):
         scene = sliding_scene("interface", MU, MPI.COMM_SELF)
         return TransientProblem(scene, 1.0, algorithm=algorithm, inertia=False)
 
-    whole = problem()
-    whole.run(18, summary=False, progress=False)
-    problem().run(9, output=tmp_path, checkpoint_every=3, summary=False, progress=False)
-    resumed = problem()
-    resumed.run(18, output=tmp_path, resume=True, summary=False, progress=False)
-    slipping = [r["changes"] for r in whole.history]
-    assert sum(slipping[:9]) >= 1 and sum(slipping[9:]) >= 1  # slip began before and after
-    for mine, theirs in zip(resumed.scene.subdomains, whole.scene.subdomains, strict=True):
-        np.testing.assert_array_equal(mine.u.x.array, theirs.u.x.array)
-    assert [r["force"] for r in resumed.history] == [r["force"] for r in whole.history]
-    friction = resumed.analysis.zones[0].operator.friction
-    for name, value in whole.analysis.zones[0].operator.friction.arrays().items():
-        np.testing.assert_array_equal(friction.arrays()[name], value)
-    resumed.close(), whole.close()
+    assert_resumed_is_whole(problem, tmp_path)
 
 
 @pytest.mark.parametrize(("kind", "algorithm"), [("single", "w-u"), ("boundary", "FULL")])

@@ -18,6 +18,7 @@ from dd_contact.paper.verify.models import (
     record,
 )
 from dd_contact.paper.verify.orders import orders_agreement
+from dd_contact.paper.verify.pair_friction import case_sliding_pair
 from dd_contact.paper.verify.pairs import case_pair_bars, case_pair_patch, case_pair_spheres
 from dd_contact.paper.verify.reduced import case_reduced_modes, case_reduced_static
 
@@ -191,6 +192,7 @@ CASES: dict[str, Callable[[], list[Record]]] = {
     "reduced-static": case_reduced_static,
     "reduced-modes": case_reduced_modes,
     "sliding-block": case_sliding_block,
+    "sliding-pair": case_sliding_pair,
 }
 
 

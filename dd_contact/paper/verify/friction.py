@@ -33,6 +33,7 @@ __all__ = [
     "sliding_balance",
     "sliding_block",
     "sliding_scene",
+    "watch_balance",
 ]
 
 #: Scene kinds of :func:`sliding_scene` and the algorithms each is solved with.
@@ -146,6 +147,20 @@ def sliding_balance(
             block, locator(2, 0.0), plane, friction=mu, name="base"
         )
     problem = TransientProblem(Scene(comm, [block], contacts=[contact]), 1e-3, algorithm=algorithm)
+    out = watch_balance(problem, bool(drag))
+    problem.run(steps, progress=False, summary=False)
+    problem.close()
+    return out
+
+
+def watch_balance(problem: TransientProblem, moving: bool) -> list[dict]:
+    """Each step's books as ``problem``'s energy balance checks them, filled as it runs.
+
+    ``moving``: an obstacle moves (its work counted). Per step: ``changes``,
+    ``dissipated``, ``obstacle`` (the obstacle's work), ``slipping`` (points slipping),
+    ``total`` (the energy) and ``residual``, the energy now less the energy before, the
+    loads' and the obstacle's work and plus the dissipation.
+    """
     balance, out = problem.energy_balance, []
     zones = problem.analysis.zones
     friction = zones[0].operator.friction if zones else None
@@ -153,7 +168,7 @@ def sliding_balance(
 
     def watched(record, work, obstacle_work=lambda: 0.0):
         loads, moved = work()
-        obstacle = obstacle_work() if drag else 0.0  # this rank's
+        obstacle = obstacle_work() if moving else 0.0  # this rank's
         if balance.before is not None:
             energy = record["energy"]
             change = energy["total"] - balance.before - loads - obstacle
@@ -171,8 +186,6 @@ def sliding_balance(
         check(record, lambda: (loads, moved), lambda: obstacle)
 
     balance.check = watched  # type: ignore[method-assign]
-    problem.run(steps, progress=False, summary=False)
-    problem.close()
     return out
 
 
