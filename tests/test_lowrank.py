@@ -139,6 +139,7 @@ def _priced(monkeypatch, solve_price):
     monkeypatch.setattr(LowRankSurface, "update_seconds", lambda self, dofs, rank, r0: 0.0)
     monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: 1.0)
     monkeypatch.setattr(LowRankSurface, "solve_seconds", solve_price)
+    monkeypatch.setattr(LowRankSurface, "eigen_seconds", lambda self, M: 0.0)
 
 
 def test_a_change_is_re_factorised_when_its_corrected_solve_is_priced_above_that(monkeypatch):

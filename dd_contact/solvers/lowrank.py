@@ -51,6 +51,7 @@ from dd_contact.solvers.worklog import WorkLog
 __all__ = [
     "APPLICATIONS_UNMEASURED",
     "CAPACITANCE_RCOND",
+    "EIGEN_FACTORISATIONS",
     "REFINED",
     "REFINEMENTS",
     "REFINEMENTS_KEPT",
@@ -89,6 +90,12 @@ REFINED = 1e-16
 
 #: Refinements of a corrected solve at most (each one more pass through the chain).
 REFINEMENTS = 3
+
+#: A symmetric eigendecomposition with vectors (LAPACK's syevd, about 4 n^3 flops) priced
+#: as this many Cholesky factorisations (n^3 / 3): at a load reversal of the joint with
+#: elastic pins a change's cluster is the whole group, whose eigenproblem alone costs more
+#: than re-factorising it, so it is priced before it is solved.
+EIGEN_FACTORISATIONS = 12
 
 #: Woodbury applications (1 + refinements) a corrected solve is priced at before one was
 #: measured; then the mean of the last :data:`REFINEMENTS_KEPT` corrected solves'.
@@ -305,6 +312,8 @@ class LowRankSurface(Surface):
         if self.lu:  # friction: its changes are unsymmetric, its groups' factors LU
             return False
         dofs, M = self._delta(self.fresh, self.corrected)
+        if UPDATE_MARGIN * self.eigen_seconds(M) >= refactorise:
+            return False  # its eigenproblems alone cost more: not solved to be thrown away
         U, D = low_rank(M)
         if not len(D):  # the contact matrices are back to the corrected ones
             return True
@@ -314,6 +323,8 @@ class LowRankSurface(Surface):
         c = self._extended(self.correction, dofs, U, D)
         if c.conditioned < CAPACITANCE_RCOND[0] and self.correction.rank:
             dofs, M = self._delta(self.moved, self.factorised)
+            if UPDATE_MARGIN * self.eigen_seconds(M) >= refactorise:
+                return False
             U, D = low_rank(M)
             if not len(D):
                 self.correction, self.corrected = Correction(), dict(self.contact)
@@ -441,6 +452,15 @@ class LowRankSurface(Surface):
                 ops.append(Operation(grp.name, "dense_solve", n, max(r0 * rank // n, 1)))
         ops += 2 * [Operation(UPDATES, "dense_factor", r0 + rank)]  # an LU: twice the flops
         return self._price(ops)
+
+    def eigen_seconds(self, M: sp.csr_array) -> float:
+        """Price of :func:`low_rank` 's eigenproblems on ``M``.
+
+        One per connected cluster, :data:`EIGEN_FACTORISATIONS` Cholesky factorisations each.
+        """
+        _, labels = connected_components(M, directed=False)
+        clusters = [Operation(UPDATES, "dense_factor", int(n)) for n in np.bincount(labels)]
+        return EIGEN_FACTORISATIONS * self._price(clusters)
 
     def solve_seconds(self, applications: float | None = None) -> float:
         """Price of a corrected solve beyond a plain one (one pass through the chain).
