@@ -7,9 +7,11 @@ no clearance, solved statically at the load's peaks, alternately pulled and push
 press on the other, and the contact iteration passes through several contact states. The
 cost of a change is what it re-factorises: per solve, the seconds of the factorisations in
 its work log (``problem.work``: MUMPS numeric factorisations, dense factorisations, Schur
-complements, and a low-rank correction's work in their place: ``"dense_update"`` and the
-``what="lowrank"`` eliminations) over its contact state changes; beside it the wall time
-of a contact iteration (a solve's seconds over its iterations: re-factorisation and substitutions).
+complements, the condensation of a re-factorised group into the later levels
+(``what="condense"``: B^T A^-1 B), and a low-rank correction's work in their place:
+``"dense_update"`` and the ``what="lowrank"`` eliminations) over its contact state
+changes; beside it the wall time of a contact iteration (a solve's seconds over its
+iterations: re-factorisation and substitutions).
 Reported are the medians over the reversals (the first solve, which sets up, left out).
 Each algorithm runs in its own process with every BLAS
 pinned to one thread; its peak memory (max RSS) is reported too. The orders run twice:
@@ -18,6 +20,8 @@ it off ("... refactorise"); per solve the contact points and how many changed st
 
     python benchmarks/elastic_pin_cost.py                   # 6,7,4,34: 87,405 dofs
     python benchmarks/elastic_pin_cost.py --scale 3,2,1,4   # 5,460 dofs, seconds
+    python benchmarks/elastic_pin_cost.py --algorithms "FULL,v-w-u refactorise" \
+        --variants "all 10" --package /old/checkout --out DIR   # some, another checkout's
 
 Writes benchmarks/results/elastic_pin_cost.json (another scale's file is named after it)
 and prints a table.
@@ -55,7 +59,7 @@ FACTOR_KINDS = ("sparse_factor", "dense_factor", "schur", "dense_update")
 
 def change_work(record) -> bool:
     """Whether a work record is part of what a contact change costs (not a substitution)."""
-    return record.kind in FACTOR_KINDS or record.what == "lowrank"
+    return record.kind in FACTOR_KINDS or record.what in ("lowrank", "condense")
 
 
 def result_name(scale: str) -> str:
@@ -117,7 +121,7 @@ def one(algorithm: str, scale: str, reversals: int, variant: str) -> dict:
                             1 for q in factors if (q.kind, q.block) == (r.kind, r.block)
                         )
                         for r in factors
-                        if r.kind != "dense_update" and r.what != "lowrank"
+                        if r.kind in FACTOR_KINDS[:3]
                     },
                 }
             )
@@ -149,6 +153,8 @@ def main():
     parser.add_argument("--variant", default="all 10", help=argparse.SUPPRESS)
     parser.add_argument("--variants", default=",".join(VARIANTS), help="variants run")
     parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
+    parser.add_argument("--algorithms", default=",".join(ALGORITHMS), help="those run")
+    parser.add_argument("--package", help="checkout whose dd_contact the children import")
     args = parser.parse_args()
     if args.one:
         print(json.dumps(one(args.one, args.scale, args.reversals, args.variant)))
@@ -184,8 +190,10 @@ def main():
 def run_variant(variant: str, args) -> dict:
     """Every algorithm on one variant, each in a process of its own with BLAS pinned."""
     env = {**os.environ, **PINNED}
-    results = {}
-    for algorithm in ALGORITHMS:
+    if args.package:
+        env["PYTHONPATH"] = args.package
+    results, algorithms = {}, args.algorithms.split(",")
+    for algorithm in algorithms:
         command = [sys.executable, __file__, "--one", algorithm, "--scale", args.scale]
         command += ["--reversals", str(args.reversals), "--variant", variant]
         done = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
@@ -197,7 +205,7 @@ def run_variant(variant: str, args) -> dict:
         r["difference_to_full"] = float(difference / np.abs(reference).max())
         r["ratio_to_full"] = full["per_change_median"] / r["per_change_median"]
         r["iteration_ratio_to_full"] = full["per_iteration_median"] / r["per_iteration_median"]
-    best = min(ALGORITHMS[1:], key=lambda a: results[a]["per_change_median"])
+    best = min(algorithms[1:], key=lambda a: results[a]["per_change_median"])
     return {
         "pins": VARIANTS[variant],
         "dofs": full["dofs"],

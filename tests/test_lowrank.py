@@ -132,3 +132,55 @@ def test_low_rank_finds_the_rank_of_a_change_cluster_by_cluster():
     U, D = low_rank(sp.csr_array(M))
     assert len(D) == 5 and np.sum(D < 0) == 2
     assert np.abs(U @ np.diag(D) @ U.T - M).max() <= 1e-12 * np.abs(M).max()
+
+
+def _priced(monkeypatch, solve_price):
+    """Updates priced free against a re-factorisation of 1 s; corrected solves as told."""
+    monkeypatch.setattr(LowRankSurface, "update_seconds", lambda self, dofs, rank, r0: 0.0)
+    monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: 1.0)
+    monkeypatch.setattr(LowRankSurface, "solve_seconds", solve_price)
+    monkeypatch.setattr(LowRankSurface, "eigen_seconds", lambda self, M: 0.0)
+
+
+def test_a_change_is_re_factorised_when_its_corrected_solve_is_priced_above_that(monkeypatch):
+    """The update's price counts the corrected solve it makes (its refinements)."""
+    counts = {}
+    for price in (0.0, 2.0):
+        _priced(monkeypatch, lambda self, applications=None, p=price: p)
+        _, work, changes, _ = _run(
+            _tilted_scene(True, KAPPA, kappa=KAPPA)[0], "v-w-u", False, True, monkeypatch
+        )
+        counts[price] = (work.count("dense_update"), changes["gamma"])
+    assert counts[0.0][0] == counts[0.0][1] >= 2  # priced free: every change corrected
+    assert counts[2.0][0] == 0 and counts[2.0][1] >= 2
+
+
+def test_corrected_solves_re_factorise_once_they_cost_what_it_saved(always_update, monkeypatch):
+    """Each corrected solve priced 0.6 s against a 1 s re-factorisation: at most two follow
+    a correction (the dynamic bar keeps one for many quiet steps without the rule)."""
+    reference, _, _, _ = _run(
+        order_scenes.order_scene("interface", dynamic=True, kappa=KAPPA),
+        "v-w-u",
+        True,
+        False,
+        monkeypatch,
+    )
+    solves = {}
+    for rule in (False, True):
+        corrected = []
+
+        def price(self, applications=None):
+            if applications is None:
+                return 0.0
+            corrected.append(applications)
+            return 0.6
+
+        _priced(monkeypatch, price)
+        if not rule:
+            monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, b: np.inf)
+        scene = order_scenes.order_scene("interface", dynamic=True, kappa=KAPPA)
+        updated, work, _, _ = _run(scene, "v-w-u", True, True, monkeypatch)
+        _agree(updated, reference)
+        solves[rule] = (len(corrected), work.count("dense_update"))
+    assert solves[False][0] > 2 * solves[False][1] > 0
+    assert 0 < solves[True][0] <= 2 * solves[True][1]

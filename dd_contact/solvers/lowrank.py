@@ -18,9 +18,13 @@ correction is on the whole condensed surface system, so it is the same for every
 and a change re-factorises neither the interface nor the other groups.
 
 Changes accumulate until re-factorising the groups they make stale is priced cheaper than
-the correction (:meth:`LowRankSurface.update_seconds`, :data:`UPDATE_MARGIN`), or until a
-corrected solve's accuracy degrades: each one is refined with its true residual, and one
-whose backward error stays above :data:`UPDATE_TOLERANCE` re-factorises and solves again.
+the correction (:meth:`LowRankSurface.update_seconds`, :data:`UPDATE_MARGIN`, and the
+corrected solve's extra passes with the refinements the last ones took,
+:meth:`LowRankSurface.solve_seconds`), or until a corrected solve's accuracy degrades: each
+one is refined with its true residual, and one whose backward error stays above
+:data:`UPDATE_TOLERANCE` re-factorises and solves again. Every later solve pays those extra
+passes too: once they add up to the re-factorisation they saved, it is made
+(:meth:`LowRankSurface.factorise`), so a correction never costs more than twice that.
 
 Work log: the forward elimination's substitutions are ``"dense_solve"`` records with
 ``what="lowrank"``, each correction one ``"dense_update"`` record (size its rank): their count
@@ -45,9 +49,12 @@ from dd_contact.solvers.surface import Surface
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
+    "APPLICATIONS_UNMEASURED",
     "CAPACITANCE_RCOND",
+    "EIGEN_FACTORISATIONS",
     "REFINED",
     "REFINEMENTS",
+    "REFINEMENTS_KEPT",
     "UPDATES",
     "UPDATE_MARGIN",
     "UPDATE_TOLERANCE",
@@ -83,6 +90,17 @@ REFINED = 1e-16
 
 #: Refinements of a corrected solve at most (each one more pass through the chain).
 REFINEMENTS = 3
+
+#: A symmetric eigendecomposition with vectors (LAPACK's syevd, about 4 n^3 flops) priced
+#: as this many Cholesky factorisations (n^3 / 3): at a load reversal of the joint with
+#: elastic pins a change's cluster is the whole group, whose eigenproblem alone costs more
+#: than re-factorising it, so it is priced before it is solved.
+EIGEN_FACTORISATIONS = 12
+
+#: Woodbury applications (1 + refinements) a corrected solve is priced at before one was
+#: measured; then the mean of the last :data:`REFINEMENTS_KEPT` corrected solves'.
+APPLICATIONS_UNMEASURED = 2.0
+REFINEMENTS_KEPT = 4
 
 
 @dataclass
@@ -164,6 +182,15 @@ def low_rank(M: sp.csr_array, tolerance: float = 1e-12) -> tuple[np.ndarray, np.
     return U, D
 
 
+def _flops(o: Operation) -> float:
+    """An operation's flops (the price without machine rates)."""
+    if o.kind == "dense_factor":
+        return o.size**3 / 3.0
+    if o.kind == "dense_product" and o.what != "condense":
+        return 2.0 * o.size * o.nrhs  # B^T y, B x, S x: one pass over the matrix
+    return float(o.size**2 * o.nrhs)
+
+
 def _norm(blocks: dict[str, np.ndarray]) -> float:
     """The 2-norm of vectors by block, as one vector."""
     return float(np.sqrt(sum(float(v @ v) for v in blocks.values())))
@@ -207,6 +234,13 @@ class LowRankSurface(Surface):
         self.correction = Correction()
         self._solved: dict[str, np.ndarray] | None = None  # the last corrected solve's x
         self._pairs_norm: float | None = None  # |S|_F^2 of the surface pairs
+        #: Woodbury applications of the last corrected solves (1 + their refinements).
+        self.applications: list[int] = []
+        #: Priced seconds the corrected solves spent beyond plain ones since the groups were
+        #: factorised, and what re-factorising the groups the correction stands for costs.
+        self.extra_seconds, self.break_even = 0.0, np.inf
+        self._pass: float | None = None  # price of one complete pass through the chain
+        self._residual_price = 0.0  # and of the residual product (priced with it)
 
     def set_contact(self, pair: tuple[Block, Block], matrix: sp.csr_array) -> None:
         """The new contact matrix of a block pair: corrected for, or re-factorised later."""
@@ -219,6 +253,9 @@ class LowRankSurface(Surface):
 
     def factorise(self) -> None:
         """Correct for the contact changes if that is cheaper, else re-factorise."""
+        if self.correction.capacitance is not None and self.extra_seconds >= self.break_even:
+            self._refactorise()  # the corrected solves have cost what re-factorising saved
+            return
         if not (self.stale or self.changed or self.fresh):
             return  # the factors, and the correction if any, are current
         if self.fresh and not (self.stale or self.changed) and self._update():
@@ -229,6 +266,7 @@ class LowRankSurface(Surface):
     def _refactorise(self) -> None:
         self.changed |= {b for pair in self.moved for b in pair}
         self.moved, self.fresh, self.correction = set(), set(), Correction()
+        self.extra_seconds, self.break_even = 0.0, np.inf
         super().factorise()
         self.factorised = dict(self.contact)
         self.corrected = dict(self.contact)
@@ -274,24 +312,32 @@ class LowRankSurface(Surface):
         if self.lu:  # friction: its changes are unsymmetric, its groups' factors LU
             return False
         dofs, M = self._delta(self.fresh, self.corrected)
+        if UPDATE_MARGIN * self.eigen_seconds(M) >= refactorise:
+            return False  # its eigenproblems alone cost more: not solved to be thrown away
         U, D = low_rank(M)
         if not len(D):  # the contact matrices are back to the corrected ones
             return True
-        if UPDATE_MARGIN * self.update_seconds(dofs, len(D), self.correction.rank) >= refactorise:
+        price = UPDATE_MARGIN * self.update_seconds(dofs, len(D), self.correction.rank)
+        if price + self.solve_seconds() >= refactorise:
             return False
         c = self._extended(self.correction, dofs, U, D)
         if c.conditioned < CAPACITANCE_RCOND[0] and self.correction.rank:
             dofs, M = self._delta(self.moved, self.factorised)
+            if UPDATE_MARGIN * self.eigen_seconds(M) >= refactorise:
+                return False
             U, D = low_rank(M)
             if not len(D):
                 self.correction, self.corrected = Correction(), dict(self.contact)
                 return True
-            if UPDATE_MARGIN * self.update_seconds(dofs, len(D), 0) >= refactorise:
+            if UPDATE_MARGIN * self.update_seconds(dofs, len(D), 0) + self.solve_seconds() >= (
+                refactorise
+            ):
                 return False
             c = self._extended(Correction(), dofs, U, D)
         if c.conditioned < CAPACITANCE_RCOND[1]:
             return False
         self.correction, self.corrected = c, dict(self.contact)
+        self.break_even = refactorise
         logged = sum(r.seconds for r in self.log.records[first:])  # the elimination's own
         seconds = time.perf_counter() - start - logged
         flops = 2.0 * M.shape[0] ** 3 / 3.0 + (2.0 / 3.0) * c.rank**3
@@ -385,10 +431,7 @@ class LowRankSurface(Surface):
     def _price(self, ops: list[Operation]) -> float:
         """Seconds of ``ops`` by the machine rates; without them, their flops."""
         if self.rates is None:
-            return sum(
-                o.size**3 / 3.0 if o.kind == "dense_factor" else float(o.size**2 * o.nrhs)
-                for o in ops
-            )
+            return sum(_flops(o) for o in ops)
         from dd_contact.timing import record_seconds  # timing imports the solvers
 
         return sum(record_seconds(r, self.rates) for r in WorkLog.planned(ops).records)
@@ -409,6 +452,36 @@ class LowRankSurface(Surface):
                 ops.append(Operation(grp.name, "dense_solve", n, max(r0 * rank // n, 1)))
         ops += 2 * [Operation(UPDATES, "dense_factor", r0 + rank)]  # an LU: twice the flops
         return self._price(ops)
+
+    def eigen_seconds(self, M: sp.csr_array) -> float:
+        """Price of :func:`low_rank` 's eigenproblems on ``M``.
+
+        One per connected cluster, :data:`EIGEN_FACTORISATIONS` Cholesky factorisations each.
+        """
+        _, labels = connected_components(M, directed=False)
+        clusters = [Operation(UPDATES, "dense_factor", int(n)) for n in np.bincount(labels)]
+        return EIGEN_FACTORISATIONS * self._price(clusters)
+
+    def solve_seconds(self, applications: float | None = None) -> float:
+        """Price of a corrected solve beyond a plain one (one pass through the chain).
+
+        ``applications`` of Woodbury (1 + refinements; default: the mean of the last
+        corrected solves', :data:`APPLICATIONS_UNMEASURED` before any), each two complete
+        passes and a residual product of the surface pairs.
+        """
+        if applications is None:
+            kept = self.applications[-REFINEMENTS_KEPT:]
+            applications = float(np.mean(kept)) if kept else APPLICATIONS_UNMEASURED
+        if self._pass is None:
+            chain = self.schedule.forward(set(), True) + self.schedule.back_substitution()
+            self._pass = self._price(chain)
+            sizes = self.sizes
+            residual = [
+                Operation(UPDATES, "dense_product", sizes[a], sizes[b], "residual")
+                for a, b in self.schedule.pairs
+            ]
+            self._residual_price = self._price(residual)
+        return (2.0 * applications - 1.0) * self._pass + applications * self._residual_price
 
     def refactorise_seconds(self, blocks: set[Block]) -> float:
         """Price of re-factorising the groups a change on ``blocks`` makes stale."""
@@ -445,6 +518,8 @@ class LowRankSurface(Surface):
             before = error
             dx = self._corrected(c, r)
             x = {b: v + dx[b] for b, v in x.items()}
+        self.applications.append(refinement + 1)
+        self.extra_seconds += self.solve_seconds(refinement + 1)
         if error > UPDATE_TOLERANCE:
             self._refactorise()
             return super().solve(g, complete)

@@ -105,7 +105,8 @@ class Group:
     """Surface blocks eliminated together by one dense factorisation.
 
     Attributes:
-        blocks: The blocks, sorted.
+        blocks: The blocks: those not coupled to a later level first (the rows its
+            condensation skips), each part sorted.
         last: In the order's last level: solved for, not eliminated.
         neighbours: Blocks of later levels coupled to the group (after the fill-in of
             the earlier eliminations): what eliminating it changes.
@@ -117,8 +118,8 @@ class Group:
 
     @property
     def name(self) -> str:
-        """The blocks joined by ``+`` (the name in the work log)."""
-        return "+".join(self.blocks)
+        """The blocks, sorted, joined by ``+`` (the name in the work log)."""
+        return "+".join(sorted(self.blocks))
 
 
 @dataclass(frozen=True)
@@ -171,7 +172,11 @@ def _plan_groups(
                 for r2 in neighbours:
                     if r1 != r2:
                         coupled.add(frozenset((r1, r2)))
-            groups.append(Group(tuple(sorted(m)), li == len(levels) - 1, tuple(neighbours)))
+            # coupled blocks last: B's leading rows are zero, which the condensation skips
+            ordered = sorted(
+                m, key=lambda a: (any(frozenset((a, r)) in coupled for r in neighbours), a)
+            )
+            groups.append(Group(tuple(ordered), li == len(levels) - 1, tuple(neighbours)))
         all_groups.append(groups)
     return all_groups
 
@@ -336,13 +341,16 @@ class Schedule:
     def factorise_group(self, g: Group) -> list[Operation]:
         """Factorise a group and, if it is eliminated, condense its coupling columns.
 
-        The condensation is a triangular solve of the columns, then their product W^T W.
+        The condensation is a triangular solve of the columns, then their product W^T W,
+        both over the rows from the first block coupled to a later level (t of them).
         """
         n = sum(self.surface[b] for b in g.blocks)
         ops = [Operation(g.name, "dense_factor", n)]
         if not g.last and g.neighbours and (m := self.coupling_columns(g)):
-            ops.append(Operation(g.name, "dense_solve", n, m, "condense"))
-            ops.append(Operation(g.name, "dense_product", n, m, "condense"))
+            coupled = [any((a, r) in self.pairs for r in g.neighbours) for a in g.blocks]
+            t = sum(self.surface[b] for b in g.blocks[coupled.index(True) if any(coupled) else 0 :])
+            ops.append(Operation(g.name, "dense_solve", t, m, "condense"))
+            ops.append(Operation(g.name, "dense_product", t, m, "condense"))
         return ops
 
     def solve_group(self, g: Group, what: str | None = None) -> Operation:
