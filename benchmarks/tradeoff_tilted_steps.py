@@ -40,9 +40,7 @@ def one(elements: tuple[int, ...], dt: float) -> dict:
 
     base = defaults(scene("tilted-wall").knobs)
     start = time.process_time()
-    model = parallelepiped(
-        elements, split=tuple(base["split"]), period=PERIOD, comm=MPI.COMM_SELF
-    )
+    model = parallelepiped(elements, split=tuple(base["split"]), period=PERIOD, comm=MPI.COMM_SELF)
     steps = round(PERIOD / dt)
     problem = TransientProblem(model, dt, track_energy=False, expected_steps=steps)
     problem.advance()
