@@ -45,7 +45,7 @@ def main() -> None:
             if args.charts:
                 if name == "pin-joint":  # its runs scored against today's reference
                     rescore(doc)
-                doc = refresh(doc, scene(name))
+                doc = {**doc, **refresh(doc, scene(name))}  # extra fields kept
                 json_path.write_text(json.dumps(doc, indent=1))
                 draw_front(doc, plot_path)
             else:
