@@ -8,7 +8,7 @@
 * ``dd-contact calibrate``: measure this machine's rates for the timing model behind
   ``algorithm="auto"`` (``dd_contact.timing``) and cache them; ``--show`` prints them.
 * ``dd-contact tradeoff SCENE``: the speed/accuracy trade of a scene (``hertz``,
-  ``bar-impact``, ``tilted-wall``) measured, a Pareto front of its settings. See
+  ``bar-impact``, ``tilted-wall``, ``pin-joint``) measured, a Pareto front of its settings. See
   ``docs/tradeoff.md``.
 """
 

@@ -22,6 +22,9 @@ from dd_contact.paper.tradeoff import (
     run_study,
     scene,
 )
+from dd_contact.paper.tradeoff.pin import REFERENCE as PIN_REFERENCE
+from dd_contact.paper.tradeoff.pin import SPAN, WALLS
+from dd_contact.paper.tradeoff.pin import WINDOW as PIN_WINDOW
 from dd_contact.paper.tradeoff.scenes import bar_error, hertz_error
 from dd_contact.paper.tradeoff.study import refresh
 from dd_contact.paper.tradeoff.tilted import REFERENCE, WINDOW, richardson, windows
@@ -60,7 +63,8 @@ def test_first_design_is_the_default_then_each_level_alone_with_what_it_needs():
 
 
 @pytest.mark.parametrize(
-    ("name", "count"), [("hertz", 23), ("bar-impact", 32), ("tilted-wall", 17)]
+    ("name", "count"),
+    [("hertz", 23), ("bar-impact", 32), ("tilted-wall", 17), ("pin-joint", 25)],
 )
 def test_the_scenes_designs_vary_one_knob_at_a_time(name, count):
     trade = scene(name)
@@ -321,3 +325,12 @@ def test_the_tilted_walls_windows_and_richardson():
     )
     assert est["finest_error"] == pytest.approx(true, rel=1e-9)
     assert len(REFERENCE["windows"]) == round(4e-3 / WINDOW)  # one period
+
+
+def test_windows_of_several_forces_and_the_pin_joints_reference():
+    # Two walls' forces (steps first): each window's mean, wall by wall.
+    forces = np.arange(16.0).reshape(8, 2)
+    assert windows(PIN_WINDOW / 4, forces, PIN_WINDOW).tolist() == [[3.0, 4.0], [11.0, 12.0]]
+    assert np.shape(PIN_REFERENCE["windows"]) == (round(SPAN / PIN_WINDOW), len(WALLS))
+    own = PIN_REFERENCE["richardson"]
+    assert 0.0 < own["finest_error"] < own["difference_fine"] < own["difference_coarse"]

@@ -110,12 +110,12 @@ def wall_forces(settings: dict[str, Any]) -> tuple[float, np.ndarray, int]:
     return dt, np.array(forces), int(problem.changes["gamma"])
 
 
-def windows(dt: float, forces: np.ndarray) -> np.ndarray:
-    """The wall force averaged over each :data:`WINDOW` of the period (a step must divide it)."""
-    per = round(WINDOW / dt)
-    if not np.isclose(per * dt, WINDOW) or len(forces) % per:
-        raise ValueError(f"tilted-wall: dt = {dt:g} s does not divide {WINDOW:g} s")
-    return forces.reshape(-1, per).mean(axis=1)
+def windows(dt: float, forces: np.ndarray, window: float = WINDOW) -> np.ndarray:
+    """Forces (steps first) averaged over each ``window`` [s] (a step must divide it)."""
+    per = round(window / dt)
+    if not np.isclose(per * dt, window) or len(forces) % per:
+        raise ValueError(f"dt = {dt:g} s does not divide the window of {window:g} s")
+    return forces.reshape(-1, per, *forces.shape[1:]).mean(axis=1)
 
 
 def tilted_error(settings: dict[str, Any]) -> dict[str, Any]:
@@ -131,14 +131,14 @@ def tilted_error(settings: dict[str, Any]) -> dict[str, Any]:
     return {"error": float(np.linalg.norm(mine - exact) / np.linalg.norm(exact)), "parts": parts}
 
 
-def richardson(runs: list[tuple[float, np.ndarray]]) -> dict[str, float]:
+def richardson(runs: list[tuple[float, np.ndarray]], window: float = WINDOW) -> dict[str, float]:
     """The finest of three runs' own error, from their differences (mesh and step halved).
 
     ``runs``: (dt, forces) coarse to fine, compared by their :func:`windows`: d1 = |W1 -
     W2|, d2 = |W2 - W3| (relative to |W3|), the observed order p = log2(d1 / d2) and the
     finest run's estimated error d2 / (2^p - 1).
     """
-    w1, w2, w3 = (windows(dt, f) for dt, f in runs)
+    w1, w2, w3 = (windows(dt, f, window) for dt, f in runs)
     d1 = float(np.linalg.norm(w1 - w2) / np.linalg.norm(w3))
     d2 = float(np.linalg.norm(w2 - w3) / np.linalg.norm(w3))
     order = float(np.log2(d1 / d2))
