@@ -27,6 +27,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import numpy as np
+import scipy.linalg
 import scipy.sparse as sp
 
 from dd_contact.blocks import Block, BlockSystem
@@ -47,6 +48,11 @@ __all__ = ["DenseCondensation", "ReducedBasis", "fixed_interface_modes", "reduce
 #: Constraint modes taken at once: each block of columns holds four dense n x 64 arrays
 #: (the modes, their mass products, two solves), 20 MB per 10k dofs.
 REDUCTION_CHUNK = 64
+
+#: An interior of at most this many dofs is kept whole (every fixed-interface mode, by a
+#: dense eigensolve) when as many modes as its dofs or more are asked (SLEPc gives one less): a
+#: small block next to its boundary, like the pin joint's hole blocks (12-600 interior dofs).
+WHOLE_INTERIOR_LIMIT = 4000
 
 #: A load whose part outside the span of the load patterns is below this fraction of itself
 #: is in their span: the rest is the round-off of its assembly, which grows with the mesh
@@ -135,6 +141,20 @@ def fixed_interface_modes(
     return values[order], vectors[:, order]
 
 
+def _pattern_span(patterns: Sequence[np.ndarray], n: int, fixed: np.ndarray) -> np.ndarray:
+    """An orthonormal basis of the load patterns' span off the prescribed dofs.
+
+    A pattern may vanish there (a traction component on guided dofs) or repeat another:
+    the span's rank, not the patterns' count, gives the load modes.
+    """
+    if not len(patterns):
+        return np.zeros((n, 0))
+    P = np.column_stack(patterns)
+    P[fixed] = 0.0
+    Q, s, _ = np.linalg.svd(P, full_matrices=False)
+    return Q[:, s > LOAD_MODE_FLOOR * max(s.max(), 1e-300)]
+
+
 def _orthonormal(Phi: np.ndarray, L: np.ndarray, M: sp.sparray | None) -> np.ndarray:
     """``[Phi, L']``: the load modes L made M-orthonormal to Phi and each other.
 
@@ -199,7 +219,7 @@ class ReducedBasis:
         free = np.setdiff1d(np.arange(n), self.fixed)
         self.b = np.intersect1d(np.asarray(boundary, dtype=np.int64), free)
         self.i = np.setdiff1d(free, self.b)
-        if modes < 0 or modes > self.i.size - 1:
+        if modes < 0 or (modes >= self.i.size and self.i.size > WHOLE_INTERIOR_LIMIT):
             raise InputError(
                 f"subdomain {name!r}: reduce(modes={modes}) asks for more fixed-interface modes "
                 f"than its {self.i.size} interior dofs allow; ask for fewer (0 to "
@@ -210,9 +230,8 @@ class ReducedBasis:
         A_ii = sp.csr_array(A[self.i][:, self.i])
         self.factor = SparseCholesky(_petsc(A_ii), log, f"{name} (interior)")
         M_ii = None if M is None else sp.csr_array(sp.csr_array(M)[self.i][:, self.i])
-        self.omega2, Phi = self._modes(M_ii, modes, tolerance)
-        P = np.column_stack(patterns) if len(patterns) else np.zeros((n, 0))
-        P[self.fixed] = 0.0
+        self.omega2, Phi = self._modes(A_ii, M_ii, modes, tolerance)
+        P = _pattern_span(patterns, n, self.fixed)
         raw = self.factor.solve_many(P[self.i], "load modes") if P.shape[1] else P[self.i]
         self.G = _orthonormal(Phi, raw, M_ii)
         self._M_ii = M_ii
@@ -222,13 +241,10 @@ class ReducedBasis:
         self.A_r, self.M_r = self._reduced(A, None if M is None else sp.csr_array(M), A_ii, M_ii)
         # T^T p of each pattern (p_b - A_bi A_ii^-1 p_i; G^T p_i), for loads in their span
         self._patterns: np.ndarray = P
-        self._R: np.ndarray = np.zeros((0, 0))
-        if P.shape[1]:
-            self._patterns, self._R = np.linalg.qr(P)
         self._F = np.vstack([P[self.b] - self._A_ib.T @ raw, self.G.T @ P[self.i]])
 
-    def _modes(self, M_ii, modes: int, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
-        """The ``modes`` lowest fixed-interface modes (none: empty)."""
+    def _modes(self, A_ii, M_ii, modes: int, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
+        """The ``modes`` lowest fixed-interface modes (none: empty; all if that many or more)."""
         if not modes:
             return np.zeros(0), np.zeros((self.i.size, 0))
         if M_ii is None:
@@ -236,6 +252,9 @@ class ReducedBasis:
                 f"subdomain {self.name!r}: reduce(modes={modes}) needs a mass matrix (a "
                 "density) for its normal modes; use modes=0 for a static reduction"
             )
+        if modes >= self.i.size:  # every mode: the interior whole (SLEPc gives n - 1 at most)
+            values, vectors = scipy.linalg.eigh(A_ii.toarray(), M_ii.toarray())
+            return values, vectors
         Mp = _petsc(M_ii)
         try:
             return fixed_interface_modes(self.factor, Mp, modes, tolerance, self.name)
@@ -307,7 +326,7 @@ class ReducedBasis:
             rest = v - Q @ c
             rest[self.fixed] = 0.0
             if np.linalg.norm(rest) <= LOAD_SPAN_FLOOR * max(np.linalg.norm(v), 1e-300):
-                return self._F @ np.linalg.solve(self._R, c)
+                return self._F @ c
         return self.project(v)
 
     def expand(self, q: np.ndarray, what: str = "expansion") -> np.ndarray:
