@@ -25,6 +25,7 @@ from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
     "REDUCED_ORDERS",
+    "defer_fields",
     "defer_rates",
     "expansion",
     "reduce_model",
@@ -230,3 +231,12 @@ def defer_rates(subdomains: Sequence, bases: dict[Block, ReducedBasis], kinemati
             at, (wv, wa) = kinematics.walls[sub.block]
             sub.defer(expansion(basis, v.copy(), at, wv.copy()), "velocity")
             sub.defer(expansion(basis, a.copy(), at, wa.copy()), "acceleration")
+
+
+def defer_fields(subdomains: Sequence, bases: dict[Block, ReducedBasis], kinematics) -> None:
+    """The reduced subdomains' u and rates expanded when next read (a restored state)."""
+    for sub in subdomains:
+        if sub.block in kinematics.reduced:
+            q = kinematics.reduced[sub.block][0]
+            sub.defer(expansion(bases.get(sub.block), q.copy()))
+    defer_rates(subdomains, bases, kinematics)
