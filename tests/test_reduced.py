@@ -347,14 +347,11 @@ def test_the_pin_joint_with_every_subdomain_reduced():
     assert np.abs(reduced - force).max() <= 5e-3 * np.abs(force).max()
 
 
-@pytest.mark.parametrize("algorithm", ["w-u", "w-v-u"])
-def test_a_resumed_reduced_run_is_the_uninterrupted_one(algorithm, tmp_path):
-    """A checkpoint holds a reduced subdomain's coordinates and its walls' rates (not its
-    expanded fields): the resumed run steps the same numbers, bit for bit."""
-    from mpi4py import MPI
+def _resumed_reduced_run(algorithm, out, comm):
+    """The reduced parallelepiped run 6 steps at once, and 3 + 3 through a checkpoint."""
 
     def problem():
-        scene = parallelepiped(algorithm, (12, 4, 2), comm=MPI.COMM_SELF)
+        scene = parallelepiped(algorithm, (12, 4, 2), comm=comm)
         for sub in scene.subdomains:
             sub.reduce(modes=10)
         return dd.TransientProblem(
@@ -363,17 +360,35 @@ def test_a_resumed_reduced_run_is_the_uninterrupted_one(algorithm, tmp_path):
 
     whole = problem()
     whole.run(6, summary=False, progress=False)
-    problem().run(3, output=tmp_path, checkpoint_every=3, summary=False, progress=False)
+    problem().run(3, output=out, checkpoint_every=3, summary=False, progress=False)
     resumed = problem()
-    resumed.run(6, output=tmp_path, resume=True, summary=False, progress=False)
+    resumed.run(6, output=out, resume=True, summary=False, progress=False)
     assert sum(r["changes"] for r in whole.history) >= 2  # contact changed on the way
     for mine, theirs in zip(resumed.scene.subdomains, whole.scene.subdomains, strict=True):
         for field in ("u", "velocity", "acceleration"):
             mine_values, their_values = getattr(mine, field), getattr(theirs, field)
             np.testing.assert_array_equal(mine_values.x.array, their_values.x.array)
     assert [r["force"] for r in resumed.history] == [r["force"] for r in whole.history]
+
+
+@pytest.mark.parametrize("algorithm", ["w-u", "w-v-u"])
+def test_a_resumed_reduced_run_is_the_uninterrupted_one(algorithm, tmp_path):
+    """A checkpoint holds a reduced subdomain's coordinates and its walls' rates (not its
+    expanded fields): the resumed run steps the same numbers, bit for bit."""
+    from mpi4py import MPI
+
+    _resumed_reduced_run(algorithm, tmp_path, MPI.COMM_SELF)
     # a checkpoint of other reductions is refused
     scene = parallelepiped(algorithm, (12, 4, 2), comm=MPI.COMM_SELF)
     other = dd.TransientProblem(scene, 1e-6, algorithm=algorithm, energy_safe_contact=True)
     with pytest.raises(InputError, match="reduced otherwise"):
         other.run(6, output=tmp_path, resume=True, summary=False, progress=False)
+
+
+@pytest.mark.mpi
+def test_a_resumed_reduced_run_on_two_ranks_is_the_uninterrupted_one(tmp_path):
+    """w-v-u, each rank owning one reduced piece (its coordinates in its own file)."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    _resumed_reduced_run("w-v-u", comm.bcast(str(tmp_path) if comm.rank == 0 else None), comm)
