@@ -51,9 +51,10 @@ __all__ = ["DenseCondensation", "ReducedBasis", "fixed_interface_modes", "reduce
 #: with their PETSc copies).
 REDUCTION_CHUNK = 64
 
-#: ... and at most so many bytes in each such array (the columns fewer on large meshes):
-#: at 48k dofs 64 columns added 130 MB to the peak, at 340k they would add 1.7 GB.
-CHUNK_BYTES = 8 * 2**20
+#: ... and at most so many bytes in each such array, but 16 columns at least (a solve for
+#: fewer right-hand sides costs nearly as much: the factor is read once per solve): 64
+#: columns up to 65k dofs, 16 from 260k (at 342k, 64 would hold about 1.7 GB at once).
+CHUNK_BYTES = 32 * 2**20
 
 #: SLEPc's largest projected problem: its workspace is count + this many vectors of the
 #: interior (its default, twice the count, held 640 vectors for 320 modes).
@@ -177,8 +178,8 @@ def _pieces(S: sp.sparray, b: np.ndarray, i: np.ndarray, D: np.ndarray) -> dict:
 
 
 def _chunk(n: int) -> int:
-    """Columns of an n-row block: REDUCTION_CHUNK at most, CHUNK_BYTES at most, 4 at least."""
-    return max(4, min(REDUCTION_CHUNK, CHUNK_BYTES // (8 * max(n, 1))))
+    """Columns of an n-row block: REDUCTION_CHUNK at most, CHUNK_BYTES at most, 16 at least."""
+    return max(16, min(REDUCTION_CHUNK, CHUNK_BYTES // (8 * max(n, 1))))
 
 
 def _congruence(G: np.ndarray, S: sp.sparray, chunk: int) -> np.ndarray:
