@@ -52,9 +52,10 @@ __all__ = ["DenseCondensation", "ReducedBasis", "fixed_interface_modes", "reduce
 REDUCTION_CHUNK = 64
 
 #: ... and at most so many bytes in each such array, but 16 columns at least (a solve for
-#: fewer right-hand sides costs nearly as much: the factor is read once per solve): 64
-#: columns up to 65k dofs, 16 from 260k (at 342k, 64 would hold about 1.7 GB at once).
-CHUNK_BYTES = 32 * 2**20
+#: fewer right-hand sides costs nearly as much: the factor is read once per solve): 21
+#: columns at 48k dofs (peak 658 MiB against 766 with 64, m = 20), 16 from 65k (at 342k,
+#: 64 would hold about 1.7 GB at once).
+CHUNK_BYTES = 8 * 2**20
 
 #: SLEPc's largest projected problem: its workspace is count + this many vectors of the
 #: interior (its default, twice the count, held 640 vectors for 320 modes).
