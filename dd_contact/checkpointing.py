@@ -1,6 +1,7 @@
 """The state of a transient run as arrays: what a checkpoint holds and how a run resumes.
 
-A run's state is the owned subdomains' displacement, velocity and acceleration, the
+A run's state is the owned subdomains' displacement, velocity and acceleration (a reduced
+subdomain's: its coordinates and its walls' rates), the
 interface's and the owned contact surfaces' displacement (massless, but the next step's
 start forces read their tie forces at t_n), the contact iteration's active sets and counts,
 each friction's history (:meth:`dd_contact.friction.Friction.arrays`), and the step, time
@@ -58,6 +59,27 @@ class RunState:
     ):
         self.owned, self.zones, self.iteration = list(owned), list(zones), iteration
         self.interface = interface
+        #: The run's :class:`~dd_contact.kinematics.Kinematics` when it has reduced
+        #: subdomains (set by the problem): their state is their coordinates.
+        self.kinematics: Any = None
+
+    def _reduced(self) -> dict[str, np.ndarray]:
+        """The owned reduced subdomains' coordinates and wall rates by key (in place).
+
+        Their coordinates, not their expanded fields: a resumed run steps the same numbers
+        (an expansion and its projection back would be a round-off away) and nothing is
+        expanded to save them.
+        """
+        out: dict[str, np.ndarray] = {}
+        k = self.kinematics
+        for sub in self.owned:
+            if k is not None and sub.block in k.reduced:
+                for name, values in zip(KINEMATICS, k.reduced[sub.block], strict=True):
+                    out[f"reduced/{name}/{sub.name}"] = values
+                if sub.block in k.walls:
+                    wv, wa = k.walls[sub.block][1]
+                    out |= {f"walls/velocity/{sub.name}": wv, f"walls/acceleration/{sub.name}": wa}
+        return out
 
     def _surfaces(self) -> dict[str, np.ndarray]:
         """The surfaces' displacement arrays by checkpoint key (written in place)."""
@@ -77,9 +99,12 @@ class RunState:
             "integration": np.array(integration),
             "release_solves": np.array(it.release_solves),
         }
+        reduced = self._reduced()
         for sub in self.owned:
-            for name in KINEMATICS:
-                state[f"{name}/{sub.name}"] = getattr(sub, name).x.array
+            if f"reduced/u/{sub.name}" not in reduced:
+                for name in KINEMATICS:
+                    state[f"{name}/{sub.name}"] = getattr(sub, name).x.array
+        state.update(reduced)
         for z in self.zones:
             name = z.contact.name
             state[f"active/{name}"] = it.active[name]
@@ -127,16 +152,21 @@ class RunState:
                 f"resume: the checkpoint was written with {written}; this run has "
                 f"{integration}; use the same settings or start a new output directory"
             )
-        for sub in self.owned:
-            for name in KINEMATICS:
-                key = f"{name}/{sub.name}"
-                target = getattr(sub, name).x.array
-                if key not in state or state[key].shape != target.shape:
-                    raise InputError(
-                        f"resume: the checkpoint does not match subdomain {sub.name!r} "
-                        "(different scene or mesh); start a new output directory"
-                    )
-                target[:] = state[key]
+        reduced = self._reduced()
+        targets = {
+            f"{name}/{sub.name}": getattr(sub, name).x.array
+            for sub in self.owned
+            if f"reduced/u/{sub.name}" not in reduced
+            for name in KINEMATICS
+        }
+        for key, target in (targets | reduced).items():
+            if key not in state or state[key].shape != target.shape:
+                raise InputError(
+                    f"resume: the checkpoint does not match subdomain {key.split('/')[-1]!r} "
+                    "(different scene or mesh, or reduced otherwise); start a new output "
+                    "directory"
+                )
+            target[:] = state[key]
         for key, target in self._surfaces().items():
             if key not in state or state[key].shape != target.shape:
                 raise InputError(

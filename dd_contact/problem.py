@@ -48,7 +48,7 @@ from dd_contact.readout import AnalysisReadout
 from dd_contact.scene import Scene
 from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
 from dd_contact.solvers.petsc_options import OPTIONS_PREFIX
-from dd_contact.solvers.reduced_model import defer_rates, start_states
+from dd_contact.solvers.reduced_model import defer_fields, defer_rates, start_states
 from dd_contact.stopping import StopRequests, raise_stopped
 from dd_contact.timestepping import time_scheme
 
@@ -272,6 +272,7 @@ class TransientProblem(AnalysisReadout):
             self.analysis.reduced_states,
             self.model.massless_reduced,
         )
+        self._run_state.kinematics = self.kinematics
         self._started = False
 
     # -- state ---------------------------------------------------------------------------
@@ -489,11 +490,6 @@ class TransientProblem(AnalysisReadout):
             positive_int(checkpoint_every, "run: checkpoint_every")
             if output is None:
                 raise InputError("run: checkpoint_every needs an output directory (output=...)")
-        if (checkpoint_every is not None or resume) and self.analysis.reduced_states:
-            raise NotImplementedError(
-                "run: checkpoints of reduced subdomains (Subdomain.reduce) are not built yet; "
-                "run without checkpoint_every and resume, or do not reduce"
-            )
         files = RunOutput(self.scene, output, self.inertia) if output is not None else None
         self._resume_or_refuse(n_steps, files if resume else None, output)
         if not self._started:
@@ -584,4 +580,5 @@ class TransientProblem(AnalysisReadout):
         agreed.latest = self.history[-1] if self.history else {}
         agreed.alpha = gathered(self.comm, self.iteration.alpha)
         self.kinematics.share(with_displacement=True)
+        defer_fields(self.scene.subdomains, self.analysis.reduced, self.kinematics)
         self._started = True

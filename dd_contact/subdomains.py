@@ -152,7 +152,9 @@ class Subdomain:
         quasi-static response is exact). Waves above the last mode kept are not carried.
 
         Args:
-            modes: Number of fixed-interface modes (>= 0; 0: a static reduction).
+            modes: Number of fixed-interface modes (>= 0; 0: a static reduction; as many as
+                its interior dofs or more: every mode, the interior kept whole, for an
+                interior of up to ``WHOLE_INTERIOR_LIMIT`` dofs).
             tolerance: SLEPc's relative tolerance on the modes.
 
         Returns:

@@ -27,6 +27,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import numpy as np
+import scipy.linalg
 import scipy.sparse as sp
 
 from dd_contact.blocks import Block, BlockSystem
@@ -38,15 +39,32 @@ from dd_contact.solvers.linalg import (
     SparseStatistics,
     coo_of,
     petsc_matrix,
+    release_freed_memory,
 )
 from dd_contact.solvers.subdomains import coupling_layout
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = ["DenseCondensation", "ReducedBasis", "fixed_interface_modes", "reduced_subdomains"]
 
-#: Constraint modes taken at once: each block of columns holds four dense n x 64 arrays
-#: (the modes, their mass products, two solves), 20 MB per 10k dofs.
+#: Constraint modes taken at once, at most: each block of columns holds about ten dense
+#: n x columns arrays at its peak (the modes, their mass products, two multi-RHS solves
+#: with their PETSc copies).
 REDUCTION_CHUNK = 64
+
+#: ... and at most so many bytes in each such array, but 16 columns at least (a solve for
+#: fewer right-hand sides costs nearly as much: the factor is read once per solve): 21
+#: columns at 48k dofs (peak 658 MiB against 766 with 64, m = 20), 16 from 65k (at 342k,
+#: 64 would hold about 1.7 GB at once).
+CHUNK_BYTES = 8 * 2**20
+
+#: SLEPc's largest projected problem: its workspace is count + this many vectors of the
+#: interior (its default, twice the count, held 640 vectors for 320 modes).
+MODES_WORKSPACE = 64
+
+#: An interior of at most this many dofs is kept whole (every fixed-interface mode, by a
+#: dense eigensolve) when as many modes as its dofs or more are asked (SLEPc gives one less): a
+#: small block next to its boundary, like the pin joint's hole blocks (12-600 interior dofs).
+WHOLE_INTERIOR_LIMIT = 4000
 
 #: A load whose part outside the span of the load patterns is below this fraction of itself
 #: is in their span: the rest is the round-off of its assembly, which grows with the mesh
@@ -79,14 +97,15 @@ class _FactorSolve:
 
 
 def fixed_interface_modes(
-    factor: SparseCholesky, M: PETSc.Mat, count: int, tolerance: float, name: str
+    factor: SparseCholesky, M: PETSc.Mat, count: int, tolerance: float, name: str, extra: int = 0
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``count`` lowest eigenpairs of ``A phi = omega^2 M phi`` (SLEPc, shift-invert at 0).
 
     The spectral transform's solves are ``factor``'s: SLEPc's operator at shift 0 is A
     itself, and its KSP applies the factor through a shell preconditioner (SLEPc resets a
     KSP it is given; this one keeps ``factor`` whole), so nothing is factorised again.
-    Returns ``omega^2`` ascending and the modes, M-orthonormal, as columns.
+    Returns ``omega^2`` ascending and the modes, M-orthonormal, as the first ``count``
+    columns of an array with ``extra`` more (left for the load modes: no copy of the modes).
     """
     from slepc4py import SLEPc  # the reduction's only user of SLEPc
 
@@ -94,7 +113,9 @@ def fixed_interface_modes(
     try:
         eps.setOperators(factor.A, M)
         eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
-        eps.setDimensions(count)
+        n = factor.A.getSize()[0]
+        ncv = min(n, count + max(15, min(count, MODES_WORKSPACE)))
+        eps.setDimensions(count, ncv, min(ncv, MODES_WORKSPACE))
         eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
         eps.setTarget(0.0)
         st = eps.getST()
@@ -110,7 +131,6 @@ def fixed_interface_modes(
         start = time.perf_counter()
         eps.solve()
         seconds = time.perf_counter() - start
-        n = factor.A.getSize()[0]
         flops = 4.0 * factor.entries * shell.solves
         factor.log.add(
             factor.block, "sparse_solve", n, shell.solves, seconds, flops, "modes", factor.entries
@@ -122,41 +142,79 @@ def fixed_interface_modes(
                 "asked for; ask for fewer modes (Subdomain.reduce(modes=...)) or a looser "
                 "tolerance"
             )
-        values = np.empty(found)
-        vectors = np.empty((n, found))
+        values = np.array([eps.getEigenvalue(k).real for k in range(found)])
+        order = np.argsort(values)[:count]
+        vectors = np.empty((n, count + extra))
         x = factor.A.createVecRight()
-        for k in range(found):
-            values[k] = eps.getEigenpair(k, x).real
-            vectors[:, k] = x.getArray()
+        for slot, k in enumerate(order):
+            eps.getEigenvector(k, x)
+            vectors[:, slot] = x.getArray()
         x.destroy()
     finally:
         eps.destroy()
-    order = np.argsort(values)[:count]
-    return values[order], vectors[:, order]
+    return values[order], vectors
 
 
-def _orthonormal(Phi: np.ndarray, L: np.ndarray, M: sp.sparray | None) -> np.ndarray:
-    """``[Phi, L']``: the load modes L made M-orthonormal to Phi and each other.
+def _pattern_span(patterns: Sequence[np.ndarray], n: int, fixed: np.ndarray) -> np.ndarray:
+    """An orthonormal basis of the load patterns' span off the prescribed dofs.
 
-    Phi is M-orthonormal already; a load mode whose remainder is below LOAD_MODE_FLOOR of
-    itself is dropped. Without a mass matrix the identity is the inner product.
+    A pattern may vanish there (a traction component on guided dofs) or repeat another:
+    the span's rank, not the patterns' count, gives the load modes.
+    """
+    if not len(patterns):
+        return np.zeros((n, 0))
+    P = np.column_stack(patterns)
+    P[fixed] = 0.0
+    Q, s, _ = np.linalg.svd(P, full_matrices=False)
+    return Q[:, s > LOAD_MODE_FLOOR * max(s.max(), 1e-300)]
+
+
+def _pieces(S: sp.sparray, b: np.ndarray, i: np.ndarray, D: np.ndarray) -> dict:
+    """The blocks of S a reduction reads, by rows and columns: ii, ib, bb, bi, Db, Di."""
+    S = sp.csr_array(S)
+    rows = {"i": S[i], "b": S[b], "D": S[D]}
+    columns = {"i": i, "b": b}
+    pairs = ("ii", "ib", "bb", "bi", "Db", "Di")
+    return {p: sp.csr_array(rows[p[0]][:, columns[p[1]]]) for p in pairs}
+
+
+def _chunk(n: int) -> int:
+    """Columns of an n-row block: REDUCTION_CHUNK at most, CHUNK_BYTES at most, 16 at least."""
+    return max(16, min(REDUCTION_CHUNK, CHUNK_BYTES // (8 * max(n, 1))))
+
+
+def _congruence(G: np.ndarray, S: sp.sparray, chunk: int) -> np.ndarray:
+    """``G^T S G``, S G taken ``chunk`` columns at a time (never a second G in memory)."""
+    out = np.empty((G.shape[1], G.shape[1]))
+    for j0 in range(0, G.shape[1], chunk):
+        out[:, j0 : j0 + chunk] = G.T @ (S @ G[:, j0 : j0 + chunk])
+    return out
+
+
+def _orthonormal(V: np.ndarray, m: int, L: np.ndarray, M: sp.sparray | None) -> np.ndarray:
+    """``[Phi, L']``: the load modes L made M-orthonormal to Phi and each other, in place.
+
+    Phi, V's first m columns, is M-orthonormal already; the load modes are written into
+    V's next columns (no copy of the modes: they are most of the reduction's memory); a
+    load mode whose remainder is below LOAD_MODE_FLOOR of itself is dropped. Without a
+    mass matrix the identity is the inner product. Returns V's columns in use (a view).
     """
 
     def inner(X, y):
         return X.T @ (y if M is None else M @ y)
 
-    columns = [Phi[:, k] for k in range(Phi.shape[1])]
+    j = m
     for k in range(L.shape[1]):
         y = L[:, k].copy()
         size = np.sqrt(inner(y[:, None], y)[0])
         for _ in range(2):  # twice is enough (Kahan)
-            if columns:
-                B = np.column_stack(columns)
-                y -= B @ inner(B, y)
+            if j:
+                y -= V[:, :j] @ inner(V[:, :j], y)
         rest = np.sqrt(max(inner(y[:, None], y)[0], 0.0))
         if size > 0 and rest > LOAD_MODE_FLOOR * size:
-            columns.append(y / rest)
-    return np.column_stack(columns) if columns else np.zeros((Phi.shape[0], 0))
+            V[:, j] = y / rest
+            j += 1
+    return V[:, :j]
 
 
 class ReducedBasis:
@@ -199,72 +257,83 @@ class ReducedBasis:
         free = np.setdiff1d(np.arange(n), self.fixed)
         self.b = np.intersect1d(np.asarray(boundary, dtype=np.int64), free)
         self.i = np.setdiff1d(free, self.b)
-        if modes < 0 or modes > self.i.size - 1:
+        if modes < 0 or (modes >= self.i.size and self.i.size > WHOLE_INTERIOR_LIMIT):
             raise InputError(
                 f"subdomain {name!r}: reduce(modes={modes}) asks for more fixed-interface modes "
                 f"than its {self.i.size} interior dofs allow; ask for fewer (0 to "
                 f"{max(self.i.size - 1, 0)})"
             )
-        A = sp.csr_array(A)
-        self._A_ib = sp.csr_array(A[self.i][:, self.b])
-        A_ii = sp.csr_array(A[self.i][:, self.i])
-        self.factor = SparseCholesky(_petsc(A_ii), log, f"{name} (interior)")
-        M_ii = None if M is None else sp.csr_array(sp.csr_array(M)[self.i][:, self.i])
-        self.omega2, Phi = self._modes(M_ii, modes, tolerance)
-        P = np.column_stack(patterns) if len(patterns) else np.zeros((n, 0))
-        P[self.fixed] = 0.0
+        # the pieces the reduction reads; the whole matrices are let go before the
+        # interior is factorised (the caller holds no other reference: reduce_model)
+        Ap = _pieces(A, self.b, self.i, self.fixed)
+        Mp = None if M is None else _pieces(M, self.b, self.i, self.fixed)
+        del A, M
+        self._A_ib, A_ii = Ap["ib"], Ap["ii"]
+        interior = _petsc(A_ii)
+        release_freed_memory()  # the slicing's temporaries, before the factor's peak
+        self.factor = SparseCholesky(interior, log, f"{name} (interior)")
+        M_ii = None if Mp is None else Mp["ii"]
+        P = _pattern_span(patterns, n, self.fixed)
+        self.omega2, V = self._modes(A_ii, M_ii, modes, tolerance, P.shape[1])
         raw = self.factor.solve_many(P[self.i], "load modes") if P.shape[1] else P[self.i]
-        self.G = _orthonormal(Phi, raw, M_ii)
+        self.G = _orthonormal(V, self.omega2.size, raw, M_ii)
         self._M_ii = M_ii
         self.size = self.b.size + self.G.shape[1]
         #: Its massless coordinates (contact walls; set by :func:`reduce_model`).
         self.massless = np.zeros(0, np.int64)
-        self.A_r, self.M_r = self._reduced(A, None if M is None else sp.csr_array(M), A_ii, M_ii)
+        self.A_r, self.M_r = self._reduced(Ap, Mp)
         # T^T p of each pattern (p_b - A_bi A_ii^-1 p_i; G^T p_i), for loads in their span
         self._patterns: np.ndarray = P
-        self._R: np.ndarray = np.zeros((0, 0))
-        if P.shape[1]:
-            self._patterns, self._R = np.linalg.qr(P)
         self._F = np.vstack([P[self.b] - self._A_ib.T @ raw, self.G.T @ P[self.i]])
 
-    def _modes(self, M_ii, modes: int, tolerance: float) -> tuple[np.ndarray, np.ndarray]:
-        """The ``modes`` lowest fixed-interface modes (none: empty)."""
+    def _modes(
+        self, A_ii, M_ii, modes: int, tolerance: float, extra: int
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The ``modes`` lowest fixed-interface modes (none: empty; all if that many or more).
+
+        As the first columns of an array with ``extra`` more (:func:`fixed_interface_modes`).
+        """
         if not modes:
-            return np.zeros(0), np.zeros((self.i.size, 0))
+            return np.zeros(0), np.zeros((self.i.size, extra))
         if M_ii is None:
             raise InputError(
                 f"subdomain {self.name!r}: reduce(modes={modes}) needs a mass matrix (a "
                 "density) for its normal modes; use modes=0 for a static reduction"
             )
+        if modes >= self.i.size:  # every mode: the interior whole (SLEPc gives n - 1 at most)
+            values, vectors = scipy.linalg.eigh(A_ii.toarray(), M_ii.toarray())
+            return values, np.hstack([vectors, np.zeros((self.i.size, extra))])
         Mp = _petsc(M_ii)
         try:
-            return fixed_interface_modes(self.factor, Mp, modes, tolerance, self.name)
+            return fixed_interface_modes(self.factor, Mp, modes, tolerance, self.name, extra)
         finally:
             Mp.destroy()
 
-    def _reduced(self, A, M, A_ii, M_ii) -> tuple[np.ndarray, np.ndarray | None]:
-        """``T^T A T`` and ``T^T M T``, Psi's columns a block at a time."""
-        b, i, G = self.b, self.i, self.G
-        nb, r = b.size, self.size
+    def _reduced(self, Ap: dict, Mp: dict | None) -> tuple[np.ndarray, np.ndarray | None]:
+        """``T^T A T`` and ``T^T M T``, Psi's columns a block at a time (from :func:`_pieces`)."""
+        G, M = self.G, Mp
+        nb, r = self.b.size, self.size
         A_r = np.zeros((r, r))
         M_r = None if M is None else np.zeros((r, r))
-        A_bb, A_bi = A[b][:, b], A[b][:, i]
-        A_r[nb:, nb:] = G.T @ (A_ii @ G)  # (A Psi)_i = 0: no coupling to the interior modes
+        A_ii, A_bb, A_bi = Ap["ii"], Ap["bb"], Ap["bi"]
+        M_ii = None if M is None else M["ii"]
+        chunk = _chunk(self.n)
+        A_r[nb:, nb:] = _congruence(G, A_ii, chunk)  # (A Psi)_i = 0: no coupling to the modes
         D = self.fixed
-        A_Db, A_Di = A[D][:, b], A[D][:, i]
+        A_Db, A_Di = Ap["Db"], Ap["Di"]
         #: ``A[D, :] T`` and ``M[D, :] T``: the supports' rows, for their reactions.
         self.reaction_rows = np.zeros((D.size, r))
         self.reaction_rows[:, nb:] = A_Di @ G
         self.reaction_mass: np.ndarray | None = None
         if M is not None:
             self.reaction_mass = np.zeros((D.size, r))
-            self.reaction_mass[:, nb:] = M[D][:, i] @ G
+            self.reaction_mass[:, nb:] = M["Di"] @ G
         if M is not None:
             assert M_r is not None and M_ii is not None  # with M
-            M_bb, M_bi = M[b][:, b], M[b][:, i]
-            M_r[nb:, nb:] = G.T @ (M_ii @ G)
-        for j0 in range(0, nb, REDUCTION_CHUNK):
-            j1 = min(nb, j0 + REDUCTION_CHUNK)
+            M_bb, M_bi, M_ib, M_Db, M_Di = M["bb"], M["bi"], M["ib"], M["Db"], M["Di"]
+            M_r[nb:, nb:] = _congruence(G, M_ii, chunk)
+        for j0 in range(0, nb, chunk):
+            j1 = min(nb, j0 + chunk)
             X = self.factor.solve_many(self._A_ib[:, j0:j1].toarray(), "constraint modes")
             A_r[:nb, j0:j1] = A_bb[:, j0:j1].toarray() - A_bi @ X
             self.reaction_rows[:, j0:j1] = A_Db[:, j0:j1].toarray() - A_Di @ X
@@ -272,13 +341,13 @@ class ReducedBasis:
                 continue
             assert M_r is not None and M_ii is not None  # with M
             Y_b = M_bb[:, j0:j1].toarray() - M_bi @ X  # Y = M Psi, this block of columns
-            Y_i = M_bi.T[:, j0:j1].toarray() - M_ii @ X
+            Y_i = M_ib[:, j0:j1].toarray() - M_ii @ X
             W = self.factor.solve_many(Y_i, "constraint modes' mass")
             M_r[:nb, j0:j1] = Y_b - A_bi @ W
             M_r[nb:, j0:j1] = G.T @ Y_i
             M_r[j0:j1, nb:] = M_r[nb:, j0:j1].T
             assert self.reaction_mass is not None  # with M
-            self.reaction_mass[:, j0:j1] = M[D][:, b][:, j0:j1].toarray() - M[D][:, i] @ X
+            self.reaction_mass[:, j0:j1] = M_Db[:, j0:j1].toarray() - M_Di @ X
         A_r = 0.5 * (A_r + A_r.T)  # symmetric up to round-off; make it exact
         if M_r is not None:
             M_r = 0.5 * (M_r + M_r.T)
@@ -307,7 +376,7 @@ class ReducedBasis:
             rest = v - Q @ c
             rest[self.fixed] = 0.0
             if np.linalg.norm(rest) <= LOAD_SPAN_FLOOR * max(np.linalg.norm(v), 1e-300):
-                return self._F @ np.linalg.solve(self._R, c)
+                return self._F @ c
         return self.project(v)
 
     def expand(self, q: np.ndarray, what: str = "expansion") -> np.ndarray:

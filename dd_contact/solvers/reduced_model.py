@@ -25,6 +25,7 @@ from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
     "REDUCED_ORDERS",
+    "defer_fields",
     "defer_rates",
     "expansion",
     "reduce_model",
@@ -88,11 +89,13 @@ def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, Redu
                 f"subdomain {sub.name!r}: a reduced subdomain's tied dofs must be free (some "
                 "are prescribed); do not reduce it"
             )
-        A = system.block(block, block)
         mass = model.mass.get(block)
+        diagonal = None if mass is None else sp.csr_array(mass).diagonal()
+        del mass
+        # taken out of the model, so the reduction lets them go before it factorises
         basis = ReducedBasis(
-            A,
-            mass,
+            system.matrices.pop((block, block)),
+            model.mass.pop(block, None),
             boundary,
             dofs,
             forms.SubdomainLoad(sub).patterns(),
@@ -104,9 +107,7 @@ def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, Redu
         # the massless (wall) dofs among the boundary ones: their reported rates are the
         # step's mean, as a whole subdomain's (dd_contact.kinematics)
         basis.massless = (
-            np.zeros(0, np.int64)
-            if mass is None
-            else np.flatnonzero(sp.csr_array(mass).diagonal()[basis.b] == 0)
+            np.zeros(0, np.int64) if diagonal is None else np.flatnonzero(diagonal[basis.b] == 0)
         )
         _replace(model, block, basis)
         bases[block] = model.reduced[block] = basis
@@ -150,10 +151,11 @@ def _walls_in_reduced(zones: Sequence, bases: dict[Block, ReducedBasis]) -> None
 def _replace(model, block: Block, basis: ReducedBasis) -> None:
     """The block's pieces of ``model`` in reduced coordinates (``T^T A T``, ``T^T A_us``)."""
     system, extra = model.system, basis.size - basis.b.size
+    system.matrices[(block, block)] = sp.csr_array(basis.A_r)
     for (row, col), A in list(system.matrices.items()):
         if row == block and col == block:
-            system.matrices[(row, col)] = sp.csr_array(basis.A_r)
-        elif row == block:
+            continue
+        if row == block:
             rows = sp.csr_array(A)[basis.b]
             system.matrices[(row, col)] = sp.csr_array(
                 sp.vstack([rows, sp.csr_array((extra, A.shape[1]))])
@@ -230,3 +232,12 @@ def defer_rates(subdomains: Sequence, bases: dict[Block, ReducedBasis], kinemati
             at, (wv, wa) = kinematics.walls[sub.block]
             sub.defer(expansion(basis, v.copy(), at, wv.copy()), "velocity")
             sub.defer(expansion(basis, a.copy(), at, wa.copy()), "acceleration")
+
+
+def defer_fields(subdomains: Sequence, bases: dict[Block, ReducedBasis], kinematics) -> None:
+    """The reduced subdomains' u and rates expanded when next read (a restored state)."""
+    for sub in subdomains:
+        if sub.block in kinematics.reduced:
+            q = kinematics.reduced[sub.block][0]
+            sub.defer(expansion(bases.get(sub.block), q.copy()))
+    defer_rates(subdomains, bases, kinematics)
