@@ -49,11 +49,8 @@ DEFAULT_KAPPA = 1.0e6
 
 #: Ties stiffer than KAPPA_SPLIT are assembled at KAPPA_ASSEMBLED; the remainder of their
 #: penalty is carried by an augmented-Lagrangian iteration (dd_contact.solvers.stiff_ties),
-#: so no factorisation holds a penalty stiffer than KAPPA_SPLIT. Ties up to KAPPA_SPLIT (the
-#: default kappa included) are assembled whole and solved in one go. The assembled part sets
-#: the iteration's floor: storing K + rho R rounds the elements' stiffness at the tie by
-#: 1e-16 x kappa, which a slender body's soft modes amplify (the decomposed bar at 1e12:
-#: 3.9e-8 with 1e5, 5.7e-10 with 1e3; docs/solvers.md, "Stiff ties").
+#: so no factorisation holds a penalty stiffer than KAPPA_SPLIT; ties up to it are assembled
+#: whole. KAPPA_ASSEMBLED sets the round-off floor (docs/solvers.md, "Stiff ties": why 1e3).
 KAPPA_SPLIT = 1.0e6
 KAPPA_ASSEMBLED = 1.0e3
 
