@@ -57,7 +57,7 @@ SOLUTION_TOLERANCE = 1e-9
 #: Also settled when the change has stopped shrinking for two solves below this: the
 #: round-off floor of the update, about 1e-16 x KAPPA_ASSEMBLED x the condition of the
 #: elements, which the assembled part of the tie absorbs.
-TIE_FLOOR = 1e-7
+TIE_FLOOR = 1e-5
 
 #: Solves allowed for one right-hand side.
 MAX_TIE_ITERATIONS = 30
