@@ -44,6 +44,7 @@ from dd_contact.solvers import MonolithicSolver, WorkLog
 from dd_contact.solvers.analysed import Candidates, scene_structure
 from dd_contact.solvers.engine import BlockEliminationSolver
 from dd_contact.solvers.linalg import release_freed_memory
+from dd_contact.solvers.memory import small_pages
 from dd_contact.solvers.mumps_schur import layout_known, mumps_version
 from dd_contact.solvers.petsc_options import OPTIONS_PREFIX, check_options_prefix, petsc_options
 from dd_contact.solvers.reduced_model import (
@@ -205,7 +206,7 @@ class Analysis:
         self.owned: list[Subdomain] = [
             s for k, s in enumerate(scene.subdomains) if scene.owner(k) == self.comm.rank
         ]
-        with self.petsc_options(), counted(self.traffic):  # options read by the factorisations
+        with self.petsc_options(), counted(self.traffic), small_pages():  # no huge pages
             self.model: Model = collective(self.comm, lambda: assemble(scene))
             for z in self.model.zones:  # the pressure-swing check reads static pressure only
                 z.check_resolution = not mass_coefficient

@@ -40,6 +40,7 @@ from dd_contact.pairs import PairOperator, pair_operator
 from dd_contact.parallel import elementwise_max
 from dd_contact.scene import (
     KAPPA_ASSEMBLED,
+    KAPPA_ASSEMBLED_PROJECTED,
     KAPPA_SPLIT,
     KAPPA_VERIFIED,
     ContactBoundary,
@@ -68,16 +69,15 @@ def _tie_operators(surface, sub, what: str) -> coupling.TieOperators:
 def _add_tie(system: BlockSystem, sub, surface, ops: coupling.TieOperators) -> None:
     """Penalty tie terms (9)-(11): P1 on u, -P2 between u and s, P4 on s, all over eps.
 
-    A tie stiffer than KAPPA_SPLIT is assembled at KAPPA_ASSEMBLED and its remainder
-    recorded as a :class:`StiffTie`. Records the tie's eps and kappa, and warns if kappa is
-    outside the verified range.
+    Stiffer than KAPPA_SPLIT: assembled at KAPPA_ASSEMBLED (KAPPA_ASSEMBLED_PROJECTED if
+    not matching), the rest a :class:`StiffTie`; records eps and kappa, warns outside range.
     """
-    E = sub.material.E
-    eps = surface.penalty.epsilon_for(ops.height, E)
-    kappa = surface.penalty.kappa_for(ops.height, E)
+    E, h = sub.material.E, ops.height
+    eps, kappa = surface.penalty.epsilon_for(h, E), surface.penalty.kappa_for(h, E)
     stiff = kappa > KAPPA_SPLIT
-    assembled = ops.height / (E * KAPPA_ASSEMBLED) if stiff else eps
-    u, s = sub.block, surface.block
+    matching = not (stiff and ops.projected) or coupling.matching(ops, sub.mesh, surface.mesh)
+    split = KAPPA_ASSEMBLED if matching else KAPPA_ASSEMBLED_PROJECTED
+    assembled, u, s = ops.height / (E * split) if stiff else eps, sub.block, surface.block
     P1, P2, P4 = (coupling.blocked(P) for P in (ops.P1, ops.P2, ops.P4))
     system.add(u, u, P1 / assembled)
     system.add(u, s, -P2 / assembled)

@@ -42,6 +42,7 @@ import dolfinx.mesh
 import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
+from scipy.spatial import cKDTree
 
 from dd_contact.meshes import cyclic_vertices
 
@@ -50,6 +51,7 @@ __all__ = [
     "bilinear_distortion",
     "blocked",
     "facet_height",
+    "matching",
     "newell_normal",
     "pull_back",
     "tie_operators",
@@ -451,18 +453,20 @@ def tie_operators(
     )
 
 
+def matching(ops: TieOperators, vol: dolfinx.mesh.Mesh, surf: dolfinx.mesh.Mesh) -> bool:
+    """Whether each tied facet is a cell of the surface (it copies them, or some of them)."""
+    if len(ops.facets) != np.count_nonzero(ops.covered_area > 0):
+        return False
+    wall = np.unique(dolfinx.mesh.entities_to_geometry(vol, vol.topology.dim - 1, ops.facets))
+    distance, _ = cKDTree(surf.geometry.x).query(vol.geometry.x[wall])
+    return bool(np.all(distance <= 1e-9 * ops.height))
+
+
 def _untied(n_v: int, n_s: int, covered, cell_area) -> TieOperators:
     """The operators of a surface that touches no facet: empty."""
     empty = sp.csr_array((n_v, n_v))
-    return TieOperators(
-        empty,
-        sp.csr_array((n_v, n_s)),
-        sp.csr_array((n_s, n_s)),
-        covered,
-        cell_area,
-        0.0,
-        np.zeros(0, np.int32),
-    )
+    P2, P4, none = sp.csr_array((n_v, n_s)), sp.csr_array((n_s, n_s)), np.zeros(0, np.int32)
+    return TieOperators(empty, P2, P4, covered, cell_area, 0.0, none)
 
 
 def _facing_pairs(

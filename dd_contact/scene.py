@@ -47,12 +47,12 @@ CONTACT_POINTS = ("nodes", "quadrature")
 #: elements behind them, so the penalty gap costs about 1e-6 of the response.
 DEFAULT_KAPPA = 1.0e6
 
-#: Ties stiffer than KAPPA_SPLIT are assembled at KAPPA_ASSEMBLED; the remainder of their
-#: penalty is carried by an augmented-Lagrangian iteration (dd_contact.solvers.stiff_ties),
-#: so no factorisation holds a penalty stiffer than KAPPA_SPLIT. Ties up to KAPPA_SPLIT (the
-#: default kappa included) are assembled whole and solved in one go.
+#: Ties stiffer than KAPPA_SPLIT are assembled at KAPPA_ASSEMBLED (matching facets) or
+#: KAPPA_ASSEMBLED_PROJECTED, the rest of their penalty carried by an augmented-Lagrangian
+#: iteration (dd_contact.solvers.stiff_ties; docs/solvers.md, "Stiff ties": why these).
 KAPPA_SPLIT = 1.0e6
-KAPPA_ASSEMBLED = 1.0e5
+KAPPA_ASSEMBLED = 1.0e3
+KAPPA_ASSEMBLED_PROJECTED = 1.0e5
 
 #: Dimensionless tie penalties over which the results are verified to 1e-8 (``dd-contact
 #: verify --case extremes``, docs/accuracy.md); a tie outside gets a PenaltyRangeWarning.

@@ -23,6 +23,7 @@ from dd_contact.solvers.linalg import (
     petsc_matrix,
     sparse_statistics,
 )
+from dd_contact.solvers.memory import small_pages
 from dd_contact.solvers.mumps_schur import SchurFactorisation
 from dd_contact.solvers.petsc_options import OPTIONS_PREFIX
 from dd_contact.solvers.worklog import WorkLog
@@ -261,6 +262,18 @@ def test_release_freed_memory_returns_a_freed_heap_to_the_os():
     before = resident_mb()
     linalg.release_freed_memory()
     assert before - resident_mb() > 400  # of the ~800 MB freed
+
+
+@pytest.mark.parametrize("before", [True, False])
+def test_small_pages_turns_numpy_huge_pages_off_and_restores_them(before):
+    switch = np._core.multiarray._set_madvise_hugepage  # returns the setting it replaces
+    kept = switch(before)
+    try:
+        with small_pages():
+            assert switch(False) is False  # off inside
+        assert switch(kept) is before  # restored after
+    finally:
+        switch(kept)
 
 
 def _dense(A: PETSc.Mat) -> np.ndarray:

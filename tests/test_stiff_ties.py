@@ -4,12 +4,13 @@ from __future__ import annotations
 
 from mpi4py import MPI
 
+import numpy as np
 import pytest
 
 import dd_contact as dd
 from dd_contact.paper import verify
 from dd_contact.paper.examples import parallelepiped
-from dd_contact.scene import KAPPA_ASSEMBLED, KAPPA_SPLIT
+from dd_contact.scene import KAPPA_ASSEMBLED, KAPPA_ASSEMBLED_PROJECTED, KAPPA_SPLIT
 from dd_contact.solvers.stiff_ties import AugmentedTies
 
 
@@ -44,16 +45,36 @@ def test_a_stiff_tie_adds_substitutions_not_factorisations(order):
         assert stiff.count(kind) == moderate.count(kind) + 2 * extra, kind
 
 
-def test_the_assembled_part_of_a_stiff_tie_is_kappa_assembled():
-    scene = verify.pressed_scene("interface", kappa=1e12, comm=MPI.COMM_SELF)
-    problem = dd.StaticProblem(scene)
+def _decomposed_bar(kappa):
+    bar = dd.meshes.box(MPI.COMM_SELF, [0, 0, 0], [4, 1, 1], [8, 2, 2])
+    scene = dd.decompose(bar, dd.Material(E=210e9, nu=0.3, rho=7850.0), parts=2, kappa=kappa)
+    return scene.fix(lambda x: np.isclose(x[0], 0.0))
+
+
+@pytest.mark.parametrize(
+    ("build", "names", "assembled"),
+    [  # the pressed scene's interface does not match its blocks' facets: projected
+        (
+            lambda: verify.pressed_scene("interface", kappa=1e12, comm=MPI.COMM_SELF),
+            {"'interface' on 'A'", "'interface' on 'B'"},
+            KAPPA_ASSEMBLED_PROJECTED,
+        ),
+        (
+            lambda: _decomposed_bar(1e12),
+            {"'interface' on 'part0'", "'interface' on 'part1'"},
+            KAPPA_ASSEMBLED,
+        ),
+    ],
+)
+def test_the_assembled_part_of_a_stiff_tie_is_kappa_assembled(build, names, assembled):
+    problem = dd.StaticProblem(build())
     ties = problem.model.system.stiff_ties
-    assert {t.name for t in ties} == {"'interface' on 'A'", "'interface' on 'B'"}
+    assert {t.name for t in ties} == names
     for tie in ties:
-        # rho + sigma = 1 / eps of the tie; rho = KAPPA_ASSEMBLED's share.
+        # rho + sigma = 1 / eps of the tie; rho = the assembled kappa's share.
         eps = problem.penalties[(tie.u.name, tie.s.name)]
         assert tie.rho + tie.sigma == pytest.approx(1.0 / eps, rel=1e-12)
-        assert tie.rho / (tie.rho + tie.sigma) == pytest.approx(KAPPA_ASSEMBLED / 1e12)
+        assert tie.rho / (tie.rho + tie.sigma) == pytest.approx(assembled / 1e12)
     problem.close()
 
 
