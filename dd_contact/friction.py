@@ -181,6 +181,10 @@ class Friction:
         size, limit = np.linalg.norm(trial, axis=1), self._limit(w)
         undecided = np.abs(size - limit) <= LIMIT_BAND * limit
         slipping = np.where(undecided, self.state == SLIP, size > limit)
+        # A slip the solve turned back (its trial against the direction it slid with) says
+        # the point holds: stick, the return mapping's predictor (else the edge of a Hertz
+        # contact flips its direction back and forth, Cattaneo-Mindlin).
+        slipping &= ~((self.state == SLIP) & (np.einsum("pd,pd->p", trial, self.direction) < 0))
         state = np.where(active, np.where(slipping, SLIP, STICK), OPEN).astype(np.int8)
         slip = state == SLIP
         direction = np.zeros_like(self.direction)
