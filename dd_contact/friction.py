@@ -86,6 +86,7 @@ class Friction:
         N = sp.csr_array(operator.points.N)
         self._nodal = N.shape == (p, p) and N.nnz == p and np.array_equal(N.diagonal(), np.ones(p))
         self._terms: tuple | None = None  # the last terms and what they were made for
+        self._turn = np.zeros((p, 3))  # each slip direction's last change within the step
         self.state = np.zeros(p, np.int8)
         self.direction = np.zeros((p, 3))
         self.scale = np.zeros(p)
@@ -193,7 +194,13 @@ class Friction:
         changed = bool(turned or not np.array_equal(state, self.state))
         self.state = state
         if turned or not np.array_equal(slip, self.direction.any(axis=1)):
-            # else kept bit for bit: the same matrix, settled
+            # else kept bit for bit: the same matrix, settled. A direction turning back
+            # (against its last turn) takes the bisector: else it can swing between two
+            # (the pin joint's hole walls, w-v-u, every other iteration, growing).
+            back = slip & (np.einsum("pd,pd->p", direction - self.direction, self._turn) < 0)
+            mean = direction[back] + self.direction[back]
+            direction[back] = mean / np.linalg.norm(mean, axis=1)[:, None]
+            self._turn = direction - self.direction
             self.direction = direction
             self.scale = np.where(slip, limit / np.maximum(size, 1e-300), 0.0)
         return changed
@@ -217,6 +224,7 @@ class Friction:
         self.obstacle_work = float(np.dot(self.operator.points.weight, moved))
         self.slip += slipped
         self.traction, self.start, self.t_start = t, np.array(w, float), self.operator.t
+        self._turn[:] = 0.0
 
     def nodal(self, values: np.ndarray) -> np.ndarray:
         """Point values (points x k) at the nodes, weighted by the points' areas."""

@@ -326,13 +326,21 @@ class ContactIteration:
             back = self._correction.pressed_back(end)
             if any_rank(self.comm, any((back[n] & released[n]).any() for n in back)):
                 return dict(self.active), []
-            return self._next_sets(end, start, released, held_in)
+            # friction decides on the whole end state where the walls left as solved are
+            # stale: else its slip directions went round (the pin joint, w-v-u)
+            partial = any_rank(self.comm, self._correction.needs_whole(self.active, x))
+            return self._next_sets(end, start, released, held_in, not partial)
         back_in = self._pressed_back(end, released, held_in)
         self._held_in_now = bool(sum_over_ranks(self.comm, len(back_in)))
         return self._next_sets(end, start, released, held_in)
 
     def _next_sets(
-        self, end: dict[str, np.ndarray], start: dict, released: dict, held_in: dict
+        self,
+        end: dict[str, np.ndarray],
+        start: dict,
+        released: dict,
+        held_in: dict,
+        friction_decides: bool = True,
     ) -> tuple[dict[str, np.ndarray], list[str]]:
         """The active sets the end state ``end`` shows, and the zones where they changed."""
         new = {}
@@ -350,7 +358,11 @@ class ContactIteration:
         for z in self.zones:  # a point between stick and slip is a contact state change too
             friction = getattr(z.operator, "friction", None)
             name = z.contact.name
-            if friction is not None and friction.decide(z.gather(end), new[name]):
+            if (
+                friction_decides
+                and friction is not None
+                and friction.decide(z.gather(end), new[name])
+            ):
                 changed += [] if name in changed else [name]
         return new, changed
 
