@@ -39,7 +39,7 @@ TANGENTIAL_PENALTY = 1.0
 
 #: A slip direction that moved by less than this (unit vectors) is the same state: the
 #: fixed point on the direction stops there.
-DIRECTION_TOLERANCE = 1e-7
+DIRECTION_TOLERANCE = 1e-5
 
 #: A trial traction within this fraction of the Coulomb limit is no evidence: the point
 #: keeps its state (round-off at the limit would flip it back and forth).
