@@ -13,10 +13,14 @@ and their ratio (the issue's target: at most 2), also of the changes' lower quar
 more, and friction's runs have several times more changes), the steps' base time, the
 peak memory; and FULL's per-change time over each order's, with friction.
 
-Writes benchmarks/results/friction_cost.json.
+Writes benchmarks/results/friction_cost.json (``--out``), after every run.
 
 Run: python benchmarks/friction_cost.py [--elements 80 12 4] [--steps 6] [--full-steps 3]
      [--repeats 3] [--mu 0.3]
+At the issue's size (108k dofs, the bar of ``architecture_speed_108k.json``; FULL's LU
+there takes 30-60 s a change, so few steps):
+     python benchmarks/friction_cost.py --elements 160 24 8 --steps 4 --full-steps 2
+     --algorithms w-u w-v-u v-w-u FULL --out benchmarks/results/friction_cost_108k.json
 """
 
 from __future__ import annotations
@@ -81,12 +85,16 @@ def main() -> None:
                 done = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
                 run = json.loads(done.stdout.strip().splitlines()[-1])
                 runs.setdefault(f"{algorithm} mu={mu:g}", []).append(run)
-    summary = summarise(args, runs)
-    out = Path(args.out)
-    out.write_text(
-        json.dumps({"arguments": vars(args), "summary": summary, "runs": runs}, indent=1)
-    )
+                summary = write(args, runs)  # after every run: a session cut short keeps it
     print(json.dumps(summary, indent=1))
+
+
+def write(args, runs: dict) -> dict:
+    """The summary of ``runs``, written with them to ``args.out``."""
+    summary = summarise(args, runs)
+    document = {"arguments": vars(args), "summary": summary, "runs": runs}
+    Path(args.out).write_text(json.dumps(document, indent=1))
+    return summary
 
 
 def summarise(args, runs: dict) -> dict:

@@ -39,7 +39,7 @@ TANGENTIAL_PENALTY = 1.0
 
 #: A slip direction that moved by less than this (unit vectors) is the same state: the
 #: fixed point on the direction stops there.
-DIRECTION_TOLERANCE = 1e-7
+DIRECTION_TOLERANCE = 1e-5
 
 #: A trial traction within this fraction of the Coulomb limit is no evidence: the point
 #: keeps its state (round-off at the limit would flip it back and forth).
@@ -184,7 +184,8 @@ class Friction:
         slipping = np.where(undecided, self.state == SLIP, size > limit)
         # A slipping point whose trial turned against its slip direction overshot: the
         # full Coulomb force stopped it within the step. Its answer lies between the two
-        # directions, so it sticks next (else +s and -s alternate without end).
+        # directions, so it sticks next (else +s and -s alternate without end: an oblique
+        # impact, the edge of a Cattaneo-Mindlin contact).
         along = np.einsum("pd,pd->p", trial, self.direction)
         slipping &= ~((self.state == SLIP) & (along < 0.0))
         state = np.where(active, np.where(slipping, SLIP, STICK), OPEN).astype(np.int8)

@@ -286,7 +286,7 @@ def hemisphere(
     contact_radius: float,
     h_contact: float,
     h_far: float,
-    quarter: bool = True,
+    quarter: bool | str = True,
     order: int = 1,
     grading: float = 0.1,
 ) -> tuple[dolfinx.mesh.Mesh, dolfinx.mesh.MeshTags]:
@@ -313,7 +313,7 @@ def hemisphere(
         contact_radius: Expected Hertz contact radius ``a``: sets the refined zone.
         h_contact: Mesh size near the pole.
         h_far: Mesh size far from the pole.
-        quarter: Keep only the quarter ``x >= 0, y >= 0``.
+        quarter: Keep only the quarter ``x >= 0, y >= 0`` (``"half"``: only ``y >= 0``).
         order: Geometry order of the tetrahedra (1 or 2).
         grading: Growth of the mesh size per unit distance beyond the refined zone (0.1: a
             size ratio of about 1.1 between neighbouring elements). Smaller is smoother and
@@ -321,7 +321,8 @@ def hemisphere(
 
     Returns:
         The mesh and its facet tags: :data:`HEMISPHERE_CURVED`, :data:`HEMISPHERE_TOP` and,
-        with ``quarter``, :data:`HEMISPHERE_SYMMETRY_X` and :data:`HEMISPHERE_SYMMETRY_Y`.
+        with ``quarter``, :data:`HEMISPHERE_SYMMETRY_X` (not ``"half"``) and
+        :data:`HEMISPHERE_SYMMETRY_Y`.
 
     Raises:
         ValueError: If a length or ``grading`` is not positive, or ``order`` is not 1 or 2.
@@ -371,7 +372,7 @@ def _hemisphere_model(
     contact_radius: float,
     h_contact: float,
     h_far: float,
-    quarter: bool,
+    quarter: bool | str,
     order: int,
     grading: float,
 ) -> None:
@@ -401,7 +402,7 @@ def _hemisphere_model(
         gmsh.model.mesh.setOrder(order)
 
 
-def _hemisphere_volume(occ: ModuleType, radius: float, quarter: bool) -> tuple[int, int]:
+def _hemisphere_volume(occ: ModuleType, radius: float, quarter: bool | str) -> tuple[int, int]:
     """The OCC volume of the hemisphere (or its quarter), synchronised: its (dim, tag)."""
     sphere = occ.addSphere(0.0, 0.0, radius, radius)
     # OCC's sphere has its parametric poles on its z axis and its seam in the half-plane
@@ -410,15 +411,17 @@ def _hemisphere_volume(occ: ModuleType, radius: float, quarter: bool) -> tuple[i
     # contact zone is meshed where the parametrisation is regular.
     occ.rotate([(3, sphere)], 0.0, 0.0, radius, 1.0, 0.0, 0.0, np.pi / 2)
     occ.rotate([(3, sphere)], 0.0, 0.0, radius, 0.0, 0.0, 1.0, np.pi / 4)
-    lo = 0.0 if quarter else -1.1 * radius
-    cut = occ.addBox(lo, lo, -0.1 * radius, 1.1 * radius - lo, 1.1 * radius - lo, 1.1 * radius)
+    lo, y_lo = (0.0 if quarter is True else -1.1 * radius), (0.0 if quarter else -1.1 * radius)
+    cut = occ.addBox(lo, y_lo, -0.1 * radius, 1.1 * radius - lo, 1.1 * radius - y_lo, 1.1 * radius)
     (volume_dimtag,), _ = occ.intersect([(3, sphere)], [(3, cut)])
+    if quarter == "half":  # the pole, on the arc y = 0, split it there (not embedded: 0-volume)
+        volume_dimtag = occ.fragment([volume_dimtag], [(0, occ.addPoint(0, 0, 0))])[0][0]
     occ.synchronize()
     return volume_dimtag
 
 
 def _hemisphere_faces(
-    gmsh: ModuleType, volume_dimtag: tuple[int, int], radius: float, quarter: bool, eps: float
+    gmsh: ModuleType, volume_dimtag: tuple[int, int], radius: float, quarter: bool | str, eps: float
 ) -> dict[int, list[int]]:
     """The hemisphere's boundary surfaces by facet tag (:data:`HEMISPHERE_CURVED`, ...).
 
@@ -429,9 +432,10 @@ def _hemisphere_faces(
     cos_tol = 1e-6  # of unit normals
     planes = {HEMISPHERE_TOP: (2, radius)}  # tag: (axis of the normal, coordinate on it)
     groups: dict[int, list[int]] = {HEMISPHERE_CURVED: [], HEMISPHERE_TOP: []}
-    if quarter:
-        planes |= {HEMISPHERE_SYMMETRY_X: (0, 0.0), HEMISPHERE_SYMMETRY_Y: (1, 0.0)}
-        groups |= {HEMISPHERE_SYMMETRY_X: [], HEMISPHERE_SYMMETRY_Y: []}
+    if quarter:  # a half has no plane x = 0
+        planes[HEMISPHERE_SYMMETRY_Y] = (1, 0.0)
+        planes |= {HEMISPHERE_SYMMETRY_X: (0, 0.0)} if quarter is True else {}
+        groups |= {tag: [] for tag in planes if tag != HEMISPHERE_TOP}
     for _, surface in gmsh.model.getBoundary([volume_dimtag], oriented=False):
         group = HEMISPHERE_CURVED
         if gmsh.model.getType(2, surface) == "Plane":

@@ -146,6 +146,9 @@ class EnergyBalance:
         self.largest = 0.0
         #: The contact penalty energy at the start of the step (what a release can settle on).
         self.contact_before = 0.0
+        #: Each checked step's books: ``(step, gain, allowed)``, the energy now less the
+        #: energy before, the loads' (and moving obstacles') work, plus the dissipation.
+        self.gains: list[tuple[int, float, float]] = []
 
     def start(self, energy: Mapping[str, float]) -> None:
         """The energy at the start of the run (``total`` and ``contact`` parts)."""
@@ -211,6 +214,7 @@ class EnergyBalance:
         allowed = ENERGY_GROWTH_TOLERANCE * max(self.largest, abs(energy_before))
         if self.energy_safe:  # what its release iteration settles within (classic: none)
             allowed = max(allowed, RELEASE_TOLERANCE * contact_before)
+        self.gains.append((record["step"], gain, allowed))
         if gain > allowed:
             self.warned = True
             fix = (

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -96,6 +96,9 @@ class Run:
     changes: dict[str, int]
     factorisations: int
     substitutions: int
+    #: The energy balance's books per checked step, ``(step, gain, allowed)``
+    #: (:class:`~dd_contact.monitors.EnergyBalance`; empty without ``track_energy``).
+    gains: list[tuple[int, float, float]] = field(default_factory=list)
 
     @property
     def label(self) -> str:
@@ -165,6 +168,7 @@ def run_algorithm(
         problem.changes,
         sum(b["decompositions"] for b in work.values()),
         sum(b["substitutions"] for b in work.values()),
+        list(problem.energy_balance.gains),
     )
     problem.close()
     return run

@@ -173,6 +173,7 @@ def pin_joint(
     pins: str = "rigid",
     pin_material: Material = STEEL,
     walls: str = "cylinders",
+    friction: float = 0.0,
 ) -> Scene:
     """The multi-pin joint: 12 subdomains, 1 interface, 10 contact interfaces, 5 pins.
 
@@ -199,15 +200,11 @@ def pin_joint(
         walls: ``"cylinders"`` (each wall's contact interface a cylinder mesh of its own,
             turned half a cell from the wall's nodes) or ``"facets"`` (a copy of the wall's
             facets, as :func:`pin_joint_one_mesh` builds them; rigid pins only).
+        friction: Coulomb's mu of the hole walls on their rigid pins (0: frictionless;
+            docs/contact.md, "Friction").
     """
     _check_options(lower, clearance, period)
-    if pins not in PIN_KINDS:
-        raise InputError(f"pin_joint: pins={pins!r} is not one of {PIN_KINDS}")
-    if walls not in ("cylinders", "facets") or (walls == "facets" and pins != "rigid"):
-        raise InputError(
-            f"pin_joint: walls={walls!r} with pins={pins!r}: give walls='cylinders', or "
-            "walls='facets' with rigid pins"
-        )
+    _check_kinds(pins, walls, friction)
     model = pin_joint_meshes(scale, wall_cells)
     lay = model.layout
     radius, thick = lay.hole_diameter * MM / 2, lay.thickness * MM
@@ -228,13 +225,14 @@ def pin_joint(
         if walls == "facets":
             hole = (tags[name], FACE_TAGS["hole"])
             zones[name] = ContactInterface.from_boundary(
-                parts[name], hole, pin, name=f"hole_{name}"
+                parts[name], hole, pin, friction=friction, name=f"hole_{name}"
             )
             continue
         obstacle = None if pins == "elastic" else pin
         zones[name] = ContactInterface(
-            model.walls[name], parts[name], obstacle, tolerance=2.0 * sagitta, name=f"hole_{name}"
-        )
+            model.walls[name], parts[name], obstacle, tolerance=2.0 * sagitta,
+            friction=friction, name=f"hole_{name}",
+        )  # fmt: skip
     if pins == "rigid":
         return Scene(comm, list(parts.values()), interface, contacts=list(zones.values()))
     pin_parts, pairs = elastic_pins(model, zones, in_contact, radius - gaps, pin_material)
@@ -327,6 +325,22 @@ def _check_options(lower: str, clearance: float | Sequence[float], period: float
         raise InputError(f"pin_joint: clearance must be >= 0, got {clearance}")
     if not period > 0.0:
         raise InputError(f"pin_joint: period must be positive, got {period}")
+
+
+def _check_kinds(pins: str, walls: str, friction: float) -> None:
+    """The pins, the walls and the friction of :func:`pin_joint`: each fits the others."""
+    if pins not in PIN_KINDS:
+        raise InputError(f"pin_joint: pins={pins!r} is not one of {PIN_KINDS}")
+    if friction and pins != "rigid":
+        raise InputError(
+            f"pin_joint: friction={friction!r} with pins={pins!r}: friction is on the hole "
+            "walls against rigid pins; give pins='rigid' or friction=0"
+        )
+    if walls not in ("cylinders", "facets") or (walls == "facets" and pins != "rigid"):
+        raise InputError(
+            f"pin_joint: walls={walls!r} with pins={pins!r}: give walls='cylinders', or "
+            "walls='facets' with rigid pins"
+        )
 
 
 def _pin_clearances(clearance: float | Sequence[float], n_pins: int, radius: float) -> np.ndarray:

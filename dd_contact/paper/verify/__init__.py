@@ -7,11 +7,13 @@ The scene builders are public so tests, demos and benchmarks use the same models
 against FULL), :mod:`~dd_contact.paper.verify.extremes` (the penalty sweep),
 :mod:`~dd_contact.paper.verify.drops` (3-D bodies dropped on a plane),
 :mod:`~dd_contact.paper.verify.pairs` (contact between two bodies),
+:mod:`~dd_contact.paper.verify.cattaneo` (a Hertz contact under a tangential load),
 :mod:`~dd_contact.paper.verify.cases` (the registry of ``dd-contact verify``).
 """
 
 from dd_contact.paper.verify.bar import bar_impact
 from dd_contact.paper.verify.cases import CASES, run_cases
+from dd_contact.paper.verify.cattaneo import cattaneo_mindlin
 from dd_contact.paper.verify.drops import (
     box_drop_scene,
     drop,
@@ -76,6 +78,7 @@ __all__ = [
     "bar_impact",
     "bent_bar",
     "box_drop_scene",
+    "cattaneo_mindlin",
     "displacements",
     "drop",
     "extremes",

@@ -6,6 +6,7 @@ from collections.abc import Callable
 from dataclasses import asdict
 
 from dd_contact.paper.verify.bar import bar_impact
+from dd_contact.paper.verify.cattaneo import case_cattaneo_mindlin
 from dd_contact.paper.verify.drops import case_falling_block, case_sphere_drop, energy_record
 from dd_contact.paper.verify.extremes import extremes
 from dd_contact.paper.verify.friction import case_sliding_block
@@ -193,6 +194,7 @@ CASES: dict[str, Callable[[], list[Record]]] = {
     "reduced-modes": case_reduced_modes,
     "sliding-block": case_sliding_block,
     "sliding-pair": case_sliding_pair,
+    "cattaneo-mindlin": case_cattaneo_mindlin,
 }
 
 
