@@ -56,13 +56,9 @@ import sys
 import time
 from pathlib import Path
 
+from pinned import PINNED
+
 HERE = Path(__file__).parent / "results"
-PINNED = {
-    "OPENBLAS_NUM_THREADS": "1",
-    "OMP_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "BLIS_NUM_THREADS": "1",
-}
 #: Scene -> (builder, dt, steps, the algorithms that fit it, auto's expected changes per step)
 SCENES: dict[str, dict] = {
     "pin_small": {"build": ("pin", "small"), "dt": 4e-5, "steps": 100},

@@ -58,6 +58,8 @@ import sys
 import time
 from pathlib import Path
 
+from pinned import PINNED
+
 HERE = Path(__file__).parent / "results"
 ALGORITHMS = ["FULL", "v-w-u", "w-v-u", "w-u", "v-u", "auto"]
 #: "<algorithm> classic": the same run with the paper's contact (energy_safe_contact=False),
@@ -65,12 +67,6 @@ ALGORITHMS = ["FULL", "v-w-u", "w-v-u", "w-u", "v-u", "auto"]
 CLASSIC = [f"{a} classic" for a in ALGORITHMS if a != "auto"]
 AUTO_SCENE = "w-v-u"  # auto runs on the two-subdomain scene with a contact interface
 SLOW = ("FULL", "v-u")  # re-factorise a large sparse matrix on every change: fewer steps
-PINNED = {
-    "OPENBLAS_NUM_THREADS": "1",
-    "OMP_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "BLIS_NUM_THREADS": "1",
-}
 
 
 def worker(args) -> dict:

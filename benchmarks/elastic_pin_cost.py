@@ -39,13 +39,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+from pinned import PINNED
 
-PINNED = {
-    "OPENBLAS_NUM_THREADS": "1",
-    "OMP_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "BLIS_NUM_THREADS": "1",
-}
 #: An order followed by " refactorise" runs with the low-rank correction of contact changes
 #: off (dd_contact/solvers/lowrank.py): every change re-factorises the groups it makes stale.
 ALGORITHMS = ("FULL", "v-w-u", "w-v-u", "v-w-u refactorise", "w-v-u refactorise")

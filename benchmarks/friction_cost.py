@@ -33,8 +33,9 @@ import subprocess
 import sys
 from pathlib import Path
 
-from decomposition_speed import PINNED, derived
+from decomposition_speed import derived
 from decomposition_speed import worker as speed_worker
+from pinned import PINNED
 
 HERE = Path(__file__).parent / "results"
 ALGORITHMS = ["FULL", "w-u", "v-w-u", "w-v-u"]

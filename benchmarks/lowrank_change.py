@@ -36,8 +36,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+from pinned import PINNED
 
-PINNED = {k: "1" for k in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
 DEFAULT_SCALE = "6,7,4,34"
 PERIOD = 2e-3
 FRACTIONS = (0.01, 0.05)

@@ -32,8 +32,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+from pinned import PINNED
 
-PINNED = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 RUNS = ("FULL", "w-v-u", "w-v-u refactorise", "v-w-u", "v-w-u refactorise")
 RESULT = Path(__file__).parent / "results" / "lowrank_price.json"
 

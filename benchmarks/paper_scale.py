@@ -58,15 +58,11 @@ import threading
 import time
 from pathlib import Path
 
+from pinned import PINNED
+
 sys.path.insert(0, str(Path(__file__).parent))  # iterative_peer
 
 HERE = Path(__file__).parent / "results"
-PINNED = {
-    "OPENBLAS_NUM_THREADS": "1",
-    "OMP_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "BLIS_NUM_THREADS": "1",
-}
 #: The demos' loads and time steps (demos/demo_parallelepiped.py, demos/demo_pin_joint.py).
 DEMO = {
     "parallelepiped": {"dt": 1e-4, "algorithms": ["w-v-u", "w-u", "v-w-u", "FULL"]},

@@ -38,8 +38,9 @@ import time
 import warnings
 from pathlib import Path
 
+from pinned import PINNED
+
 HERE = Path(__file__).parent / "results"
-PINNED = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 DT, PERIOD = 1.6e-6, 2e-3
 REFERENCE = "w-v-u"
 

@@ -44,15 +44,11 @@ import time
 import warnings
 from pathlib import Path
 
+from pinned import PINNED
+
 sys.path.insert(0, str(Path(__file__).parent))  # iterative_peer, a worker's import
 
 HERE = Path(__file__).parent / "results"
-PINNED = {
-    "OPENBLAS_NUM_THREADS": "1",
-    "OMP_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "BLIS_NUM_THREADS": "1",
-}
 #: (label, algorithm, reduced); the peers are FULL solved by CG (iterative_peer.py)
 CASES = [("FULL", "FULL", False), ("w-u", "w-u", False), ("w-u reduced", "w-u", True)]
 CASES += [("w-v-u reduced", "w-v-u", True), ("CG+Jacobi", "FULL", False)]

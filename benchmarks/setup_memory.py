@@ -45,9 +45,10 @@ import sys
 import time
 from pathlib import Path
 
+from pinned import PINNED
+
 OUT = Path(__file__).parent / "results" / "setup_memory.json"
 MB = 1e6
-PINNED = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
 
 
 def _status_kb(field: str) -> int:

@@ -43,14 +43,10 @@ import sys
 import time
 from pathlib import Path
 
+from pinned import PINNED
+
 HERE = Path(__file__).parent / "results"
 ALGORITHMS = ["FULL", "w-u", "w-v-u"]
-PINNED = {
-    "OPENBLAS_NUM_THREADS": "1",
-    "OMP_NUM_THREADS": "1",
-    "MKL_NUM_THREADS": "1",
-    "BLIS_NUM_THREADS": "1",
-}
 
 
 def _parts():

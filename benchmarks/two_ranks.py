@@ -30,7 +30,8 @@ import os
 import sys
 from pathlib import Path
 
-from paper_scale import PINNED, derived, timed_run
+from paper_scale import derived, timed_run
+from pinned import PINNED
 
 HERE = Path(__file__).parent / "results"
 MPIEXEC = Path(sys.executable).with_name("mpiexec")

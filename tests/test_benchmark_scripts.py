@@ -1,12 +1,15 @@
 """The benchmark scripts' hooks into the package still name what the package has."""
 
 import importlib.util
+import sys
 from pathlib import Path
 
 BENCHMARKS = Path(__file__).parent.parent / "benchmarks"
 
 
 def _script(name: str):
+    if str(BENCHMARKS) not in sys.path:  # scripts import their siblings (pinned, ...)
+        sys.path.insert(0, str(BENCHMARKS))
     spec = importlib.util.spec_from_file_location(name, BENCHMARKS / f"{name}.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
