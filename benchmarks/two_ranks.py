@@ -30,8 +30,9 @@ import os
 import sys
 from pathlib import Path
 
-from paper_scale import derived, timed_run
+from paper_scale import derived
 from pinned import PINNED
+from process_watch import timed_run
 
 HERE = Path(__file__).parent / "results"
 MPIEXEC = Path(sys.executable).with_name("mpiexec")
