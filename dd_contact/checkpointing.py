@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import json
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -159,22 +159,23 @@ class RunState:
             if f"reduced/u/{sub.name}" not in reduced
             for name in KINEMATICS
         }
-        for key, target in (targets | reduced).items():
-            if key not in state or state[key].shape != target.shape:
-                raise InputError(
-                    f"resume: the checkpoint does not match subdomain {key.split('/')[-1]!r} "
-                    "(different scene or mesh, or reduced otherwise); start a new output "
-                    "directory"
-                )
-            target[:] = state[key]
-        for key, target in self._surfaces().items():
-            if key not in state or state[key].shape != target.shape:
-                raise InputError(
-                    f"resume: the checkpoint holds no {key.split('/')[1]!r} surface of this "
-                    "shape (a different scene, or a checkpoint of an earlier version without "
-                    "the surfaces' state); start a new output directory"
-                )
-            target[:] = state[key]
+        _copy_into(
+            targets | reduced,
+            state,
+            lambda key: (
+                f"the checkpoint does not match subdomain {key.split('/')[-1]!r} "
+                "(different scene or mesh, or reduced otherwise)"
+            ),
+        )
+        _copy_into(
+            self._surfaces(),
+            state,
+            lambda key: (
+                f"the checkpoint holds no {key.split('/')[1]!r} surface of this shape "
+                "(a different scene, or a checkpoint of an earlier version without the surfaces' "
+                "state)"
+            ),
+        )
         it = self.iteration
         it.gamma = int(state["gamma"])
         for z in self.zones:
@@ -316,3 +317,15 @@ class Checkpoint:
         text = None if history is None else bytes(history).decode()
         text = bcast_from_root(self.comm, text)
         return state, None if text is None else json.loads(text)
+
+
+def _copy_into(targets: dict, state, mismatch: Callable[[str], str]) -> None:
+    """Each target array filled from the checkpoint's array of its key.
+
+    A key the checkpoint lacks, or holds in another shape, is refused (``mismatch`` says
+    why, from the key).
+    """
+    for key, target in targets.items():
+        if key not in state or state[key].shape != target.shape:
+            raise InputError(f"resume: {mismatch(key)}; start a new output directory")
+        target[:] = state[key]
