@@ -326,13 +326,21 @@ class ContactIteration:
             back = self._correction.pressed_back(end)
             if any_rank(self.comm, any((back[n] & released[n]).any() for n in back)):
                 return dict(self.active), []
-            return self._next_sets(end, start, released, held_in)
+            # friction decides on the whole end state only where the walls left as solved
+            # are stale: else its slip directions went round between the two kinds
+            partial = any_rank(self.comm, self._correction.needs_whole(self.active, x))
+            return self._next_sets(end, start, released, held_in, not partial)
         back_in = self._pressed_back(end, released, held_in)
         self._held_in_now = bool(sum_over_ranks(self.comm, len(back_in)))
         return self._next_sets(end, start, released, held_in)
 
     def _next_sets(
-        self, end: dict[str, np.ndarray], start: dict, released: dict, held_in: dict
+        self,
+        end: dict[str, np.ndarray],
+        start: dict,
+        released: dict,
+        held_in: dict,
+        friction_decides: bool = True,
     ) -> tuple[dict[str, np.ndarray], list[str]]:
         """The active sets the end state ``end`` shows, and the zones where they changed."""
         new = {}
@@ -347,14 +355,10 @@ class ContactIteration:
         if self._correction is not None:
             self._keep_released_out(new, start, released, held_in)
         changed = [n for n in new if not np.array_equal(new[n], self.active[n])]
-        # Stick and slip are judged on the solve itself, not on its end state: an order's
-        # iterates settle a releasing interface's walls only when taken whole, and a slip
-        # direction judged on both kinds went round between them (an oblique impact).
-        solved = self._solved if self._correction is not None else end
         for z in self.zones:  # a point between stick and slip is a contact state change too
-            friction = getattr(z.operator, "friction", None)
+            friction = getattr(z.operator, "friction", None) if friction_decides else None
             name = z.contact.name
-            if friction is not None and friction.decide(z.gather(solved), new[name]):
+            if friction is not None and friction.decide(z.gather(end), new[name]):
                 changed += [] if name in changed else [name]
         return new, changed
 
