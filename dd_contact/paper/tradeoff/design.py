@@ -63,6 +63,29 @@ class Knob:
     what: str = ""
 
 
+#: The knobs several transient scenes share, declared once.
+MASS = Knob("mass", "consistent", (Level("lumped"), Level("averaged")), what="mass matrix")
+RHO_INFINITY = Knob(
+    "rho_infinity", None, (), what="generalized-alpha's spectral radius at infinity"
+)
+ENERGY_SAFE_CONTACT = Knob(
+    "energy_safe_contact",
+    True,
+    (Level(False),),
+    what="energy-safe contact steps (False: the classic trapezoidal contact)",
+)
+
+
+def scheme(*rho_infinity: float) -> Knob:
+    """The time scheme knob: trapezoidal, or generalized-alpha at each ``rho_infinity``."""
+    return Knob(
+        "scheme",
+        "trapezoidal",
+        tuple(Level("generalized-alpha", {"rho_infinity": r}) for r in rho_infinity),
+        what="time scheme (generalized-alpha with rho_infinity)",
+    )
+
+
 @dataclass
 class Run:
     """One planned run: its settings and what it changed from the default.

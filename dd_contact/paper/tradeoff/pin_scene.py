@@ -4,7 +4,14 @@ from __future__ import annotations
 
 from typing import Any
 
-from dd_contact.paper.tradeoff.design import Knob, Level
+from dd_contact.paper.tradeoff.design import (
+    ENERGY_SAFE_CONTACT,
+    MASS,
+    RHO_INFINITY,
+    Knob,
+    Level,
+    scheme,
+)
 from dd_contact.paper.tradeoff.scenes import TradeScene
 from dd_contact.scene import DEFAULT_KAPPA
 
@@ -34,20 +41,10 @@ PIN: TradeScene = TradeScene(
             "resolution",
             "time step [s] (the demo's 1.6 us; a strike on a pin lasts 0.12-0.2 ms)",
         ),
-        Knob(
-            "scheme",
-            "trapezoidal",
-            tuple(Level("generalized-alpha", {"rho_infinity": r}) for r in (0.8, 0.5)),
-            what="time scheme (generalized-alpha with rho_infinity)",
-        ),
-        Knob("rho_infinity", None, (), what="generalized-alpha's spectral radius at infinity"),
-        Knob("mass", "consistent", (Level("lumped"), Level("averaged")), what="mass matrix"),
-        Knob(
-            "energy_safe_contact",
-            True,
-            (Level(False),),
-            what="energy-safe contact steps (False: the classic trapezoidal contact)",
-        ),
+        scheme(0.8, 0.5),
+        RHO_INFINITY,
+        MASS,
+        ENERGY_SAFE_CONTACT,
         Knob(
             "contact_kappa",
             DEFAULT_KAPPA,

@@ -21,7 +21,14 @@ from typing import Any
 
 import numpy as np
 
-from dd_contact.paper.tradeoff.design import Knob, Level
+from dd_contact.paper.tradeoff.design import (
+    ENERGY_SAFE_CONTACT,
+    MASS,
+    RHO_INFINITY,
+    Knob,
+    Level,
+    scheme,
+)
 from dd_contact.scene import DEFAULT_KAPPA
 
 __all__ = ["SCENES", "TradeScene", "bar_error", "hertz_error", "hertz_fit", "scene"]
@@ -285,20 +292,10 @@ BAR = TradeScene(
             tuple(Level(k) for k in (1e2, 1e4, 1e8)),
             what="tie penalty of the interface at the cut",
         ),
-        Knob("mass", "consistent", (Level("lumped"), Level("averaged")), what="mass matrix"),
-        Knob(
-            "scheme",
-            "trapezoidal",
-            tuple(Level("generalized-alpha", {"rho_infinity": r}) for r in (0.8, 0.0)),
-            what="time scheme (generalized-alpha with rho_infinity)",
-        ),
-        Knob("rho_infinity", None, (), what="generalized-alpha's spectral radius at infinity"),
-        Knob(
-            "energy_safe_contact",
-            True,
-            (Level(False),),
-            what="energy-safe contact steps (False: the classic trapezoidal contact)",
-        ),
+        MASS,
+        scheme(0.8, 0.0),
+        RHO_INFINITY,
+        ENERGY_SAFE_CONTACT,
         Knob(
             "contact",
             "boundary",
@@ -394,7 +391,7 @@ TILTED = TradeScene(
             tuple(Level(k) for k in (1e2, 1e4, 1e8)),
             what="contact penalty h / (E eps_C)",
         ),
-        Knob("mass", "consistent", (Level("lumped"), Level("averaged")), what="mass matrix"),
+        MASS,
         Knob(
             "algorithm",
             "FULL",
