@@ -58,7 +58,7 @@ import sys
 import time
 from pathlib import Path
 
-from pinned import PINNED
+from pinned import PINNED, pinned_record
 
 HERE = Path(__file__).parent / "results"
 ALGORITHMS = ["FULL", "v-w-u", "w-v-u", "w-u", "v-u", "auto"]
@@ -160,17 +160,13 @@ def interleaved(script: str, args, options: list[str], mus: tuple[float, ...]) -
     Interleaved (the pair shares the machine's state), each its own process with BLAS
     pinned; ``options``: the worker's other arguments. By ``"<algorithm> mu=<mu>"``.
     """
-    env = {**os.environ, **PINNED}
     runs: dict[str, list] = {}
     for repeat in range(args.repeats):
         for algorithm in args.algorithms:
             for mu in mus:
                 command = [sys.executable, script, "--worker", algorithm, "--mu", str(mu)]
                 print(f"run {repeat + 1}/{args.repeats}: {algorithm} mu={mu}", flush=True)
-                done = subprocess.run(
-                    command + options, env=env, capture_output=True, text=True, check=True
-                )
-                run = json.loads(done.stdout.strip().splitlines()[-1])
+                run = pinned_record(command + options)
                 runs.setdefault(f"{algorithm} mu={mu:g}", []).append(run)
     return runs
 

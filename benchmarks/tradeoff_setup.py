@@ -18,13 +18,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import time
 from collections import defaultdict
 from pathlib import Path
 
 import numpy as np
+from pinned import pinned_record
 
 OUT = Path(__file__).parent / "results" / "tradeoff_setup.json"
 SETTINGS = [("bar-impact", n, p) for n in (40, 10) for p in ("balanced", "fast")] + [
@@ -90,15 +90,11 @@ def main() -> None:
     if args.one:
         print(json.dumps(one(args.one[0], float(args.one[1]), args.one[2])))
         return
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
     doc: dict = {"load_average_before": os.getloadavg(), "runs": []}
     for _ in range(args.repeats):
         for name, size, preset in SETTINGS:
-            out = subprocess.run(
-                [sys.executable, "-W", "ignore", __file__, "--one", name, repr(size), preset],
-                env=env, capture_output=True, text=True, check=True,
-            )  # fmt: skip
-            doc["runs"].append(json.loads(out.stdout.strip().splitlines()[-1]))
+            command = [sys.executable, "-W", "ignore", __file__, "--one", name, repr(size), preset]
+            doc["runs"].append(pinned_record(command))
             print(doc["runs"][-1], flush=True)
     doc["load_average_after"] = os.getloadavg()
     doc["medians"] = []

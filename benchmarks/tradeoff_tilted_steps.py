@@ -17,12 +17,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+from pinned import pinned_record
 
 OUT = Path(__file__).parent / "results" / "tradeoff_tilted_steps.json"
 SETTINGS = [(e, dt) for e in ((40, 10, 2), (20, 5, 1)) for dt in (1e-4, 5e-5, 2.5e-5)]
@@ -71,16 +71,12 @@ def main() -> None:
         elements = tuple(int(n) for n in args.one[0].split("x"))
         print(json.dumps(one(elements, float(args.one[1]))))
         return
-    env = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
     doc: dict = {"load_average_before": os.getloadavg(), "runs": []}
     for _ in range(args.repeats):
         for elements, dt in SETTINGS:
             label = "x".join(map(str, elements))
-            out = subprocess.run(
-                [sys.executable, "-W", "ignore", __file__, "--one", label, repr(dt)],
-                env=env, capture_output=True, text=True, check=True,
-            )  # fmt: skip
-            doc["runs"].append(json.loads(out.stdout.strip().splitlines()[-1]))
+            command = [sys.executable, "-W", "ignore", __file__, "--one", label, repr(dt)]
+            doc["runs"].append(pinned_record(command))
             print(doc["runs"][-1], flush=True)
     doc["load_average_after"] = os.getloadavg()
     doc["medians"] = []
