@@ -354,14 +354,26 @@ class ContactResolution:
         """Judge every major open episode at its peak so far (a run's end; they stay open)."""
         for name, peak in self.peak.items():
             if self.impulses.major(name):
-                self._judge(name, peak)
+                self._judge(name, peak, still_open=True)
 
-    def _judge(self, name: str, peak: tuple[float, float, int | None, float] | None) -> None:
+    def _judge(
+        self,
+        name: str,
+        peak: tuple[float, float, int | None, float] | None,
+        still_open: bool = False,
+    ) -> None:
         if peak is None or name in self.warned or peak[1] >= MIN_CONTACT_POINTS:
             return
         self.warned.add(name)
         force, effective, step, t = peak
         when = f"at step {step} (t = {t:.6g})" if step is not None else f"at t = {t:.6g}"
+        # A run continued by a later call ends inside an impact's first steps.
+        open_note = (
+            " (it was still in contact when run() returned: a call that a later one continues "
+            "takes run(..., final=False), and its contacts are judged when they close)"
+            if still_open
+            else ""
+        )
         warn(
             f"contact {name!r}: its largest force, {force:.4g} N {when}, was carried by "
             f"{effective:.1f} nodes' worth of contact surface; carried by fewer than "
@@ -369,6 +381,6 @@ class ContactResolution:
             f"not the solution (a Hertz press: up to 45 % off in force and 42 % in contact "
             f"radius; 3-8 % at 10-14 nodes); refine the body's mesh and the contact surface "
             f"where it touches, to cells of a third of the contact's radius (half-width) or "
-            f"less (quadrature contact points on the same mesh do not help)",
+            f"less (quadrature contact points on the same mesh do not help){open_note}",
             CoarseContactWarning,
         )

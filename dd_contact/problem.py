@@ -451,6 +451,7 @@ class TransientProblem(AnalysisReadout):
         progress: bool | None = None,
         callback: Callable[[dict], None] | None = None,
         summary: bool = True,
+        final: bool = True,
     ) -> list[dict]:
         """Collective: advance up to step number ``n_steps``, writing results as it goes.
 
@@ -471,18 +472,28 @@ class TransientProblem(AnalysisReadout):
             progress: Show a progress bar (default: when stderr is a terminal, on rank 0).
             callback: Called with each step's record after the step.
             summary: Print the work per block (:meth:`work_table`) at the end, on rank 0.
+            final: Whether this call ends the run: a contact still open at its end is
+                judged at its largest force so far (:class:`CoarseContactWarning`). Pass
+                ``False`` to a call that a later one continues (``run(k)`` in a loop): an
+                impact's first steps carry it on a point or two, and its contacts are
+                judged when they close.
 
         Returns:
             The history: one record per step (time, iterations, contact state changes,
             active points, contact area and force per region, support reactions, energy).
         """
         with counted(self.traffic):
-            return self._run(
-                n_steps, output, output_every, checkpoint_every, resume, progress, callback, summary
+            history = self._run(
+                n_steps, output, output_every, checkpoint_every, resume, progress, callback
             )
+            if final:
+                self.resolution.finish()
+            if summary:
+                self._print_summary()
+            return history
 
     def _run(
-        self, n_steps, output, output_every, checkpoint_every, resume, progress, callback, summary
+        self, n_steps, output, output_every, checkpoint_every, resume, progress, callback
     ) -> list[dict]:
         positive_int(n_steps, "run: n_steps")
         positive_int(output_every, "run: output_every")
@@ -528,9 +539,6 @@ class TransientProblem(AnalysisReadout):
             files.close(self.history)
         if stopped is not None:
             raise_stopped(self.comm, stopped, self.step, self.t, output)
-        self.resolution.finish()
-        if summary:
-            self._print_summary()
         return self.history
 
     def _resume_or_refuse(self, n_steps: int, files: RunOutput | None, output) -> None:

@@ -133,3 +133,33 @@ def test_a_graze_between_hits_is_not_judged():
         _step(monitor, step, 100.0, 3, 2.6)
     with pytest.warns(dd.CoarseContactWarning, match=r"at step 80 "):
         _step(monitor, 88, 0.0, 0, 0.0)
+
+
+def _drop_problem() -> dd.TransientProblem:
+    """The hemisphere drop at 20 steps a Hertz time, h = 0.05 R at its pole: its impact lands
+    on 4 nodes (3.6 nodes' worth) and peaks on 19 (15.6 nodes' worth) at step 12."""
+    pytest.importorskip("gmsh")
+    from dd_contact.paper.verify.drops import DROP, hemisphere_drop_scene
+
+    mass = DROP["rho"] * 2.0 / 3.0 * np.pi
+    e_star = DROP["E"] / (1 - DROP["nu"] ** 2)
+    dt = 2.87 * (mass**2 / (e_star**2 * DROP["v0"])) ** 0.2 / 20
+    scene = hemisphere_drop_scene(0.05, gap=3 * DROP["v0"] * dt, comm=MPI.COMM_SELF)
+    return dd.TransientProblem(scene, dt, "FULL")
+
+
+def test_a_run_continued_call_by_call_judges_an_impact_at_its_peak():
+    problem = _drop_problem()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", dd.CoarseTimeStepWarning)  # 18 steps in contact
+        warnings.simplefilter("error", dd.CoarseContactWarning)
+        for k in range(1, 25):  # the impact's first calls end on a few points
+            problem.run(k, progress=False, summary=False, final=False)
+    episode = [r["active"]["cap"] for r in problem.history if r["active"]["cap"]]
+    assert episode[0] <= 4 and max(episode) >= 15 and problem.history[-1]["active"]["cap"] == 0
+    problem.close()
+    # a run that ends there (final, the default) is judged then, and says it was still open
+    first = _drop_problem()
+    with pytest.warns(dd.CoarseContactWarning, match=r"still in contact when run\(\) returned"):
+        first.run(4, progress=False, summary=False)
+    first.close()
