@@ -4,7 +4,8 @@ A penalty tie adds ``(1/eps) R`` to the matrix (R: the tie operators P1, P2, P4 
 In float64 the elements' stiffness behind a tie loses digits like kappa = h / (E eps): at
 kappa 1e14 the answer is gone (method.md, section 8). So the 1/eps of a tie stiffer than
 ``KAPPA_SPLIT`` (1e6) is split as ``rho + sigma``: the matrices hold ``rho`` (kappa =
-``KAPPA_ASSEMBLED``, 1e5; see :mod:`dd_contact.scene`), and the remainder enters as a
+``KAPPA_ASSEMBLED``, 1e3, for ties to matching facets; ``KAPPA_ASSEMBLED_PROJECTED``, 1e5,
+for projected ones; see :mod:`dd_contact.scene`), and the remainder enters as a
 force ``y`` on the right-hand side, found by the iteration
 
     solve  A_rho x = f - y,    y <- (1 - w / sigma) y + w R x,    w = rho sigma / (rho + sigma)
