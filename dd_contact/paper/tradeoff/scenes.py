@@ -223,6 +223,7 @@ def bar_error(result: dict, dt: float) -> dict[str, Any]:
     error = float(np.sum(np.abs(forces - exact)) * dt / (f0 * duration))
     parts = {
         "duration": result["duration"] / duration - 1.0,
+        "parting": result["parting"] / duration - 1.0,
         "plateau_force": result["plateau_force"] / f0 - 1.0,
         "peak_force": result["peak_force"] / f0 - 1.0,
         "rebound": result["rebound"] - 1.0,
