@@ -253,6 +253,7 @@ def _measure_bar(settings: dict[str, Any]) -> dict[str, Any]:
         interface_resolution=tuple(settings["interface_resolution"]),
         across=settings["across"],
         accuracy=settings["accuracy"],
+        watch=False,  # the face's readings are not judged here
     )
     return bar_error(result, result["dt"])
 
