@@ -181,8 +181,9 @@ HERTZ = TradeScene(
             "accuracy",
             "balanced",
             (Level("fast"), Level("reference")),
-            "time only",
-            "StaticProblem's preset (it sets nothing in a static solve)",
+            "resolution",
+            "the preset: the size near the pole (h_contact x 2 fast, x 2/3 reference: "
+            "dd_contact.accuracy.mesh_size); StaticProblem's sets nothing",
         ),
     ),
     error=(
