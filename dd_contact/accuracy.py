@@ -10,7 +10,9 @@ and changes nothing. What a preset sets:
 * a static problem: nothing. What it owns buys no accuracy for time: the contact penalty
   gives the same answer from 1e4 up, contact at nodes is both the cheapest and the most
   accurate scheme, and the algorithm changes the time only. A static answer's accuracy is
-  its mesh's, which is the user's.
+  its mesh's, which is the user's;
+* a mesh built from an element size near the contact: that size times the preset's
+  factor (:func:`mesh_size`), where the caller asks for it (the Hertz scene's builder).
 """
 
 from __future__ import annotations
@@ -25,7 +27,14 @@ from dd_contact.forms import MASS_KINDS
 from dd_contact.parallel import max_over_ranks
 from dd_contact.scene import Scene
 
-__all__ = ["ACCURACY_PRESETS", "TransientPreset", "contact_wave_time", "transient_preset"]
+__all__ = [
+    "ACCURACY_PRESETS",
+    "MESH_FACTORS",
+    "TransientPreset",
+    "contact_wave_time",
+    "mesh_size",
+    "transient_preset",
+]
 
 
 @dataclass(frozen=True)
@@ -51,6 +60,21 @@ ACCURACY_PRESETS: dict[str, TransientPreset] = {
     "balanced": TransientPreset(1.0, "consistent"),
     "reference": TransientPreset(0.25, "averaged"),
 }
+
+
+#: The factor of the element size near the contact a preset gives a mesh built from a size,
+#: from the Hertz front: twice the size is 7x faster at 2.0 % (the default's 0.44 %), two
+#: thirds of it 2.3x more accurate at 7x the time (docs/tradeoff.md, "Presets").
+MESH_FACTORS: dict[str, float] = {"fast": 2.0, "balanced": 1.0, "reference": 2.0 / 3.0}
+
+
+def mesh_size(h: float, accuracy: str) -> float:
+    """The element size near the contact for a mesh built from size ``h`` under a preset.
+
+    ``h`` is the "balanced" size and is returned as it is for "balanced"; a builder that
+    takes a preset passes its size through here (:func:`dd_contact.paper.verify.hertz`).
+    """
+    return h * MESH_FACTORS[check_accuracy(accuracy, "mesh_size")]
 
 
 def check_accuracy(accuracy: str, where: str) -> str:

@@ -310,8 +310,8 @@ class ContactZone:
         """Contact matrix and right-hand side in surface dof numbering (prescribed dofs out)."""
         C = self.operator.matrix(active)
         rhs = self.operator.rhs(active) - C @ self.prescribed
-        mask = sp.diags_array(self.free.astype(float))
-        return sp.csr_array(mask @ C @ mask), rhs * self.free
+        free = None if self.free.all() else sp.diags_array(self.free.astype(float))  # all: as is
+        return (C, rhs) if free is None else (sp.csr_array(free @ C @ free), rhs * self.free)
 
     @property
     def region(self) -> ContactRegion:

@@ -139,6 +139,8 @@ class ContactOperator:
     #: Coulomb friction at the points (:mod:`dd_contact.friction`); ``None``: frictionless
     #: (a class attribute: a pair's operator, which builds its own state, has none).
     friction: Friction | None = None
+    #: Whether :meth:`matrix` may reuse its last normal part (False: a benchmark's "before").
+    reuse: bool = True
 
     def __init__(self, points: ContactPoints, obstacle: Obstacle, epsilon: float):
         self.points = points
@@ -179,9 +181,17 @@ class ContactOperator:
         return self.penetration(w) > 0.0
 
     def matrix(self, active: np.ndarray) -> sp.csr_array:
-        """P_C of (A8) for the active points (and friction's terms)."""
-        scale = np.where(active, self.points.weight / self.epsilon, 0.0)
-        normal = sp.csr_array(self.G.T @ (scale[:, None] * self.G))
+        """P_C of (A8) for the active points (and friction's terms).
+
+        The normal part is kept while the active set and G stay (a sparse product a solve,
+        most steps of an impact; ``reuse = False``: computed every time).
+        """
+        key = (active.tobytes(), self.G.data.tobytes(), self.G.indices.tobytes(), self.epsilon)
+        kept = getattr(self, "_kept", None)
+        if not (self.reuse and kept is not None and kept[0] == key):
+            scale = np.where(active, self.points.weight / self.epsilon, 0.0)
+            self._kept = kept = (key, sp.csr_array(self.G.T @ (scale[:, None] * self.G)))
+        normal = kept[1]
         return (
             normal
             if self.friction is None

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from dd_contact import meshes
-from dd_contact.accuracy import ACCURACY_PRESETS, contact_wave_time
+from dd_contact.accuracy import ACCURACY_PRESETS, contact_wave_time, mesh_size
 from dd_contact.errors import InputError
 from dd_contact.obstacles import Plane
 from dd_contact.paper import verify
@@ -72,3 +72,15 @@ def test_balanced_is_the_default_bit_for_bit():
     assert preset["dt"] == pytest.approx(0.025, rel=1e-12)
     assert preset["forces"] == pytest.approx(default["forces"], rel=1e-9, abs=1e-15)
     assert StaticProblem(_block()).accuracy == "balanced"
+
+
+def test_a_builder_taking_the_preset_scales_its_size_near_the_contact():
+    assert mesh_size(0.015, "balanced") == 0.015  # "balanced": the size given, bit for bit
+    assert mesh_size(0.015, "fast") == pytest.approx(0.03, rel=1e-15)
+    assert mesh_size(0.015, "reference") == pytest.approx(0.01, rel=1e-15)
+    with pytest.raises(InputError, match="mesh_size: unknown accuracy 'quick'"):
+        mesh_size(0.015, "quick")
+    # the Hertz scene's builder: "fast" at 0.015 R is the mesh of 0.03 R, the same answer
+    fast = verify.hertz(0.015, comm=MPI.COMM_SELF, accuracy="fast")
+    coarse = verify.hertz(0.03, comm=MPI.COMM_SELF)
+    assert (fast["dofs"], fast["force"]) == (coarse["dofs"], coarse["force"])

@@ -28,6 +28,7 @@ from dd_contact.paper.tradeoff.pin import WINDOW as PIN_WINDOW
 from dd_contact.paper.tradeoff.scenes import bar_error, hertz_error
 from dd_contact.paper.tradeoff.study import refresh
 from dd_contact.paper.tradeoff.tilted import REFERENCE, WINDOW, richardson, windows
+from dd_contact.paper.verify.bar import _contact_duration
 
 KNOBS = (
     Knob("h", 0.1, (Level(0.2), Level(0.05)), "resolution"),
@@ -170,6 +171,7 @@ def test_the_errors_against_the_closed_forms():
         "force_ref": f0,
         "duration_ref": duration,
         "duration": 2.0,
+        "parting": 2.0,
         "plateau_force": f0,
         "peak_force": f0,
         "rebound": 1.0,
@@ -181,6 +183,10 @@ def test_the_errors_against_the_closed_forms():
     forces[3] *= 1.1  # one step 10 % high: 0.1 F0 dt over F0 2L/c
     result["forces"] = forces.tolist()
     assert bar_error(result, dt)["error"] == pytest.approx(0.1 * dt / duration)
+    # the duration: the last fall through half the plateau (1), between the steps it lies
+    ramp = [0.0, 1.0, 1.2, 0.4, 1.0, 1.0, 0.75, 0.25, 0.0, 0.0]  # a dip, then the release
+    assert _contact_duration(ramp, 1.0, dt) == pytest.approx(dt * (7 + 0.25 / 0.5))
+    assert _contact_duration([1.0, 1.0], 1.0, dt) == 2 * dt  # still pressing at the end
     r = np.linspace(0.0, 0.95 * 0.99, 20)  # Hertz's profile with a 1 % short, p0 3 % high
     profile = {"profile_r": r, "profile_p": 1.03 * np.sqrt(1.0 - (r / 0.99) ** 2)}
     hertz = {"a": 0.98, "a_ref": 1.0, "p_max": 1.05, "p0_ref": 1.0, **profile}

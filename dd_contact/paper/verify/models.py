@@ -17,6 +17,7 @@ import dolfinx.mesh
 import numpy as np
 
 from dd_contact import meshes
+from dd_contact.accuracy import mesh_size
 from dd_contact.obstacles import Plane
 from dd_contact.parallel import allgathered
 from dd_contact.post import boundary_average, cell_stress
@@ -209,7 +210,9 @@ def hertz(
         grading: Growth of the mesh size away from the pole (``meshes.hemisphere``; 0.2:
             0.1's answer with 65 % of the dofs, half the time: docs/tradeoff.md).
         algorithm: Elimination order (``"w-u"`` fits ``contact="interface"``).
-        accuracy: See :class:`dd_contact.StaticProblem`.
+        accuracy: The preset of :class:`dd_contact.StaticProblem` (it sets nothing there)
+            and of the mesh: ``h_contact`` times its :data:`dd_contact.accuracy.MESH_FACTORS`
+            (fast: 2, reference: 2/3).
 
     Returns:
         force, contact radius (``a``: radius of the circle with the active area; ``a_edge``:
@@ -218,7 +221,8 @@ def hertz(
     """
     R, E, nu = HERTZ["radius"], HERTZ["E"], HERTZ["nu"]
     far = HERTZ["h_far"] * R
-    mesh, tags = meshes.hemisphere(MPI.COMM_SELF, R, 0.18 * R, h_contact, far, grading=grading)
+    h = mesh_size(h_contact, accuracy)  # "balanced": h_contact itself
+    mesh, tags = meshes.hemisphere(MPI.COMM_SELF, R, 0.18 * R, h, far, grading=grading)
     ball = Subdomain(mesh, Material(E, nu), "ball", degree=degree)
     ball.fix((tags, meshes.HEMISPHERE_TOP), components=[2], value=[0, 0, -HERTZ["approach"]])
     ball.fix((tags, meshes.HEMISPHERE_SYMMETRY_X), components=[0])
