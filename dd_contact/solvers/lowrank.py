@@ -60,6 +60,7 @@ __all__ = [
     "UPDATE_TOLERANCE",
     "Correction",
     "LowRankSurface",
+    "capacitance",
     "low_rank",
 ]
 
@@ -180,6 +181,14 @@ def low_rank(M: sp.csr_array, tolerance: float = 1e-12) -> tuple[np.ndarray, np.
         D[column : column + n] = lam[kept]
         column += n
     return U, D
+
+
+def capacitance(D: np.ndarray, G: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], float]:
+    """LU factors of ``I + D G`` and their reciprocal condition number (1-norm)."""
+    C = np.eye(len(D)) + D[:, None] * G
+    factors = sla.lu_factor(C, check_finite=False)
+    rcond, _ = sla.lapack.dgecon(factors[0], np.abs(C).sum(axis=0).max(), norm="1")
+    return factors, float(rcond)
 
 
 def _flops(o: Operation) -> float:
@@ -350,10 +359,7 @@ class LowRankSurface(Surface):
         out.G = self._extend(out, dofs, U)
         out.pieces.append((dofs, U))
         out.D = np.concatenate([c.D, D])
-        C = np.eye(out.rank) + out.D[:, None] * out.G
-        out.capacitance = sla.lu_factor(C, check_finite=False)
-        rcond, _ = sla.lapack.dgecon(out.capacitance[0], np.abs(C).sum(axis=0).max(), norm="1")
-        out.conditioned = float(rcond)
+        out.capacitance, out.conditioned = capacitance(out.D, out.G)
         return out
 
     # -- the chain ------------------------------------------------------------------------
