@@ -137,6 +137,11 @@ class Correction:
         """Columns of every change so far."""
         return len(self.D)
 
+    def solve(self, y: np.ndarray) -> np.ndarray:
+        """``(I + D G)^-1 y`` with the capacitance matrix's factors."""
+        assert self.capacitance is not None  # factorised before it is applied
+        return sla.lu_solve(self.capacitance, y, check_finite=False)
+
     def projected(self, x: dict[str, np.ndarray]) -> np.ndarray:
         """``D U^T x_J``: what the changes apply to ``x``, in the columns' coordinates."""
         parts = [
@@ -551,7 +556,7 @@ class LowRankSurface(Surface):
     def _corrected(self, c: Correction, g: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Woodbury: ``S^-1 (g - E U z)`` with ``(I + D G) z = D U^T (S^-1 g)_J``."""
         x = super().solve(g, True)
-        z = sla.lu_solve(c.capacitance, c.projected(x), check_finite=False)
+        z = c.solve(c.projected(x))
         return super().solve(c.shifted(g, z), True)
 
     def _residual(

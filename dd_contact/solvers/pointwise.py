@@ -29,6 +29,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 
 from dd_contact.blocks import Block
@@ -67,6 +68,34 @@ class PointCorrection(Correction):
 
     V: sp.csr_array = field(default_factory=lambda: sp.csr_array((0, 0)))
     at: list[tuple[Block, slice]] = field(default_factory=list)
+    cholesky: tuple[np.ndarray, bool] | None = None
+
+    def factorise(self) -> None:
+        """Factors of ``I + D G``: Cholesky if every point changed the same way, else LU.
+
+        With one sign s, ``I + s G`` is symmetric and positive definite (s = -1: G of
+        points the factorised matrix holds is below the identity), and Cholesky is half
+        an LU's work; a release loses digits to round-off, which the refinement gives back.
+        """
+        if len(self.D) and np.all(self.D == self.D[0]):
+            C = np.eye(self.rank) + self.D[0] * self.G
+            try:
+                self.cholesky = sla.cho_factor(C, lower=True, check_finite=False)
+            except np.linalg.LinAlgError:  # not positive definite in round-off: LU
+                self.cholesky = None
+            else:
+                norm = np.abs(C).sum(axis=0).max()
+                rcond, _ = sla.lapack.dpocon(self.cholesky[0], norm, uplo="L")
+                self.capacitance = (self.cholesky[0], np.zeros(0))  # marks it factorised
+                self.conditioned = float(rcond)
+                return
+        self.capacitance, self.conditioned = capacitance(self.D, self.G)
+
+    def solve(self, y: np.ndarray) -> np.ndarray:
+        """``(I + D G)^-1 y``."""
+        if self.cholesky is not None:
+            return sla.cho_solve(self.cholesky, y, check_finite=False)
+        return super().solve(y)
 
     def projected(self, x: dict[str, np.ndarray]) -> np.ndarray:
         """``D V^T x``."""
@@ -220,7 +249,7 @@ class PointwiseSurface(LowRankSurface):
         where = np.array([self._cached[int(i)] for i in ids])
         G = self._cache.G[np.ix_(where, where)]
         c = PointCorrection(D=np.where(now[ids], 1.0, -1.0), G=G, V=sp.csr_array(P[:, ids]), at=at)
-        c.capacitance, c.conditioned = capacitance(c.D, c.G)
+        c.factorise()
         if c.conditioned < CAPACITANCE_RCOND[1]:
             return False
         self.correction, self.corrected = c, dict(self.contact)
