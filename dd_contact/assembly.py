@@ -357,19 +357,10 @@ class PairZone(ContactZone):
 
     @property
     def region(self) -> ContactRegion:
-        """Both blocks' region (its matrix numbered a's dofs, then b's; friction: unsymmetric)."""
+        """Both blocks' region (a's dofs, then b's; its point rows; friction: unsymmetric)."""
         a, b, plain = self.block, self.partner, self.operator.friction is None
         parts = (self.contact.name, a, self.dofs, self.operator.pattern(), b, self.partner_dofs)
-        return ContactRegion(*parts, symmetric=plain, history=not plain, points=self.points)
-
-    @property
-    def points(self) -> sp.csr_array | None:
-        """Rows ``F`` with ``contribution(a)``'s matrix ``F^T diag(a) F`` (frictionless only)."""
-        op = self.operator
-        if op.friction is not None:
-            return None
-        scale = sp.diags_array(np.sqrt(op.points.weight / op.epsilon))
-        return sp.csr_array(scale @ op.G @ sp.diags_array(self.free.astype(float)))
+        return ContactRegion(*parts, plain, not plain, self.operator.point_rows(self.free))
 
 
 @dataclass
