@@ -149,7 +149,8 @@ class BlockEliminationSolver:
         mine = [(r, c, A) for (r, c), A in system.matrices.items() if r.kind != "u" != c.kind]
         # the surface pairs' point rows travel with them (one meeting of the ranks)
         points = [(r.name, r.parts, r.points) for r in contacts if _pointed(r)]
-        pieces = gather_to_root(comm, (mine, points))
+        sent: dict[str, list[Any]] = {"matrices": mine, "points": points}  # not a solve's tuple
+        pieces = gather_to_root(comm, sent)
         self.surface: PointwiseSurface | None = None
         # a subdomain with contact on its own boundary is re-factorised: it sends a new Z
         recondensed = any_rank(comm, any(r.block.kind == "u" for r in contacts))
@@ -157,10 +158,10 @@ class BlockEliminationSolver:
         if comm.rank == ROOT:
             assert pieces is not None  # gathered here
             self.surface = PointwiseSurface(self.schedule, log, recondensed, unsymmetric)
-            for part, rows in pieces:
-                for r, c, A in part:
+            for part in pieces:
+                for r, c, A in part["matrices"]:
                     self.surface.add_base(r, c, A)
-                for name, parts, F in rows:
+                for name, parts, F in part["points"]:
                     self.surface.add_points(name, parts, F)
         #: Latest contact matrix of each region, by the block pairs it fills.
         self._contact: dict[str, dict[tuple[Block, Block], sp.csr_array]] = {}
