@@ -12,6 +12,8 @@ complements, the condensation of a re-factorised group into the later levels
 ``"dense_update"`` and the ``what="lowrank"`` eliminations) over its contact state
 changes; beside it the wall time of a contact iteration (a solve's seconds over its
 iterations: re-factorisation and substitutions).
+A pair's change is corrected point by point (dd_contact/solvers/pointwise.py): its cost is
+the ``"dense_update"`` record and the eliminations of points not seen before.
 Reported are the medians over the reversals (the first solve, which sets up, left out).
 Each algorithm runs in its own process with every BLAS
 pinned to one thread; its peak memory (max RSS) is reported too. The orders run twice:

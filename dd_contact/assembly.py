@@ -357,10 +357,10 @@ class PairZone(ContactZone):
 
     @property
     def region(self) -> ContactRegion:
-        """Both blocks' region (its matrix numbered a's dofs, then b's; friction: unsymmetric)."""
+        """Both blocks' region (a's dofs, then b's; its point rows; friction: unsymmetric)."""
         a, b, plain = self.block, self.partner, self.operator.friction is None
         parts = (self.contact.name, a, self.dofs, self.operator.pattern(), b, self.partner_dofs)
-        return ContactRegion(*parts, symmetric=plain, history=not plain)
+        return ContactRegion(*parts, plain, not plain, self.operator.point_rows(self.free))
 
 
 @dataclass

@@ -87,6 +87,10 @@ class ContactRegion:
             numbered ``dofs`` first, then ``partner_dofs``.
         symmetric: Whether the contact matrix is symmetric (friction's slip is not).
         history: Whether the region carries state from step to step (friction's traction).
+        points: A frictionless pair's contact points as rows ``F`` (each point's gap
+            gradient times the square root of its penalty weight; numbered as the matrix):
+            its contact matrix for the active flags a is ``F^T diag(a) F``, so a state
+            change is known point by point (``None``: not given).
     """
 
     name: str
@@ -97,6 +101,7 @@ class ContactRegion:
     partner_dofs: np.ndarray | None = None
     symmetric: bool = True
     history: bool = False
+    points: sp.csr_array | None = None
 
     @property
     def blocks(self) -> tuple[Block, ...]:

@@ -198,6 +198,13 @@ class ContactOperator:
             else sp.csr_array(normal + self.friction.terms(active)[0])
         )
 
+    def point_rows(self, free: np.ndarray) -> sp.csr_array | None:
+        """Rows F with ``matrix(a)`` on the ``free`` dofs ``F^T diag(a) F`` (frictionless only)."""
+        if self.friction is not None:
+            return None
+        scale = sp.diags_array(np.sqrt(self.points.weight / self.epsilon))
+        return sp.csr_array(scale @ self.G @ sp.diags_array(free.astype(float)))
+
     def rhs(self, active: np.ndarray) -> np.ndarray:
         """p_C2 of (A9) for the active points (and friction's terms)."""
         normal = self.G.T @ np.where(active, self.points.weight * self.gap / self.epsilon, 0.0)

@@ -40,8 +40,11 @@ __all__ = ["STATE_BAND", "ContactIteration", "ContactSettings", "ContactSolver",
 class ContactSolver(Protocol):
     """What the contact iteration needs of a block solver."""
 
-    def set_contact(self, key: str, matrix: sp.csr_array) -> None:
-        """Replace the contact matrix of contact region ``key`` (surface dof numbering)."""
+    def set_contact(self, key: str, matrix: sp.csr_array, active: np.ndarray | None = None) -> None:
+        """Replace the contact matrix of contact region ``key`` (surface dof numbering).
+
+        ``active``: its points' active flags (what the matrix is made of, point by point).
+        """
         ...
 
     def solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -504,8 +507,9 @@ class ContactIteration:
         rhs = {name: v.copy() if name in zoned else v for name, v in rhs.items()}
         contact = []
         for z in self.zones:
-            matrix, vector = z.contribution(self.active[z.contact.name])
-            solver.set_contact(z.contact.name, matrix)
+            active = self.active[z.contact.name]
+            matrix, vector = z.contribution(active)
+            solver.set_contact(z.contact.name, matrix, active=active)
             contact.append((z.parts, matrix))
             for key, part in z.scatter(vector, self.sizes).items():
                 rhs[key] = rhs[key] + part if key in rhs else part

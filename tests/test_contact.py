@@ -126,7 +126,7 @@ class _ScriptedSolver:
         self.answers, self.calls = list(answers), 0
         self.system = type("S", (), {"sizes": {"w:zone": len(answers[0])}})()
 
-    def set_contact(self, name, matrix):
+    def set_contact(self, name, matrix, active=None):
         pass
 
     def solve(self, rhs):

@@ -38,7 +38,7 @@ import scipy.sparse as sp
 from dd_contact.blocks import Block, BlockSystem, ContactRegion, refuse_unsolvable
 from dd_contact.parallel import ROOT, allgathered, any_rank, bcast_array, gather_to_root, gathered
 from dd_contact.solvers.linalg import dense_threads
-from dd_contact.solvers.lowrank import LowRankSurface
+from dd_contact.solvers.pointwise import PointwiseSurface
 from dd_contact.solvers.reduced import reduced_subdomains
 from dd_contact.solvers.schedule import (
     Schedule,
@@ -93,6 +93,11 @@ def surface_structure(
 
 
 # -- the solver ---------------------------------------------------------------------------
+def _pointed(region: ContactRegion) -> bool:
+    """Whether a region's changes reach the surface point by point (a frictionless pair)."""
+    return region.points is not None and all(b.kind != "u" for b in region.blocks)
+
+
 def _unsymmetric(contacts: Sequence[ContactRegion]) -> list[Block]:
     """The blocks of the regions whose contact matrix is unsymmetric (friction)."""
     return [b for region in contacts if not region.symmetric for b in region.blocks]
@@ -142,20 +147,29 @@ class BlockEliminationSolver:
         self.schedule = order_schedule(comm, system, contacts, order, condensation, layouts)
         self._needed_u = set(self.schedule.needed_u) & set(self.subdomains)
         mine = [(r, c, A) for (r, c), A in system.matrices.items() if r.kind != "u" != c.kind]
-        pieces = gather_to_root(comm, mine)
-        self.surface: LowRankSurface | None = None
+        # the surface pairs' point rows travel with them (one meeting of the ranks)
+        points = [(r.name, r.parts, r.points) for r in contacts if _pointed(r)]
+        sent: dict[str, list[Any]] = {"matrices": mine, "points": points}  # not a solve's tuple
+        pieces = gather_to_root(comm, sent)
+        self.surface: PointwiseSurface | None = None
         # a subdomain with contact on its own boundary is re-factorised: it sends a new Z
         recondensed = any_rank(comm, any(r.block.kind == "u" for r in contacts))
         unsymmetric = {b for part in allgathered(comm, _unsymmetric(contacts)) for b in part}
         if comm.rank == ROOT:
             assert pieces is not None  # gathered here
-            self.surface = LowRankSurface(self.schedule, log, recondensed, unsymmetric)
+            self.surface = PointwiseSurface(self.schedule, log, recondensed, unsymmetric)
             for part in pieces:
-                for r, c, A in part:
+                for r, c, A in part["matrices"]:
                     self.surface.add_base(r, c, A)
+                for name, parts, F in part["points"]:
+                    self.surface.add_points(name, parts, F)
         #: Latest contact matrix of each region, by the block pairs it fills.
         self._contact: dict[str, dict[tuple[Block, Block], sp.csr_array]] = {}
         self._pending_contact: set[tuple[Block, Block]] = set()  # changed since the last solve
+        #: The active flags of the regions with point rows, changed since the last solve.
+        self._pointed = {r.name for r in contacts if _pointed(r)}
+        self._active: dict[str, np.ndarray | None] = {}
+        self._pending_active: dict[str, np.ndarray | None] = {}
         # The surface blocks side by side in one vector, in the same order on every rank: what
         # the ranks sum (right-hand side) and what rank 0 broadcasts (solution).
         sizes = self.schedule.surface
@@ -172,9 +186,18 @@ class BlockEliminationSolver:
         self._x: dict[str, np.ndarray] = {}
         self._complete = False
 
-    def set_contact(self, key: str, matrix: sp.csr_array) -> None:
-        """Replace the contact matrix of region ``key`` (surface dof numbering)."""
+    def set_contact(self, key: str, matrix: sp.csr_array, active: np.ndarray | None = None) -> None:
+        """Replace the contact matrix of region ``key`` (surface dof numbering).
+
+        ``active``: its points' flags, which a region with point rows sends to the surface
+        (``None``: unknown, and its changes are then corrected from the matrices).
+        """
         region = self._regions[key]
+        if key in self._pointed:
+            old_flags = self._active.get(key, np.zeros(0, bool))
+            if active is None or old_flags is None or not np.array_equal(old_flags, active):
+                flags = None if active is None else np.array(active, bool)
+                self._active[key] = self._pending_active[key] = flags
         if region.block in self.subdomains:
             self.subdomains[region.block].matrix.set_contact(key, matrix)
             return
@@ -205,6 +228,8 @@ class BlockEliminationSolver:
 
     def _solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         changed: dict[str, dict[Any, Any]] = {"Z": {}, "contact": self._changed_contact()}
+        if self._pending_active:  # only then: a quiet solve sends what it did
+            changed["active"], self._pending_active = self._pending_active, {}
         g = np.zeros(self._surface_size)  # this rank's part of the surface right-hand side
         for block, sub in self.subdomains.items():
             if sub.changing:
@@ -233,6 +258,8 @@ class BlockEliminationSolver:
                         surface.set_condensed(block, Z)
                     for pair, matrix in part["contact"].items():
                         surface.set_contact(pair, matrix)
+                    for name, flags in part.get("active", {}).items():
+                        surface.set_active(name, flags)
                 surface.factorise()
                 solved = surface.solve({b: g[w].copy() for b, w in self._where.items()}, complete)
             x = self._packed(solved)

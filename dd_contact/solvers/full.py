@@ -75,8 +75,11 @@ class MonolithicSolver:
         )
         self._last: dict[str, np.ndarray] = {}
 
-    def set_contact(self, key: str, matrix: sp.csr_array) -> None:
-        """Replace the contact matrix of region ``key`` (surface dof numbering)."""
+    def set_contact(self, key: str, matrix: sp.csr_array, active: np.ndarray | None = None) -> None:
+        """Replace the contact matrix of region ``key`` (surface dof numbering).
+
+        ``active`` is not used: the matrix is factorised whole.
+        """
         self.matrix.set_contact(key, matrix)
 
     def _refactorise(self) -> None:

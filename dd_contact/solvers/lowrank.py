@@ -60,6 +60,7 @@ __all__ = [
     "UPDATE_TOLERANCE",
     "Correction",
     "LowRankSurface",
+    "capacitance",
     "low_rank",
 ]
 
@@ -136,6 +137,11 @@ class Correction:
         """Columns of every change so far."""
         return len(self.D)
 
+    def solve(self, y: np.ndarray) -> np.ndarray:
+        """``(I + D G)^-1 y`` with the capacitance matrix's factors."""
+        assert self.capacitance is not None  # factorised before it is applied
+        return sla.lu_solve(self.capacitance, y, check_finite=False)
+
     def projected(self, x: dict[str, np.ndarray]) -> np.ndarray:
         """``D U^T x_J``: what the changes apply to ``x``, in the columns' coordinates."""
         parts = [
@@ -180,6 +186,14 @@ def low_rank(M: sp.csr_array, tolerance: float = 1e-12) -> tuple[np.ndarray, np.
         D[column : column + n] = lam[kept]
         column += n
     return U, D
+
+
+def capacitance(D: np.ndarray, G: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], float]:
+    """LU factors of ``I + D G`` and their reciprocal condition number (1-norm)."""
+    C = np.eye(len(D)) + D[:, None] * G
+    factors = sla.lu_factor(C, check_finite=False)
+    rcond, _ = sla.lapack.dgecon(factors[0], np.abs(C).sum(axis=0).max(), norm="1")
+    return factors, float(rcond)
 
 
 def _flops(o: Operation) -> float:
@@ -350,10 +364,7 @@ class LowRankSurface(Surface):
         out.G = self._extend(out, dofs, U)
         out.pieces.append((dofs, U))
         out.D = np.concatenate([c.D, D])
-        C = np.eye(out.rank) + out.D[:, None] * out.G
-        out.capacitance = sla.lu_factor(C, check_finite=False)
-        rcond, _ = sla.lapack.dgecon(out.capacitance[0], np.abs(C).sum(axis=0).max(), norm="1")
-        out.conditioned = float(rcond)
+        out.capacitance, out.conditioned = capacitance(out.D, out.G)
         return out
 
     # -- the chain ------------------------------------------------------------------------
@@ -545,7 +556,7 @@ class LowRankSurface(Surface):
     def _corrected(self, c: Correction, g: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Woodbury: ``S^-1 (g - E U z)`` with ``(I + D G) z = D U^T (S^-1 g)_J``."""
         x = super().solve(g, True)
-        z = sla.lu_solve(c.capacitance, c.projected(x), check_finite=False)
+        z = c.solve(c.projected(x))
         return super().solve(c.shifted(g, z), True)
 
     def _residual(

@@ -110,9 +110,9 @@ class AugmentedTies:
         self.iterations, self.solves = 0, 0
         self._x: dict[str, np.ndarray] = {}
 
-    def set_contact(self, key: str, matrix: sp.csr_array) -> None:
-        """Replace the contact matrix of contact region ``key``."""
-        self.inner.set_contact(key, matrix)
+    def set_contact(self, key: str, matrix: sp.csr_array, active: np.ndarray | None = None) -> None:
+        """Replace the contact matrix of contact region ``key`` (and its points' flags)."""
+        self.inner.set_contact(key, matrix, active=active)
 
     def _offset(self, y: np.ndarray) -> dict[str, np.ndarray]:
         offset: dict[str, np.ndarray] = {}

@@ -1,0 +1,275 @@
+"""Contact pairs' changes corrected point by point against the factorised state.
+
+A frictionless pair's contact matrix is ``F^T diag(a) F``, one row of F per contact point
+(:attr:`dd_contact.blocks.ContactRegion.points`), a its active flags. The contact matrices
+of any state therefore differ from those the groups were factorised with (the *reference*
+state) by ``V D V^T``: V the rows of the points whose flag differs from the reference's,
+D = +1 where a point is active now and was not then, -1 the other way. The surface
+corrects with Woodbury as :class:`~dd_contact.solvers.lowrank.LowRankSurface` does, but
+
+* with no eigenproblem: a change's columns are its points' own rows;
+* against the reference, not the last corrected state: the forward elimination of a
+  point's column through the chain, and its products with the other points' columns
+  (``G = V^T S^-1 V``), are computed the first time the point differs from the reference
+  and kept until the groups are re-factorised. A change then costs the LU of ``I + D G``
+  over the points that differ from the reference, plus the elimination of points that
+  never differed before; no group is re-factorised, the interface neither.
+
+Everything else is :class:`LowRankSurface` 's: the price rule (an update is taken while
+priced below re-factorising the groups it would make stale), each corrected solve refined
+with its true residual and re-factorised if it stays inaccurate, and the corrected solves
+re-factorising once their extra passes cost what the correction saved. A change on blocks
+that a region without point rows fills too (an obstacle, friction) is corrected from the
+matrices by :class:`LowRankSurface`.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+
+from dd_contact.blocks import Block
+from dd_contact.solvers.lowrank import (
+    CAPACITANCE_RCOND,
+    UPDATE_MARGIN,
+    UPDATES,
+    Correction,
+    LowRankSurface,
+    capacitance,
+)
+from dd_contact.solvers.schedule import Operation
+
+__all__ = ["CACHE_BUDGET", "POINT_APPLICATIONS", "PointCorrection", "PointwiseSurface"]
+
+#: The eliminations of the points kept with a factorisation (each point's once, reused by
+#: every later change until the groups are re-factorised) may cost this many times the
+#: re-factorisation a change would make, in all; beyond it a change re-factorises.
+CACHE_BUDGET = 2.0
+
+#: Woodbury applications a corrected solve is priced at before one was measured: the
+#: capacitance matrix is formed from the points' exact rows and the chain's own
+#: eliminations (the 87k joint with elastic pins: one application, no refinement, in every
+#: corrected solve, its reciprocal condition number 1e-4).
+POINT_APPLICATIONS = 1.0
+
+
+@dataclass
+class PointCorrection(Correction):
+    """A Woodbury correction whose columns are contact points' rows (sparse).
+
+    Attributes:
+        V: The points' columns over the surface blocks ``at`` holds, one after the other.
+        at: Each of those blocks and its rows in V.
+    """
+
+    V: sp.csr_array = field(default_factory=lambda: sp.csr_array((0, 0)))
+    at: list[tuple[Block, slice]] = field(default_factory=list)
+    cholesky: tuple[np.ndarray, bool] | None = None
+
+    def factorise(self) -> None:
+        """Factors of ``I + D G``: Cholesky if every point changed the same way, else LU.
+
+        With one sign s, ``I + s G`` is symmetric and positive definite (s = -1: G of
+        points the factorised matrix holds is below the identity), and Cholesky is half
+        an LU's work; a release loses digits to round-off, which the refinement gives back.
+        """
+        if len(self.D) and np.all(self.D == self.D[0]):
+            C = np.eye(self.rank) + self.D[0] * self.G
+            try:
+                self.cholesky = sla.cho_factor(C, lower=True, check_finite=False)
+            except np.linalg.LinAlgError:  # not positive definite in round-off: LU
+                self.cholesky = None
+            else:
+                norm = np.abs(C).sum(axis=0).max()
+                rcond, _ = sla.lapack.dpocon(self.cholesky[0], norm, uplo="L")
+                self.capacitance = (self.cholesky[0], np.zeros(0))  # marks it factorised
+                self.conditioned = float(rcond)
+                return
+        self.capacitance, self.conditioned = capacitance(self.D, self.G)
+
+    def solve(self, y: np.ndarray) -> np.ndarray:
+        """``(I + D G)^-1 y``."""
+        if self.cholesky is not None:
+            return sla.cho_solve(self.cholesky, y, check_finite=False)
+        return super().solve(y)
+
+    def projected(self, x: dict[str, np.ndarray]) -> np.ndarray:
+        """``D V^T x``."""
+        return self.D * (self.V.T @ np.concatenate([x[b] for b, _ in self.at]))
+
+    def shifted(self, g: dict[str, np.ndarray], z: np.ndarray) -> dict[str, np.ndarray]:
+        """``g - V z``."""
+        out = {b: v.copy() for b, v in g.items()}
+        Vz = self.V @ z
+        for b, rows in self.at:
+            out[b] -= Vz[rows]
+        return out
+
+
+class PointwiseSurface(LowRankSurface):
+    """A :class:`LowRankSurface` that corrects contact pairs' changes point by point.
+
+    Attributes:
+        regions: Per region with point rows, the blocks its matrix couples.
+        active: Per such region, its points' present flags (``None``: unknown).
+        reference: Per such region, the flags the groups were factorised with.
+    """
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.regions: dict[str, tuple[Block, ...]] = {}
+        self.active: dict[str, np.ndarray | None] = {}
+        self.reference: dict[str, np.ndarray] = {}
+        self._rows: list[tuple[str, list, sp.csr_array]] = []  # as added
+        self._points: tuple[sp.csc_array, list, dict[str, int]] | None = None  # all, joined
+        self._cache = Correction()  # the points eliminated so far: their G and kept columns
+        self._cached: dict[int, int] = {}  # a point's column (in P) -> its column in the cache
+        self._invested = 0.0  # priced seconds of the eliminations kept with the reference
+        self._saved = 0.0  # priced re-factorisations the updates since then saved
+
+    def add_points(self, name: str, parts: list[tuple[Block, np.ndarray]], rows) -> None:
+        """A region's point rows, numbered as its matrix (``parts`` one after the other)."""
+        self.regions[name] = tuple(block for block, _ in parts)
+        self._rows.append((name, parts, sp.csr_array(rows)))
+        self._points = None
+
+    def _joined(self) -> tuple[sp.csc_array, list[tuple[Block, slice]], dict[str, int]]:
+        """Every region's points as columns over their blocks, one block after the other.
+
+        Returns the columns, each block with its rows, and each region's first column.
+        """
+        if self._points is None:
+            blocks = sorted({b for _, parts, _ in self._rows for b, _ in parts})
+            ends = np.cumsum([self.sizes[b] for b in blocks])
+            offset = {b: int(e) - self.sizes[b] for b, e in zip(blocks, ends, strict=True)}
+            at = [(b, slice(offset[b], int(e))) for b, e in zip(blocks, ends, strict=True)]
+            rows, cols, data, first, count = [], [], [], {}, 0
+            for name, parts, F in self._rows:
+                starts = np.cumsum([0] + [len(dofs) for _, dofs in parts])
+                coo = sp.coo_array(F)
+                places = np.concatenate([offset[b] + dofs for b, dofs in parts])
+                assert len(places) == starts[-1]  # the matrix's numbering
+                rows.append(places[coo.col])
+                cols.append(count + coo.row)
+                data.append(coo.data)
+                first[name], count = count, count + F.shape[0]
+            shape = (int(ends[-1]) if len(ends) else 0, count)
+            triplets = (np.concatenate(data), (np.concatenate(rows), np.concatenate(cols)))
+            self._points = (sp.csc_array(triplets, shape=shape), at, first)
+        return self._points
+
+    def set_active(self, name: str, active: np.ndarray | None) -> None:
+        """A region's present flags (sent with its matrix; ``None``: unknown)."""
+        self.active[name] = None if active is None else np.array(active, bool)
+
+    def _refactorise(self) -> None:
+        super()._refactorise()
+        self.reference = {n: a.copy() for n, a in self.active.items() if a is not None}
+        self._cache, self._cached = Correction(), {}
+        self._invested = self._saved = 0.0
+
+    def elimination_seconds(self, V: sp.csc_array, r0: int) -> float:
+        """Price of eliminating the columns V forward and of their products with ``r0`` kept.
+
+        Each group is priced with the columns that reach it: its own blocks' and those its
+        earlier groups push into it.
+        """
+        _, at, _ = self._joined()
+        V = sp.csr_array(V)
+        reach = {b: np.diff(sp.csc_array(V[rows]).indptr) > 0 for b, rows in at}
+        ops = []
+        for grp in self.schedule.flat:
+            here = [reach.pop(b) for b in grp.blocks if b in reach]
+            if not here or not (count := int(np.count_nonzero(np.any(here, axis=0)))):
+                continue
+            n = sum(self.sizes[b] for b in grp.blocks)
+            twice = 1 if grp.last or not grp.neighbours else 3  # A^-1 R, then B^T Y
+            ops += twice * [Operation(grp.name, "dense_solve", n, count, "lowrank")]
+            if r0:
+                ops.append(Operation(grp.name, "dense_solve", n, max(r0 * count // n, 1)))
+            for r in grp.neighbours:
+                reach[r] = reach.get(r, False) | np.any(here, axis=0)
+        return self._price(ops)
+
+    def _pointwise(self) -> bool:
+        """Whether every contact change since the factorisation is known point by point."""
+        if not self.regions or any(
+            self.active.get(n) is None or n not in self.reference for n in self.regions
+        ):
+            return False
+        pointed = {(a, b) for blocks in self.regions.values() for a in blocks for b in blocks}
+        others = {
+            (a, b)
+            for name, blocks in self.schedule.regions.items()
+            if name not in self.regions
+            for a in blocks
+            for b in blocks
+        }
+        return self.moved <= pointed and not self.moved & others
+
+    def _update(self) -> bool:
+        """Correct point by point where every change is known so; else as LowRankSurface."""
+        if self._pointwise() and not self.lu:
+            return self._point_update()
+        if isinstance(self.correction, PointCorrection):
+            return False  # not to be mixed with a correction from matrices: re-factorise
+        return super()._update()
+
+    def _point_update(self) -> bool:
+        """The correction of the points that differ from the reference; False: re-factorise."""
+        start, first = time.perf_counter(), len(self.log.records)
+        refactorise = self.refactorise_seconds({b for pair in self.moved for b in pair})
+        P, at, offset = self._joined()
+        now = np.zeros(P.shape[1], bool)  # the present flags, numbered as P's columns
+        changed = np.zeros(P.shape[1], bool)
+        for n, flags in self.active.items():
+            if n in offset and flags is not None:
+                now[offset[n] : offset[n] + len(flags)] = flags
+                changed[offset[n] : offset[n] + len(flags)] = flags != self.reference[n]
+        ids = np.flatnonzero(changed)
+        if not len(ids):  # back to the factorised state
+            self.correction, self.corrected = Correction(), dict(self.contact)
+            return True
+        missing = [int(i) for i in ids if int(i) not in self._cached]
+        price = self.update_seconds({}, 0, len(ids))  # the capacitance matrix's LU
+        solve = self.solve_seconds(None if self.applications else POINT_APPLICATIONS)
+        if UPDATE_MARGIN * price + solve >= refactorise:
+            return False
+        if missing:  # eliminated once, kept with the reference: an investment, budgeted
+            invest = self._invested + self.elimination_seconds(P[:, missing], self._cache.rank)
+            if invest > CACHE_BUDGET * refactorise:
+                return False
+            self._invested = invest
+            self._keep(P[:, missing], at)
+            self._cached.update((i, len(self._cached)) for i in missing)
+        where = np.array([self._cached[int(i)] for i in ids])
+        G = self._cache.G[np.ix_(where, where)]
+        c = PointCorrection(D=np.where(now[ids], 1.0, -1.0), G=G, V=sp.csr_array(P[:, ids]), at=at)
+        c.factorise()
+        if c.conditioned < CAPACITANCE_RCOND[1]:
+            return False
+        self.correction, self.corrected = c, dict(self.contact)
+        # every update saved a re-factorisation: the corrected solves may cost them all
+        self._saved += refactorise
+        self.break_even = self._saved
+        logged = sum(r.seconds for r in self.log.records[first:])  # the elimination's own
+        seconds = time.perf_counter() - start - logged
+        self.log.add(UPDATES, "dense_update", c.rank, len(missing), seconds, 2.0 * c.rank**3 / 3)
+        return True
+
+    def _keep(self, V: sp.csc_array, at: list[tuple[Block, slice]]) -> None:
+        """Eliminate the columns V forward and keep them (and their G) with the cache."""
+        V = sp.csr_array(V)
+        nonzero = np.unique(sp.coo_array(V).row)
+        dofs = {}
+        for b, rows in at:
+            J = nonzero[(nonzero >= rows.start) & (nonzero < rows.stop)] - rows.start
+            if len(J):
+                dofs[b] = J
+        U = V[nonzero].toarray()
+        self._cache.G = self._extend(self._cache, dofs, U)
+        self._cache.D = np.concatenate([self._cache.D, np.ones(V.shape[1])])

@@ -1,0 +1,66 @@
+"""Contact pairs corrected point by point (dd_contact/solvers/pointwise.py).
+
+A pair's change is corrected with its points' own rows against the factorised state: the
+same answers as re-factorising, each point eliminated once while the factorisation lasts,
+and the capacitance matrix solved by Cholesky when every point changed the same way.
+"""
+
+import numpy as np
+import pytest
+from test_pairs import _tilted_scene
+
+import dd_contact as dc
+from dd_contact.solvers.lowrank import LowRankSurface
+from dd_contact.solvers.pointwise import PointCorrection, PointwiseSurface
+
+KAPPA = 1e4  # as tests/test_lowrank.py: exact solvers of these scenes agree to 1e-12 there
+
+
+def _solved(order: str, enabled: bool, monkeypatch):
+    """The tilted pair solved statically: fields, changes, the work log and the surface."""
+    monkeypatch.setattr(LowRankSurface, "enabled", enabled)
+    monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
+    scene = _tilted_scene(order != "w-u", KAPPA, kappa=KAPPA)[0]
+    with dc.StaticProblem(scene, algorithm=order) as problem:
+        problem.solve()
+        fields = np.concatenate([s.u.x.array for s in scene.subdomains])
+        surface = problem.solver.surface
+        return fields, dict(problem.changes), problem.work, surface
+
+
+@pytest.mark.parametrize("order", ["v-w-u", "w-v-u", "w-u"])
+def test_a_pair_change_is_corrected_point_by_point_with_the_refactorised_answer(order, monkeypatch):
+    reference, changes, _, _ = _solved(order, False, monkeypatch)
+    fields, corrected_changes, work, surface = _solved(order, True, monkeypatch)
+    assert corrected_changes == changes and changes["gamma"] >= 2
+    assert np.abs(fields - reference).max() <= 1e-10 * np.abs(reference).max()
+    assert isinstance(surface, PointwiseSurface) and isinstance(surface.correction, PointCorrection)
+    updates = [r for r in work.records if r.kind == "dense_update"]
+    assert len(updates) == changes["gamma"]
+    # every point that differed from the factorised state was eliminated once: the
+    # updates' new columns add up to the points the reference's cache holds
+    assert sum(r.nrhs for r in updates) == len(surface._cached) > 0
+    differing = sum(
+        int(np.count_nonzero(surface.active[n] != surface.reference[n])) for n in surface.regions
+    )
+    assert updates[-1].size == surface.correction.rank == differing
+
+
+@pytest.mark.parametrize(
+    ("signs", "cholesky"), [((-1.0,), True), ((1.0,), True), ((1.0, -1.0), False)]
+)
+def test_the_capacitance_matrix_is_solved_by_cholesky_when_the_points_changed_alike(
+    signs, cholesky
+):
+    rng = np.random.default_rng(3)
+    k = 12
+    Q = np.linalg.qr(rng.standard_normal((k, k)))[0]
+    G = Q @ np.diag(rng.uniform(0.05, 0.9, k)) @ Q.T  # below the identity: as held points'
+    D = np.resize(np.array(signs), k)
+    c = PointCorrection(D=D, G=G)
+    c.factorise()
+    assert (c.cholesky is not None) == cholesky and c.capacitance is not None
+    y = rng.standard_normal(k)
+    z = c.solve(y)
+    assert np.abs(z + D * (G @ z) - y).max() <= 1e-12 * np.abs(y).max()
+    assert 0.0 < c.conditioned <= 1.0
