@@ -10,7 +10,7 @@ stands for its transpose too lives in its methods only.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -87,6 +87,9 @@ class ContactRegion:
             numbered ``dofs`` first, then ``partner_dofs``.
         symmetric: Whether the contact matrix is symmetric (friction's slip is not).
         history: Whether the region carries state from step to step (friction's traction).
+        stuck: Friction against an obstacle: its last contact matrix with every active
+            point sticking (symmetric, unlike the matrix; ``None``: not given). An order
+            factorises that and corrects for the slip (:mod:`dd_contact.solvers.stuck`).
     """
 
     name: str
@@ -97,6 +100,7 @@ class ContactRegion:
     partner_dofs: np.ndarray | None = None
     symmetric: bool = True
     history: bool = False
+    stuck: Callable[[], sp.csr_array] | None = field(default=None, repr=False)
 
     @property
     def blocks(self) -> tuple[Block, ...]:

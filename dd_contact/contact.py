@@ -139,6 +139,7 @@ class ContactOperator:
     #: Coulomb friction at the points (:mod:`dd_contact.friction`); ``None``: frictionless
     #: (a class attribute: a pair's operator, which builds its own state, has none).
     friction: Friction | None = None
+    _active: np.ndarray  # the last matrix's active set (friction: what stuck() is for)
 
     def __init__(self, points: ContactPoints, obstacle: Obstacle, epsilon: float):
         self.points = points
@@ -180,13 +181,24 @@ class ContactOperator:
 
     def matrix(self, active: np.ndarray) -> sp.csr_array:
         """P_C of (A8) for the active points (and friction's terms)."""
+        normal = self._normal(active)
+        if self.friction is None:
+            return normal
+        self._active = active
+        return sp.csr_array(normal + self.friction.terms(active)[0])
+
+    def _normal(self, active: np.ndarray) -> sp.csr_array:
         scale = np.where(active, self.points.weight / self.epsilon, 0.0)
-        normal = sp.csr_array(self.G.T @ (scale[:, None] * self.G))
-        return (
-            normal
-            if self.friction is None
-            else sp.csr_array(normal + self.friction.terms(active)[0])
-        )
+        return sp.csr_array(self.G.T @ (scale[:, None] * self.G))
+
+    def stuck(self) -> sp.csr_array:
+        """The last :meth:`matrix` with every active point sticking (friction).
+
+        Symmetric; it differs from that matrix only at the slipping points
+        (:meth:`Friction.stuck`).
+        """
+        assert self.friction is not None  # only friction's regions are asked
+        return sp.csr_array(self._normal(self._active) + self.friction.stuck(self._active))
 
     def rhs(self, active: np.ndarray) -> np.ndarray:
         """p_C2 of (A9) for the active points (and friction's terms)."""
@@ -196,7 +208,15 @@ class ContactOperator:
     def region(self, name: str, block: Block, dofs: np.ndarray) -> ContactRegion:
         """What a solver reserves for this contact (friction: unsymmetric, with history)."""
         plain = self.friction is None
-        return ContactRegion(name, block, dofs, self.pattern(), symmetric=plain, history=not plain)
+        return ContactRegion(
+            name,
+            block,
+            dofs,
+            self.pattern(),
+            symmetric=plain,
+            history=not plain,
+            stuck=None if plain else self.stuck,
+        )
 
     def point_pressure(self, w: np.ndarray) -> np.ndarray:
         """Contact pressure ``<w . n - s>+ / eps_C`` at the points (compression positive)."""

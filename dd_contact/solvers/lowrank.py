@@ -130,18 +130,19 @@ class Correction:
     kept: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     capacitance: tuple[np.ndarray, np.ndarray] | None = None
     conditioned: float = 1.0  # the capacitance matrix's reciprocal condition number (1-norm)
+    K: np.ndarray | None = None  # a full (unsymmetric) coupling instead of diag(D)
 
     @property
     def rank(self) -> int:
         """Columns of every change so far."""
-        return len(self.D)
+        return len(self.D) if self.K is None else len(self.K)
 
     def projected(self, x: dict[str, np.ndarray]) -> np.ndarray:
         """``D U^T x_J``: what the changes apply to ``x``, in the columns' coordinates."""
         parts = [
             U.T @ np.concatenate([x[b][J] for b, J in dofs.items()]) for dofs, U in self.pieces
         ]
-        return self.D * np.concatenate(parts)
+        return self.D * np.concatenate(parts) if self.K is None else self.K @ np.concatenate(parts)
 
     def shifted(self, g: dict[str, np.ndarray], z: np.ndarray) -> dict[str, np.ndarray]:
         """``g - E U z``."""

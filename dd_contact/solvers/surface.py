@@ -175,8 +175,13 @@ class Surface:
             else DenseCholesky(A, self.log, g.name)
         )
 
+    def held_contact(self) -> dict[tuple[Block, Block], sp.csr_array]:
+        """The contact matrices the factors are made of: those given."""
+        return self.contact
+
     def _assemble(self, g: Group, level_pairs) -> np.ndarray:
         offsets = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
+        held = self.held_contact()
         A = np.zeros((offsets[-1], offsets[-1]))
         for i, a in enumerate(g.blocks):
             rows = slice(offsets[i], offsets[i + 1])
@@ -184,8 +189,8 @@ class Surface:
                 columns = slice(offsets[j], offsets[j + 1])
                 if level_pairs.get((a, b)) is not None:
                     A[rows, columns] = level_pairs[(a, b)]
-                if (a, b) in self.contact:  # a contact piece of row a, on top
-                    A[rows, columns] += self.contact[(a, b)].toarray()
+                if (a, b) in held:  # a contact piece of row a, on top
+                    A[rows, columns] += held[(a, b)].toarray()
         return A
 
     def _couple(self, g: Group, state: _GroupState, level_pairs) -> None:
