@@ -63,6 +63,7 @@ class StuckSurface(LowRankSurface):
         self.stuck: dict[Pair, sp.csr_array] = {}
         self.held: dict[Pair, sp.csr_array] = {}
         self.exact = False
+        self._restart = False  # a step ended: see restart()
 
     def held_contact(self) -> dict[Pair, sp.csr_array]:
         """The stuck matrices, or the true ones once :attr:`exact`."""
@@ -84,6 +85,8 @@ class StuckSurface(LowRankSurface):
         if self.exact:
             Surface.factorise(self)
             return
+        if self._restart:
+            self._restarted()
         if not (self.stale or self.changed or self.fresh):
             return
         if not (self.stale or self.changed) and self._grown(priced=True):
@@ -100,13 +103,33 @@ class StuckSurface(LowRankSurface):
             self._refactorise()
 
     def restart(self) -> None:
-        """Factorise afresh at the next solve, as a run resumed from a checkpoint does.
+        """At the next solve, be what a run resumed from a checkpoint here would be.
 
-        Called at a step's end: a correction grown over the step's changes holds other
-        round-off than one made at once, and a resumed run must step the same numbers.
+        Called at a step's end: a resumed run factorises the stuck matrices of then and
+        makes its correction at once; a correction grown over the step's changes holds
+        other round-off, and a resumed run must step the same numbers.
         """
-        if self.correction.rank and not self.exact:
+        self._restart = not self.exact
+
+    def _restarted(self) -> None:
+        """What a resumed run would hold: the stuck matrices factorised, the correction.
+
+        Factorised again if the held matrices are not the stuck ones; else the correction
+        made again at once if it was grown or its dofs are not those that deviate.
+        """
+        self._restart = False
+        if self.held.keys() != self.stuck.keys() or any(
+            (self.held[p] != m).nnz for p, m in self.stuck.items()
+        ):
             self.stale, self.held = {g.name for g in self.schedule.flat}, {}
+            return
+        pieces = self.correction.pieces
+        deviating = self._deviating(self.held)
+        made = len(pieces) == 1 and pieces[0][0].keys() == deviating.keys()
+        if not (made and all(np.array_equal(pieces[0][0][b], J) for b, J in deviating.items())):
+            self.correction = Correction()
+            if not self._grown(priced=False):
+                self._refactorise()
 
     def _refactorise(self) -> None:
         """LU factors of the true matrices, from now on (the correction did not hold)."""
