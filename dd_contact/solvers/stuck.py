@@ -85,13 +85,12 @@ class StuckSurface(LowRankSurface):
         if self.exact:
             Surface.factorise(self)
             return
-        if self._restart:
-            self._restarted()
-        if not (self.stale or self.changed or self.fresh):
-            return
-        if not (self.stale or self.changed) and self._grown(priced=True):
-            self.fresh = set()
-            return
+        if not (self._restart and self._restarted()):
+            if not (self.stale or self.changed or self.fresh):
+                return
+            if not (self.stale or self.changed) and self._grown(priced=True):
+                self.fresh = set()
+                return
         for pair, matrix in self.stuck.items():
             held = self.held.get(pair)
             if held is None or (held != matrix).nnz:
@@ -111,18 +110,19 @@ class StuckSurface(LowRankSurface):
         """
         self._restart = not self.exact
 
-    def _restarted(self) -> None:
+    def _restarted(self) -> bool:
         """What a resumed run would hold: the stuck matrices factorised, the correction.
 
-        Factorised again if the held matrices are not the stuck ones; else the correction
-        made again at once if it was grown or its dofs are not those that deviate.
+        True: factorise again (the held matrices are not the stuck ones; the groups they
+        make stale only: the others' factors are those a resumed run makes, bit for bit).
+        Else the correction is made again at once if it was grown or its dofs are not
+        those that deviate.
         """
         self._restart = False
         if self.held.keys() != self.stuck.keys() or any(
             (self.held[p] != m).nnz for p, m in self.stuck.items()
         ):
-            self.stale, self.held = {g.name for g in self.schedule.flat}, {}
-            return
+            return True
         pieces = self.correction.pieces
         deviating = self._deviating(self.held)
         made = len(pieces) == 1 and pieces[0][0].keys() == deviating.keys()
@@ -130,12 +130,30 @@ class StuckSurface(LowRankSurface):
             self.correction = Correction()
             if not self._grown(priced=False):
                 self._refactorise()
+        return False
 
     def _refactorise(self) -> None:
         """LU factors of the true matrices, from now on (the correction did not hold)."""
         self.exact, self.lu, self.correction = True, self._lu_groups, Correction()
         self.stale = {g.name for g in self.schedule.flat}
         Surface.factorise(self)
+
+    def _corrected(self, c: Correction, g: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """Woodbury on the last level alone when the correction's dofs are all there.
+
+        The earlier levels are eliminated once, not once per pass (w-v-u, w-u: the
+        contact blocks are the last level); else as :class:`LowRankSurface`.
+        """
+        last = {b for grp in self.schedule.groups[-1] for b in grp.blocks}
+        if not all(b in last for dofs, _ in c.pieces for b in dofs):
+            return super()._corrected(c, g)
+        assert c.capacitance is not None  # a correction is made before it is applied
+        g = self.forward(g)
+        x = self.solve_last(g)
+        z = sla.lu_solve(c.capacitance, c.projected(x), check_finite=False)
+        x = self.solve_last(c.shifted(g, z))
+        x.update(Surface.back_substitute(self, x))
+        return x
 
     def _deviating(self, since: dict[Pair, sp.csr_array]) -> dict[Block, np.ndarray]:
         """The dofs per block where the contact matrices differ from ``since`` 's."""
