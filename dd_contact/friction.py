@@ -17,8 +17,9 @@ slip law is linearised about it (the return mapping's tangent), so it is linear 
 taken; the second term vanishes once s settles (t* along s) and holds the point across s
 meanwhile (without it the direction of a point that just began to slip, its slip ~0, is
 ill-posed: the iteration diverged). Stick adds ``(a / eps_T) P`` per point (P = I - n n^T,
-symmetric), slip ``-(a mu / eps_C) s n^T + (a c / eps_T) Q P`` (unsymmetric: the factor of
-its block is an LU). Geometry of the undeformed configuration, as the normal contact.
+symmetric), slip ``-(a mu / eps_C) s n^T + (a c / eps_T) Q P`` (unsymmetric: the orders
+factorise :meth:`Friction.stuck` instead and correct for it, :mod:`dd_contact.solvers.stuck`).
+Geometry of the undeformed configuration, as the normal contact.
 """
 
 from __future__ import annotations

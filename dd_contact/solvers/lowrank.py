@@ -122,6 +122,8 @@ class Correction:
             (``L^-1 R`` in the last level, ``A_GG^-1 R`` before it).
         capacitance: LU factors of ``I + D G``.
         conditioned: Its reciprocal condition number (1-norm, LAPACK's estimate).
+        K: A full coupling instead of ``diag(D)`` (friction's unsymmetric correction,
+            :mod:`dd_contact.solvers.stuck`), or None.
     """
 
     pieces: list[tuple[dict[Block, np.ndarray], np.ndarray]] = field(default_factory=list)
