@@ -31,8 +31,10 @@ import os
 import statistics
 import subprocess
 import sys
+import time
 from pathlib import Path
 
+import decomposition_speed
 from decomposition_speed import derived
 from decomposition_speed import worker as speed_worker
 from pinned import PINNED
@@ -54,8 +56,28 @@ def worker(args) -> dict:
         return scene
 
     examples.parallelepiped = with_friction  # type: ignore[assignment]
+    cpu: list[float] = []  # each iteration's CPU seconds: the wall's are a loaded machine's
+    plain_timed = decomposition_speed.timed_iterations
+
+    def timed_iterations(problem):
+        iterations, inner = plain_timed(problem), problem.iteration._solve_once
+
+        def timed(*a):
+            start = time.process_time()
+            out = inner(*a)
+            cpu.append(time.process_time() - start)
+            return out
+
+        problem.iteration._solve_once = timed
+        return iterations
+
+    decomposition_speed.timed_iterations = timed_iterations
     run = speed_worker(args)
-    run["mu"] = args.mu
+    run["mu"], run["load_average"] = args.mu, os.getloadavg()  # 1, 5, 15 min, at its end
+    run["cpu_iterations"], start = [], 0
+    for step in run["steps"]:  # the step's iterations, in the order they ran
+        run["cpu_iterations"].append(cpu[start : start + len(step["iterations"])])
+        start += len(step["iterations"])
     return run
 
 
@@ -93,7 +115,13 @@ def main() -> None:
 def write(args, runs: dict) -> dict:
     """The summary of ``runs``, written with them to ``args.out``."""
     summary = summarise(args, runs)
-    document = {"arguments": vars(args), "summary": summary, "runs": runs}
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True)
+    document = {
+        "arguments": vars(args),
+        "commit": commit.stdout.strip(),  # the code measured (uncommitted edits aside)
+        "summary": summary,
+        "runs": runs,
+    }
     Path(args.out).write_text(json.dumps(document, indent=1))
     return summary
 
@@ -115,20 +143,27 @@ def summarise(args, runs: dict) -> dict:
         )
         if changes:
             summary[key]["seconds_per_change_q1"] = changes[len(changes) // 4]
+        per_run = [  # CPU seconds per change: the median of each run's, as the wall's
+            statistics.median(t for step in run["cpu_iterations"] for t in step[1:])
+            for run in found
+            if any(step[1:] for step in run.get("cpu_iterations", []))
+        ]
+        if per_run:
+            summary[key]["cpu_seconds_per_change"] = statistics.median(per_run)
         summary[key]["changes"] = [run["changes"] for run in found]
         summary[key]["dofs"] = found[0]["dofs"]
         summary[key]["peak_memory_mb"] = max(run["peak_memory_mb"] for run in found)
     mu = f"mu={args.mu:g}"
     for algorithm in args.algorithms:
         plain, rough = summary.get(f"{algorithm} mu=0", {}), summary.get(f"{algorithm} {mu}", {})
-        for stat in ("seconds_per_change", "seconds_per_change_q1"):
+        for stat in ("seconds_per_change", "seconds_per_change_q1", "cpu_seconds_per_change"):
             if stat in plain and stat in rough:
-                name = f"{algorithm} friction_over_none_{stat.removeprefix('seconds_')}"
+                name = f"{algorithm} friction_over_none_{stat.replace('seconds_', '')}"
                 summary[name] = rough[stat] / plain[stat]
-        for stat in ("seconds_per_change", "seconds_per_change_q1"):
+        for stat in ("seconds_per_change", "seconds_per_change_q1", "cpu_seconds_per_change"):
             full = summary.get(f"FULL {mu}", {}).get(stat)
             if algorithm != "FULL" and full and stat in rough:
-                name = f"FULL_over_{algorithm}_{stat.removeprefix('seconds_')} {mu}"
+                name = f"FULL_over_{algorithm}_{stat.replace('seconds_', '')} {mu}"
                 summary[name] = full / rough[stat]
     return summary
 

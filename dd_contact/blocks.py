@@ -10,7 +10,7 @@ stands for its transpose too lives in its methods only.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -91,6 +91,9 @@ class ContactRegion:
             gradient times the square root of its penalty weight; numbered as the matrix):
             its contact matrix for the active flags a is ``F^T diag(a) F``, so a state
             change is known point by point (``None``: not given).
+        stuck: Friction against an obstacle: its last contact matrix with every active
+            point sticking (symmetric, unlike the matrix; ``None``: not given). An order
+            factorises that and corrects for the slip (:mod:`dd_contact.solvers.stuck`).
     """
 
     name: str
@@ -102,6 +105,7 @@ class ContactRegion:
     symmetric: bool = True
     history: bool = False
     points: sp.csr_array | None = None
+    stuck: Callable[[], sp.csr_array] | None = field(default=None, repr=False)
 
     @property
     def blocks(self) -> tuple[Block, ...]:

@@ -141,6 +141,7 @@ class ContactOperator:
     friction: Friction | None = None
     #: Whether :meth:`matrix` may reuse its last normal part (False: a benchmark's "before").
     reuse: bool = True
+    _active: np.ndarray  # the last matrix's active set (friction: what stuck() is for)
 
     def __init__(self, points: ContactPoints, obstacle: Obstacle, epsilon: float):
         self.points = points
@@ -181,22 +182,34 @@ class ContactOperator:
         return self.penetration(w) > 0.0
 
     def matrix(self, active: np.ndarray) -> sp.csr_array:
-        """P_C of (A8) for the active points (and friction's terms).
+        """P_C of (A8) for the active points (and friction's terms)."""
+        normal = self._normal(active)
+        if self.friction is None:
+            return normal
+        self._active = active
+        return sp.csr_array(normal + self.friction.terms(active)[0])
 
-        The normal part is kept while the active set and G stay (a sparse product a solve,
-        most steps of an impact; ``reuse = False``: computed every time).
+    def _normal(self, active: np.ndarray) -> sp.csr_array:
+        """The normal part of :meth:`matrix`, kept while the active set and G stay.
+
+        A sparse product a solve saved on most steps of an impact (``reuse = False``:
+        computed every time).
         """
         key = (active.tobytes(), self.G.data.tobytes(), self.G.indices.tobytes(), self.epsilon)
         kept = getattr(self, "_kept", None)
         if not (self.reuse and kept is not None and kept[0] == key):
             scale = np.where(active, self.points.weight / self.epsilon, 0.0)
             self._kept = kept = (key, sp.csr_array(self.G.T @ (scale[:, None] * self.G)))
-        normal = kept[1]
-        return (
-            normal
-            if self.friction is None
-            else sp.csr_array(normal + self.friction.terms(active)[0])
-        )
+        return kept[1]
+
+    def stuck(self) -> sp.csr_array:
+        """The last :meth:`matrix` with every active point sticking (friction).
+
+        Symmetric; it differs from that matrix only at the slipping points
+        (:meth:`Friction.stuck`).
+        """
+        assert self.friction is not None  # only friction's regions are asked
+        return sp.csr_array(self._normal(self._active) + self.friction.stuck(self._active))
 
     def point_rows(self, free: np.ndarray) -> sp.csr_array | None:
         """Rows F with ``matrix(a)`` on the ``free`` dofs ``F^T diag(a) F`` (frictionless only)."""
@@ -213,7 +226,15 @@ class ContactOperator:
     def region(self, name: str, block: Block, dofs: np.ndarray) -> ContactRegion:
         """What a solver reserves for this contact (friction: unsymmetric, with history)."""
         plain = self.friction is None
-        return ContactRegion(name, block, dofs, self.pattern(), symmetric=plain, history=not plain)
+        return ContactRegion(
+            name,
+            block,
+            dofs,
+            self.pattern(),
+            symmetric=plain,
+            history=not plain,
+            stuck=None if plain else self.stuck,
+        )
 
     def point_pressure(self, w: np.ndarray) -> np.ndarray:
         """Contact pressure ``<w . n - s>+ / eps_C`` at the points (compression positive)."""

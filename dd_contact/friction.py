@@ -17,8 +17,9 @@ slip law is linearised about it (the return mapping's tangent), so it is linear 
 taken; the second term vanishes once s settles (t* along s) and holds the point across s
 meanwhile (without it the direction of a point that just began to slip, its slip ~0, is
 ill-posed: the iteration diverged). Stick adds ``(a / eps_T) P`` per point (P = I - n n^T,
-symmetric), slip ``-(a mu / eps_C) s n^T + (a c / eps_T) Q P`` (unsymmetric: the factor of
-its block is an LU). Geometry of the undeformed configuration, as the normal contact.
+symmetric), slip ``-(a mu / eps_C) s n^T + (a c / eps_T) Q P`` (unsymmetric: the orders
+factorise :meth:`Friction.stuck` instead and correct for it, :mod:`dd_contact.solvers.stuck`).
+Geometry of the undeformed configuration, as the normal contact.
 """
 
 from __future__ import annotations
@@ -158,12 +159,28 @@ class Friction:
         f[stick] = a[stick, None] * held[stick]
         f[slip] = -(a[slip] * self.mu * op.gap[slip] / op.epsilon)[:, None] * s
         f[slip] += c[:, None] * np.einsum("pij,pj->pi", Q, held[slip])
-        blocks = sp.bsr_array(
-            (D, np.arange(len(a)), np.arange(len(a) + 1)), shape=(3 * len(a),) * 2
-        )
         if self._nodal:
-            return sp.csr_array(blocks), f.ravel()
-        return sp.csr_array(self._E.T @ blocks @ self._E), self._E.T @ f.ravel()
+            return self._assembled(D), f.ravel()
+        return self._assembled(D), self._E.T @ f.ravel()
+
+    def _assembled(self, D: np.ndarray) -> sp.csr_array:
+        """The matrix of the points' 3 x 3 blocks D (surface numbering)."""
+        p = len(D)
+        blocks = sp.bsr_array((D, np.arange(p), np.arange(p + 1)), shape=(3 * p,) * 2)
+        return sp.csr_array(blocks) if self._nodal else sp.csr_array(self._E.T @ blocks @ self._E)
+
+    def stuck(self, active: np.ndarray) -> sp.csr_array:
+        """:meth:`terms`' matrix with every point of ``active`` sticking.
+
+        Symmetric positive semi-definite, and equal to :meth:`terms`' but at the slipping
+        points: a solver may factorise it and correct for the slip (its only unsymmetric
+        part) with a low-rank term (:mod:`dd_contact.solvers.stuck`).
+        """
+        a, n = self.operator.points.weight, self.operator.normal
+        P = np.eye(3)[None] - n[:, :, None] * n[:, None, :]
+        D = np.zeros((len(a), 3, 3))
+        D[active] = (a[active] / self.epsilon)[:, None, None] * P[active]  # as terms' stick
+        return self._assembled(D)
 
     def tractions(self, w: np.ndarray) -> np.ndarray:
         """The tangential traction on the body at every point for w, in the decided state."""

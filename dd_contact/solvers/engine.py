@@ -38,11 +38,13 @@ import scipy.sparse as sp
 from dd_contact.blocks import Block, BlockSystem, ContactRegion, refuse_unsolvable
 from dd_contact.parallel import ROOT, allgathered, any_rank, bcast_array, gather_to_root, gathered
 from dd_contact.solvers.linalg import dense_threads
+from dd_contact.solvers.lowrank import LowRankSurface
 from dd_contact.solvers.pointwise import PointwiseSurface
 from dd_contact.solvers.reduced import reduced_subdomains
 from dd_contact.solvers.schedule import (
     Schedule,
 )
+from dd_contact.solvers.stuck import StuckSurface
 from dd_contact.solvers.subdomains import (
     SubdomainSolver,
     owned_subdomains,
@@ -151,20 +153,27 @@ class BlockEliminationSolver:
         points = [(r.name, r.parts, r.points) for r in contacts if _pointed(r)]
         sent: dict[str, list[Any]] = {"matrices": mine, "points": points}  # not a solve's tuple
         pieces = gather_to_root(comm, sent)
-        self.surface: PointwiseSurface | None = None
+        self.surface: LowRankSurface | None = None
         # a subdomain with contact on its own boundary is re-factorised: it sends a new Z
         recondensed = any_rank(comm, any(r.block.kind == "u" for r in contacts))
         unsymmetric = {b for part in allgathered(comm, _unsymmetric(contacts)) for b in part}
+        unstuck = any_rank(comm, any(not r.symmetric and r.stuck is None for r in contacts))
+        #: Friction's surface factorised with every point sticking, the slip corrected
+        self._stuck = bool(unsymmetric) and not unstuck and LowRankSurface.enabled
         if comm.rank == ROOT:
             assert pieces is not None  # gathered here
-            self.surface = PointwiseSurface(self.schedule, log, recondensed, unsymmetric)
+            # friction: factorised with every point sticking; else corrected point by point
+            kind = StuckSurface if self._stuck else PointwiseSurface
+            self.surface = kind(self.schedule, log, recondensed, unsymmetric)
             for part in pieces:
                 for r, c, A in part["matrices"]:
                     self.surface.add_base(r, c, A)
-                for name, parts, F in part["points"]:
-                    self.surface.add_points(name, parts, F)
-        #: Latest contact matrix of each region, by the block pairs it fills.
+                if isinstance(self.surface, PointwiseSurface):
+                    for name, parts, F in part["points"]:
+                        self.surface.add_points(name, parts, F)
+        #: Latest contact matrix of each region, by the block pairs it fills (and its stuck one).
         self._contact: dict[str, dict[tuple[Block, Block], sp.csr_array]] = {}
+        self._stuck_contact: dict[str, dict[tuple[Block, Block], sp.csr_array]] = {}
         self._pending_contact: set[tuple[Block, Block]] = set()  # changed since the last solve
         #: The active flags of the regions with point rows, changed since the last solve.
         self._pointed = {r.name for r in contacts if _pointed(r)}
@@ -207,14 +216,21 @@ class BlockEliminationSolver:
             if pair not in old or (old[pair] != piece).nnz:
                 self._pending_contact.add(pair)
         self._contact[key] = pieces
+        if self._stuck:
+            stuck = matrix if region.stuck is None else region.stuck()
+            self._stuck_contact[key] = region.in_blocks(stuck, self.system.sizes)
 
-    def _changed_contact(self) -> dict[tuple[Block, Block], sp.csr_array]:
-        """The contact pieces changed since the last solve, summed over the regions."""
+    def _changed_contact(self, regions=None) -> dict[tuple[Block, Block], sp.csr_array]:
+        """The contact pieces changed since the last solve, summed over the regions.
+
+        ``regions``: those pieces' (default: the contact matrices').
+        """
         out: dict[tuple[Block, Block], sp.csr_array] = {}
-        for pieces in self._contact.values():
+        for pieces in (self._contact if regions is None else regions).values():
             for pair in self._pending_contact & pieces.keys():
                 out[pair] = out[pair] + pieces[pair] if pair in out else pieces[pair]
-        self._pending_contact = set()
+        if regions is None:
+            self._pending_contact = set()
         return out
 
     def solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -227,7 +243,10 @@ class BlockEliminationSolver:
             return self._solve(rhs)
 
     def _solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        changed: dict[str, dict[Any, Any]] = {"Z": {}, "contact": self._changed_contact()}
+        changed: dict[str, dict[Any, Any]] = {"Z": {}}
+        if self._stuck:  # friction: the stuck matrices the surface factorises, too
+            changed["stuck"] = self._changed_contact(self._stuck_contact)
+        changed["contact"] = self._changed_contact()
         if self._pending_active:  # only then: a quiet solve sends what it did
             changed["active"], self._pending_active = self._pending_active, {}
         g = np.zeros(self._surface_size)  # this rank's part of the surface right-hand side
@@ -257,9 +276,13 @@ class BlockEliminationSolver:
                     for block, Z in part["Z"].items():
                         surface.set_condensed(block, Z)
                     for pair, matrix in part["contact"].items():
-                        surface.set_contact(pair, matrix)
-                    for name, flags in part.get("active", {}).items():
-                        surface.set_active(name, flags)
+                        if isinstance(surface, StuckSurface):
+                            surface.set_contact(pair, matrix, part["stuck"][pair])
+                        else:
+                            surface.set_contact(pair, matrix)
+                    if isinstance(surface, PointwiseSurface):
+                        for name, flags in part.get("active", {}).items():
+                            surface.set_active(name, flags)
                 surface.factorise()
                 solved = surface.solve({b: g[w].copy() for b, w in self._where.items()}, complete)
             x = self._packed(solved)
@@ -293,6 +316,8 @@ class BlockEliminationSolver:
             return self._finish()
 
     def _finish(self) -> dict[str, np.ndarray]:
+        if isinstance(self.surface, StuckSurface):
+            self.surface.restart()
         if not self._complete:
             x = np.zeros(self._surface_size)
             if self.comm.rank == ROOT:

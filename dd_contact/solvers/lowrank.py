@@ -123,6 +123,8 @@ class Correction:
             (``L^-1 R`` in the last level, ``A_GG^-1 R`` before it).
         capacitance: LU factors of ``I + D G``.
         conditioned: Its reciprocal condition number (1-norm, LAPACK's estimate).
+        K: A full coupling instead of ``diag(D)`` (friction's unsymmetric correction,
+            :mod:`dd_contact.solvers.stuck`), or None.
     """
 
     pieces: list[tuple[dict[Block, np.ndarray], np.ndarray]] = field(default_factory=list)
@@ -131,11 +133,12 @@ class Correction:
     kept: dict[str, tuple[np.ndarray, np.ndarray]] = field(default_factory=dict)
     capacitance: tuple[np.ndarray, np.ndarray] | None = None
     conditioned: float = 1.0  # the capacitance matrix's reciprocal condition number (1-norm)
+    K: np.ndarray | None = None  # a full (unsymmetric) coupling instead of diag(D)
 
     @property
     def rank(self) -> int:
         """Columns of every change so far."""
-        return len(self.D)
+        return len(self.D) if self.K is None else len(self.K)
 
     def solve(self, y: np.ndarray) -> np.ndarray:
         """``(I + D G)^-1 y`` with the capacitance matrix's factors."""
@@ -147,7 +150,7 @@ class Correction:
         parts = [
             U.T @ np.concatenate([x[b][J] for b, J in dofs.items()]) for dofs, U in self.pieces
         ]
-        return self.D * np.concatenate(parts)
+        return self.D * np.concatenate(parts) if self.K is None else self.K @ np.concatenate(parts)
 
     def shifted(self, g: dict[str, np.ndarray], z: np.ndarray) -> dict[str, np.ndarray]:
         """``g - E U z``."""

@@ -175,8 +175,13 @@ class Surface:
             else DenseCholesky(A, self.log, g.name)
         )
 
+    def held_contact(self) -> dict[tuple[Block, Block], sp.csr_array]:
+        """The contact matrices the factors are made of: those given."""
+        return self.contact
+
     def _assemble(self, g: Group, level_pairs) -> np.ndarray:
         offsets = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
+        held = self.held_contact()
         A = np.zeros((offsets[-1], offsets[-1]))
         for i, a in enumerate(g.blocks):
             rows = slice(offsets[i], offsets[i + 1])
@@ -184,8 +189,8 @@ class Surface:
                 columns = slice(offsets[j], offsets[j + 1])
                 if level_pairs.get((a, b)) is not None:
                     A[rows, columns] = level_pairs[(a, b)]
-                if (a, b) in self.contact:  # a contact piece of row a, on top
-                    A[rows, columns] += self.contact[(a, b)].toarray()
+                if (a, b) in held:  # a contact piece of row a, on top
+                    A[rows, columns] += held[(a, b)].toarray()
         return A
 
     def _couple(self, g: Group, state: _GroupState, level_pairs) -> None:
@@ -224,15 +229,29 @@ class Surface:
 
         With ``complete``, back-substitute the earlier levels too.
         """
+        g = self.forward(g)
+        x = self.solve_last(g)
+        if complete:
+            x.update(self.back_substitute(x))
+        return x
+
+    def solve_last(self, g: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The last level's blocks from the eliminated right-hand side ``g``."""
+        x: dict[str, np.ndarray] = {}
+        for grp in self.schedule.groups[-1]:
+            state = self.state[grp.name]
+            assert state.factor is not None  # every group is factorised before a solve
+            self._split(grp, state.factor.solve(np.concatenate([g[b] for b in grp.blocks]), "x"), x)
+        return x
+
+    def forward(self, g: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """The right-hand side with the earlier levels eliminated (theirs kept for later)."""
         g = {b: v.copy() for b, v in g.items()}
-        for level in self.schedule.groups:
+        for level in self.schedule.groups[:-1]:
             for grp in level:
                 state = self.state[grp.name]
                 assert state.factor is not None  # every group is factorised before a solve
                 rhs = np.concatenate([g[b] for b in grp.blocks])
-                if grp.last:
-                    self._split(grp, state.factor.solve(rhs, "x"), g)
-                    continue
                 # y and g_in are set together
                 new_rhs = (
                     state.y is None or state.g_in is None or not np.array_equal(rhs, state.g_in)
@@ -246,10 +265,7 @@ class Surface:
                     for i, (r, J) in enumerate(state.columns):
                         g[r][J] -= correction[state.offsets[i] : state.offsets[i + 1]]
         self.stale = set()
-        x: dict[str, np.ndarray] = {b: g[b] for grp in self.schedule.groups[-1] for b in grp.blocks}
-        if complete:
-            x.update(self.back_substitute(x))
-        return x
+        return g
 
     def back_substitute(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """Solve the earlier levels, last first, given the later blocks in ``x``."""

@@ -2,10 +2,12 @@
 
 A slipping contact point gives its contact block an unsymmetric matrix
 (:mod:`dd_contact.friction`). The subdomains never hold one (a contact interface's block is
-on the surface); the dense surface group holding the block is factorised with LU
-(:class:`DenseLU`), and so is every group its elimination reaches (:func:`lu_groups`). FULL
-takes MUMPS's LU (:class:`SparseLU`) only when some region has friction: without it
-everything stays Cholesky, bit for bit as before.
+on the surface). The orders factorise friction against obstacles with every point sticking
+and correct for the slip (:mod:`dd_contact.solvers.stuck`); where they do not (a contact
+pair, low-rank corrections switched off, a correction that failed), the dense surface group
+holding the block is factorised with LU (:class:`DenseLU`), and so is every group its
+elimination reaches (:func:`lu_groups`). FULL takes MUMPS's LU (:class:`SparseLU`) only when
+some region has friction: without it everything stays Cholesky, bit for bit as before.
 """
 
 from __future__ import annotations
