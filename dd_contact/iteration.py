@@ -276,7 +276,7 @@ class ContactIteration:
                     x = self._shifted(self._checked(solver, self._finished(solver), where))
                     if moved:
                         x = self._at_end(solver, x, whole=True)
-                    return self._committed(x), iteration, changes_this_solve
+                    return self._committed(x, moved), iteration, changes_this_solve
             if self._held_in_now:
                 seen = {}  # the points pressed back stay in: no cycle through them
             self._count_change(changed)
@@ -362,12 +362,17 @@ class ContactIteration:
                 changed += [] if name in changed else [name]
         return new, changed
 
-    def _committed(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """``x``, the settled solution, after each zone's friction took it as its history."""
+    def _committed(self, x: dict[str, np.ndarray], at_end: bool = True) -> dict[str, np.ndarray]:
+        """``x``, the settled solution, after each zone's friction took it as its history.
+
+        ``at_end``: x is the end state :meth:`_at_end` made of the step's solution, which
+        friction's dissipation follows (:meth:`dd_contact.friction.Friction.commit`).
+        """
+        solved = self._solved if at_end and self._correction is not None else x
         for z in self.zones:
             friction = getattr(z.operator, "friction", None)
             if friction is not None:
-                friction.commit(z.gather(x))
+                friction.commit(z.gather(x), z.gather(solved))
         return x
 
     def _touching_at_end(self, z: ContactZone, start: np.ndarray, g: np.ndarray) -> np.ndarray:
