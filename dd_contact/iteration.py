@@ -365,8 +365,7 @@ class ContactIteration:
     def _committed(self, x: dict[str, np.ndarray], at_end: bool = True) -> dict[str, np.ndarray]:
         """``x``, the settled solution, after each zone's friction took it as its history.
 
-        ``at_end``: x is the end state :meth:`_at_end` made of the step's solution, which
-        friction's dissipation follows (:meth:`dd_contact.friction.Friction.commit`).
+        ``at_end``: x is what :meth:`_at_end` made of the step's solution (friction's path).
         """
         solved = self._solved if at_end and self._correction is not None else x
         for z in self.zones:
@@ -437,6 +436,8 @@ class ContactIteration:
         for active in cycle:
             for name in self.active:
                 self.active[name] = self.active[name] | active[name]
+        for friction in filter(None, (getattr(z.operator, "friction", None) for z in self.zones)):
+            friction.hold(len(cycle))  # the stick/slip that went round sticks (energy-safe)
         self.cycles_resolved += 1
         grown = [n for n in self.active if not np.array_equal(before[n], self.active[n])]
         if not sum_over_ranks(self.comm, len(grown)):
