@@ -24,6 +24,7 @@ its block is an LU). Geometry of the undeformed configuration, as the normal con
 from __future__ import annotations
 
 import hashlib
+import itertools
 from typing import Any
 
 import numpy as np
@@ -241,29 +242,33 @@ class Friction:
         self._last_turn = step
         return direction
 
-    def commit(self, w: np.ndarray, solved: np.ndarray | None = None) -> None:
+    def commit(
+        self, w: np.ndarray, solved: np.ndarray | None = None, kept: np.ndarray | None = None
+    ) -> None:
         """The end of a step: its tractions become the history, its slip and dissipation.
 
-        ``solved``: the step's own end, before its walls were put in equilibrium
-        (:meth:`dd_contact.impact.StartForces.at_end`; default w). The dissipation follows
-        the path the step took: the step's mean traction over its own displacement, then
-        the end law over that move to equilibrium (a point open at the end holds no force
-        there). Counted over w in one go, a released point's start traction was charged
-        with that move too: the oblique impact at mu = 5 reported up to 2.7e-5 J more
-        dissipation than the energy lost.
+        The dissipation follows the path the step took (:mod:`dd_contact.impact`), with the
+        force applied on each leg: at t_n a leaving point's start traction drops to its
+        kept share ``kept`` (theta; default whole), then the step's mean traction over its
+        own displacement to ``solved``, then the end law over its walls' move to
+        equilibrium, to w (default: solved is w; a point open at the end holds no force on
+        that leg). Counted from the start to w in one go, a released point's start traction
+        was charged with its walls' move too: the oblique impact at mu = 5 reported up to
+        2.7e-5 J more dissipation than the energy lost.
         """
-        solved = w if solved is None else solved
-        t, trial = self.tractions(w), self.trial(w)
-        t_solved, trial_solved = self.tractions(solved), self.trial(solved)
         before = self._tangential(self.traction)  # the trial at the start of the step
-        work = self._work(before, before, t_solved, trial_solved)
-        work += self._work(t_solved, trial_solved, t, trial)
+        leaving = (self.state == OPEN)[:, None]
+        held = before if kept is None else np.where(leaving, kept[:, None] * before, before)
+        path = [(before, before), (held, before)]  # (traction, trial) along the step
+        path += [(self.tractions(s), self.trial(s)) for s in (solved, w) if s is not None]
+        work = sum(self._work(*a, *b) for a, b in itertools.pairwise(path))
         work[self.state == STICK] = 0.0  # the spring's work is what it stored: round-off
         self.dissipation = float(np.dot(self.operator.points.weight, work))
         # The body moved by the relative slip plus the obstacle's displacement: the mean
         # traction's work over the latter is the obstacle's, beyond the dissipation's books.
-        moved = np.einsum("pd,d->p", 0.5 * (before + t_solved), self._moved())
+        moved = np.einsum("pd,d->p", 0.5 * (path[1][0] + path[2][0]), self._moved())
         self.obstacle_work = float(np.dot(self.operator.points.weight, moved))
+        t, trial = path[-1]
         self.slip += np.where((self.state == SLIP)[:, None], self.epsilon * (t - trial), 0.0)
         self.traction, self.start, self.t_start = t, np.array(w, float), self.operator.t
         self._last_turn = np.zeros_like(self.direction)  # a new step's turns

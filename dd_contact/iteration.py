@@ -363,15 +363,14 @@ class ContactIteration:
         return new, changed
 
     def _committed(self, x: dict[str, np.ndarray], at_end: bool = True) -> dict[str, np.ndarray]:
-        """``x``, the settled solution, after each zone's friction took it as its history.
-
-        ``at_end``: x is what :meth:`_at_end` made of the step's solution (friction's path).
-        """
+        """``x`` after each zone's friction took it as its history (``at_end``: of _at_end)."""
         solved = self._solved if at_end and self._correction is not None else x
+        released = getattr(self._correction, "released", None) if at_end else None
         for z in self.zones:
             friction = getattr(z.operator, "friction", None)
             if friction is not None:
-                friction.commit(z.gather(x), z.gather(solved))
+                kept = released(z) if released is not None else None
+                friction.commit(z.gather(x), z.gather(solved), kept)
         return x
 
     def _touching_at_end(self, z: ContactZone, start: np.ndarray, g: np.ndarray) -> np.ndarray:

