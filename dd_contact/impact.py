@@ -233,15 +233,11 @@ class StartForces:
             self._releasing.add(name)
             if z.block in self.internal:  # its start force was in K x_n - f_C: give it back
                 part = np.zeros(self.system.sizes[z.block])
-                np.add.at(part, z.dofs, self._point_forces(z, np.where(leaving, 1 - kept, 0)))
+                np.add.at(part, z.dofs, self._start_forces(z, np.where(leaving, 1 - kept, 0)))
                 rhs[z.block] = rhs.get(z.block, 0.0) + part
                 continue
             both = {name: self.start[name] & active[name]}
-            remaining = self._point_forces(z, np.where(leaving, kept, 0))
-            if (friction := getattr(z.operator, "friction", None)) is not None:
-                # its start traction stays whole in the step's mean force, as the
-                # dissipation counts it (Friction.commit)
-                remaining -= z.free * friction.start_force(leaving)
+            remaining = self._start_forces(z, np.where(leaving, kept, 0))
             start = z.gather(self.x) - self._surface_at_start(z, both, remaining)
             shift = z.scatter(start, self.system.sizes)
             if self.system.stiff_ties:
@@ -260,6 +256,10 @@ class StartForces:
                 shifts[w] = shift[w]
         rhs = {block: self.weight * vector * self.free(block) for block, vector in rhs.items()}
         return rhs, {block: self.weight * shift for block, shift in shifts.items()}
+
+    def released(self, z: ContactZone) -> np.ndarray | None:
+        """The share theta of its start force each point of ``z`` keeps (None: none leaves)."""
+        return self.kept[z.contact.name] if z.contact.name in self._releasing else None
 
     def settled(self, active: Mapping[str, np.ndarray], x: Mapping[Block, np.ndarray]) -> bool:
         """Whether the kept fractions of the last :meth:`correction` hold for solution x.
@@ -399,6 +399,20 @@ class StartForces:
         op, name = z.operator, z.contact.name
         pen = self.g0[name]
         return z.free * (self._G0[name].T @ (factor * op.points.weight / op.epsilon * pen))
+
+    def _start_forces(self, z: ContactZone, share: np.ndarray) -> np.ndarray:
+        """``share`` of each point's start force on the zone's dofs, friction's too.
+
+        A leaving point keeps the same share theta of its start friction traction as of its
+        normal force: within mu times the pressure it keeps. Kept whole, it pushed the
+        point along itself while the pressure let go: the massless surface then moved
+        along the traction at t_n (a contact interface's w in equilibrium with it) and
+        friction fed the body (the oblique impact at mu = 1 to 20 in w-u, v-w-u, w-v-u).
+        """
+        forces = self._point_forces(z, share)
+        if (friction := getattr(z.operator, "friction", None)) is not None:
+            forces -= z.free * friction.start_force(share)
+        return forces
 
     def _surface_at_start(
         self, z: ContactZone, active: Mapping[str, np.ndarray], forces: np.ndarray

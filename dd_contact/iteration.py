@@ -279,7 +279,7 @@ class ContactIteration:
                     x = self._shifted(self._checked(solver, self._finished(solver), where))
                     if moved:
                         x = self._at_end(solver, x, whole=True)
-                    return self._committed(x), iteration, changes_this_solve
+                    return self._committed(x, moved), iteration, changes_this_solve
             if self._held_in_now:
                 seen = {}  # the points pressed back stay in: no cycle through them
             self._count_change(changed)
@@ -365,12 +365,15 @@ class ContactIteration:
                 changed += [] if name in changed else [name]
         return new, changed
 
-    def _committed(self, x: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-        """``x``, the settled solution, after each zone's friction took it as its history."""
+    def _committed(self, x: dict[str, np.ndarray], at_end: bool = True) -> dict[str, np.ndarray]:
+        """``x`` after each zone's friction took it as its history (``at_end``: of _at_end)."""
+        solved = self._solved if at_end and self._correction is not None else x
+        released = getattr(self._correction, "released", None) if at_end else None
         for z in self.zones:
             friction = getattr(z.operator, "friction", None)
             if friction is not None:
-                friction.commit(z.gather(x))
+                kept = released(z) if released is not None else None
+                friction.commit(z.gather(x), z.gather(solved), kept)
         return x
 
     def _touching_at_end(self, z: ContactZone, start: np.ndarray, g: np.ndarray) -> np.ndarray:
@@ -435,6 +438,8 @@ class ContactIteration:
         for active in cycle:
             for name in self.active:
                 self.active[name] = self.active[name] | active[name]
+        for friction in filter(None, (getattr(z.operator, "friction", None) for z in self.zones)):
+            friction.hold(len(cycle))  # the stick/slip that went round sticks (energy-safe)
         self.cycles_resolved += 1
         grown = [n for n in self.active if not np.array_equal(before[n], self.active[n])]
         if not sum_over_ranks(self.comm, len(grown)):
