@@ -69,9 +69,9 @@ UPDATES = "low-rank updates"
 
 #: Largest accepted normwise backward error ``|g - S' x| / (|S'| |x| + |g|)`` of a
 #: corrected solve; beyond it the groups are re-factorised and the solve repeated. On the
-#: elastic-pin joint a re-factorised solve leaves 2e-18 to 3e-18, a refined correction
-#: 1e-18 to 2e-18 (benchmarks/lowrank_accuracy.py; 2e-17 to 7e-17 on the tests' scenes), an
-#: unrefined one 1e-17 to 4e-15 (1e-14 to 5e-10 on the tests' scenes): the former 1e-13 let
+#: elastic-pin joint a re-factorised solve leaves 1.6e-18 to 2.8e-18, a corrected one 1.4e-18
+#: to 1.2e-17 (benchmarks/lowrank_accuracy.py; 2e-17 to 7e-17 on the tests' scenes), one
+#: unrefined 1e-17 to 4e-15 (1e-14 to 5e-10 on the tests' scenes): the former 1e-13 let
 #: most of those pass. This Frobenius measure reads 30-125x below the whole system's.
 UPDATE_TOLERANCE = 1e-15
 
