@@ -15,12 +15,26 @@ factorisations, or the update's forward elimination and ``dense_update``) and th
 wall time. The same in a process with the correction off (``LowRankSurface.enabled =
 False``: the group re-factorised), the two interleaved (A, B, A, B), each with BLAS on one
 thread; medians over the trials and processes, peak memory of each process. The solutions
-of the first trial are compared (relative to the largest entry).
+of the first trial are compared (w, relative to the largest entry), and each one's normwise
+backward error on the whole system (14) with the flipped contact terms is measured. Their
+difference alone says little: at penalty 1e6 this joint's scaled condition number is
+1e12-1e13, and any two exact solvers (w-v-u and v-w-u re-factorising: ``orders_spread``
+when both orders run; FULL) differ by 1e-6 to 1e-5 (``benchmarks/lowrank_accuracy.py``
+measures every one against an extended-precision reference: 1e-4 at 87k). A correction
+that kept its digits has a backward error as small as a re-factorisation's (about 1e-16)
+and differs from it by no more than exact solvers differ (the two orders share the
+subdomains' condensations: FULL's difference is the larger, 6.8e-5 at 87k).
+
+With ``--model bar``, the 306k bar of ``benchmarks/paper_scale.py`` (the parallelepiped
+at a quarter of the paper's cells, its demo's time step) after :data:`BAR_STEPS` steps, its
+end on the wall: the same flips of its end's contact points (w-v-u: the end's group).
 
     python benchmarks/lowrank_change.py                   # 6,7,4,34: 87,405 dofs
     python benchmarks/lowrank_change.py --scale 3,2,1,4   # 5,460 dofs, seconds
+    python benchmarks/lowrank_change.py --model bar --orders w-v-u   # 1/4: 306k dofs
 
-Writes benchmarks/results/lowrank_change.json (another scale's file is named after it).
+Writes benchmarks/results/lowrank_change.json (another scale's file is named after it, the
+bar's lowrank_change_bar_<scale>.json).
 """
 
 import argparse
@@ -36,9 +50,12 @@ import time
 from pathlib import Path
 
 import numpy as np
+from lowrank_accuracy import Whole
 from pinned import PINNED
 
 DEFAULT_SCALE = "6,7,4,34"
+#: Time steps of the bar before its changes: its end is on the wall by the fifth.
+BAR_STEPS = 8
 PERIOD = 2e-3
 FRACTIONS = (0.01, 0.05)
 #: Work records of a change: factorisations, or a correction in their place.
@@ -50,22 +67,43 @@ def change_seconds(records) -> float:
     return sum(r.seconds for r in records if r.kind in CHANGE_KINDS or r.what == "lowrank")
 
 
-def one(order: str, lowrank: bool, scale: str, trials: int, out: str) -> dict:
-    """Flip points on the settled joint in this process; per change its cost."""
+def settled_problem(model: str, order: str, scale: str):
+    """The problem in its settled contact state: the joint statically at the load's peak; the
+    bar (``paper_scale.py`` 's parallelepiped, its time step) after :data:`BAR_STEPS` steps,
+    its end on the wall."""
     from mpi4py import MPI
 
     import dd_contact as dc
     from dd_contact.paper import models
-    from dd_contact.solvers.lowrank import LowRankSurface
 
-    LowRankSurface.enabled = False  # the settled state the same in every process
+    if model == "bar":
+        from paper_scale import DEMO, scene_for
+
+        scene = scene_for("parallelepiped", scale, order, MPI.COMM_SELF)
+        dt = DEMO["parallelepiped"]["dt"]
+        problem = dc.TransientProblem(scene, dt, algorithm=order, track_energy=False)
+        for _ in range(BAR_STEPS):
+            problem.advance()
+        return problem
     names = list(models.PIN_JOINT_SCALES["small"])
     counts = dict(zip(names, map(int, scale.split(",")), strict=True))
     layout = dataclasses.replace(models.pin_joint_layout("small"), **counts)
     scene = models.pin_joint(layout, clearance=0.0, pins="elastic", comm=MPI.COMM_SELF)
-    rows = []
-    with dc.StaticProblem(scene, algorithm=order) as problem:
-        problem.solve(PERIOD / 4)
+    problem = dc.StaticProblem(scene, algorithm=order)
+    problem.solve(PERIOD / 4)
+    return problem
+
+
+def one(order: str, lowrank: bool, args, out: str) -> dict:
+    """Flip points on the settled scene in this process; per change its cost."""
+    from dd_contact.solvers.lowrank import LowRankSurface
+
+    LowRankSurface.enabled = False  # the settled state the same in every process
+    if args.always_correct:  # what a correction costs where the price rule declines it
+        LowRankSurface.refactorise_seconds = lambda self, blocks: np.inf
+    rows, trials = [], args.trials
+    with settled_problem(args.model, order, args.scale) as problem:
+        scene = problem.analysis.scene
         it, solver = problem.iteration, problem.analysis.tie_solver
         problem.analysis.solver.surface.lowrank = lowrank
         settled = {k: a.copy() for k, a in it.active.items()}
@@ -103,14 +141,19 @@ def one(order: str, lowrank: bool, scale: str, trials: int, out: str) -> dict:
                     )
                     if saved is None and what == "flip":  # the contact interfaces' w
                         saved = np.concatenate([x[k] for k in sorted(x) if k.startswith("w:")])
+                        checked = (solver.finish(), it.solved_system(solver))
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # before the check
         np.save(out, saved)
+        whole = Whole(problem.analysis._system, *checked[1])
+        backward = whole.backward_error(whole.vector(checked[0]))
     return {
         "order": order,
         "lowrank": lowrank,
         "dofs": sum(s.num_dofs for s in scene.subdomains),
         "points": points,
         "changes": rows,
-        "peak_memory_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+        "backward_error": backward,
+        "peak_memory_mib": peak,
     }
 
 
@@ -123,6 +166,7 @@ def compare(order: str, args) -> dict:
             for lowrank in (True, False):
                 out = str(Path(tmp) / f"{lowrank}_{repeat}.npy")
                 command = [sys.executable, __file__, "--one", order, "--scale", args.scale]
+                command += ["--model", args.model]
                 command += ["--trials", str(args.trials), "--out-array", out]
                 command += [] if lowrank else ["--refactorise"]
                 done = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
@@ -134,7 +178,16 @@ def compare(order: str, args) -> dict:
     difference = max(np.abs(r.pop("solution") - reference).max() / scale for r in runs[True])
     for r in runs[False]:
         r.pop("solution")
-    out = {"difference": float(difference), "fractions": {}}
+    out = {
+        "difference": float(difference),
+        # normwise, on the whole system (14) with the flipped contact terms: a backward-stable
+        # solve leaves about 1e-16, whatever its forward error
+        "backward_error": {
+            "corrected": max(r["backward_error"] for r in runs[True]),
+            "refactorised": max(r["backward_error"] for r in runs[False]),
+        },
+        "fractions": {},
+    }
     for fraction in FRACTIONS:
         per = {}
         for lowrank, label in ((True, "corrected"), (False, "refactorised")):
@@ -166,22 +219,30 @@ def compare(order: str, args) -> dict:
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__)
-    parser.add_argument("--scale", default=DEFAULT_SCALE, help="c,r,t,grip cell counts")
+    parser.add_argument("--model", default="joint", choices=("joint", "bar"))
+    parser.add_argument(
+        "--scale", help=f"joint: c,r,t,grip cell counts ({DEFAULT_SCALE}); bar: 1/4, nx,ny,nz"
+    )
     parser.add_argument("--orders", default="w-v-u,v-w-u")
     parser.add_argument("--trials", type=int, default=3, help="flips per fraction and process")
     parser.add_argument("--repeats", type=int, default=2, help="processes per variant")
     parser.add_argument("--one", help=argparse.SUPPRESS)
     parser.add_argument("--refactorise", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--out-array", help=argparse.SUPPRESS)
+    parser.add_argument(
+        "--always-correct", action="store_true", help="a worker correcting every change"
+    )
     parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
     args = parser.parse_args()
+    args.scale = args.scale or (DEFAULT_SCALE if args.model == "joint" else "1/4")
     args.refactorised = {}
     if args.one:
-        result = one(args.one, not args.refactorise, args.scale, args.trials, args.out_array)
+        result = one(args.one, not args.refactorise, args, args.out_array)
         print(json.dumps(result))
         return
     start = time.perf_counter()
     report = {
+        "model": args.model,
         "scale": args.scale,
         "machine": platform.node(),
         "blas_threads": 1,
@@ -195,13 +256,18 @@ def main():
         a, b = solutions
         report["orders_spread"] = float(np.abs(a - b).max() / np.abs(b).max())
     report["seconds"] = time.perf_counter() - start
-    suffix = "" if args.scale == DEFAULT_SCALE else f"_{args.scale}"
+    suffix = "" if args.scale == DEFAULT_SCALE else f"_{args.scale}".replace("/", "-")
+    suffix = f"_bar{suffix}" if args.model == "bar" else suffix
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     (out / f"lowrank_change{suffix}.json").write_text(json.dumps(report, indent=1))
     for order, r in report["orders"].items():
         head = f"{order}: {r['dofs']:,} dofs, {r['points']} contact points"
-        print(f"{head}, |x - x_refactorised| {r['difference']:.1e}")
+        backward = r["backward_error"]
+        print(
+            f"{head}, |x - x_refactorised| {r['difference']:.1e}; backward error "
+            f"{backward['corrected']:.1e} corrected, {backward['refactorised']:.1e} re-factorised"
+        )
         for fraction, f in r["fractions"].items():
             print(
                 f"  {float(fraction):.0%} ({f['points_changed']} points): change "
@@ -209,6 +275,8 @@ def main():
                 f"{1e3 * f['refactorised']['change_seconds_median']:.1f} ms re-factorised: "
                 f"{f['ratio']:.1f}x; solve {f['solve_ratio']:.1f}x"
             )
+    if "orders_spread" in report:
+        print(f"w-v-u against v-w-u, both re-factorised: {report['orders_spread']:.1e}")
 
 
 if __name__ == "__main__":

@@ -111,6 +111,24 @@ def test_a_correction_that_stays_inaccurate_is_replaced_by_a_refactorisation(
     assert work.count("dense_factor") == work_ref.count("dense_factor")
 
 
+def test_the_accuracy_check_catches_a_correction_that_lost_digits(always_update, monkeypatch):
+    """Without the refinement a corrected solve of the tied bar leaves a surface backward
+    error of 1e-14 to 3e-14 (a refined one 2e-17 to 4e-17): UPDATE_TOLERANCE re-factorises
+    at each of them (the former 1e-13 let them pass: 2 factorisations against 8)."""
+    monkeypatch.setattr(lowrank, "REFINEMENTS", 0)
+    assert lowrank.UPDATE_TOLERANCE <= 1e-15
+
+    def scene():
+        return order_scenes.order_scene("interface", dynamic=True, kappa=KAPPA)
+
+    reference, work_ref, changes, _ = _run(scene(), "v-w-u", True, False, monkeypatch)
+    checked, work, _, _ = _run(scene(), "v-w-u", True, True, monkeypatch)
+    _agree(checked, reference)
+    # each change corrected, its first solve re-factorised: as many factorisations as before
+    assert work.count("dense_update") == changes["gamma"] >= 2
+    assert work.count("dense_factor") == work_ref.count("dense_factor")
+
+
 def test_a_change_is_re_factorised_when_that_is_priced_cheaper(monkeypatch):
     monkeypatch.setattr(LowRankSurface, "update_seconds", lambda self, dofs, rank, r0: np.inf)
     _, work, changes, _ = _run(
