@@ -8,7 +8,9 @@ periods), each case in its own process with every BLAS pinned to one thread:
 * ``reduced:M``: w-v-u with every subdomain reduced to M fixed-interface modes (a hole
   block with fewer interior dofs than M is kept whole: ``WHOLE_INTERIOR_LIMIT``);
 * ``grips:M``: w-v-u with only the two grips reduced (the hole blocks, mostly boundary,
-  stay sparse).
+  stay sparse);
+* ``cheaper:M``: w-v-u with every subdomain asked ``reduce(modes=M, if_cheaper=True)``: each
+  reduced only where its dense block is priced below its sparse factor.
 
 Reported per case: set-up and step-loop wall and CPU seconds (the whole run is their sum),
 the peak resident memory (``ru_maxrss``), contact state changes, and the force history's
@@ -59,8 +61,8 @@ def _scene(cells: str, case: str):
     if ":" in case:
         which, modes = case.split(":")
         for sub in scene.subdomains:
-            if which == "reduced" or sub.name.endswith("grip"):
-                sub.reduce(modes=int(modes))
+            if which in ("reduced", "cheaper") or sub.name.endswith("grip"):
+                sub.reduce(modes=int(modes), if_cheaper=which == "cheaper")
     return scene
 
 

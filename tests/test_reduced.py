@@ -14,6 +14,7 @@ from dd_contact.errors import InputError
 from dd_contact.paper import verify
 from dd_contact.paper.examples import parallelepiped
 from dd_contact.paper.verify.reduced import cantilever, cantilever_basis, full_frequencies_ratio
+from dd_contact.solvers.reduced_model import tied_dofs
 from dd_contact.solvers.subdomains import coupling_layout
 
 
@@ -397,3 +398,37 @@ def test_a_resumed_reduced_run_on_two_ranks_is_the_uninterrupted_one(tmp_path):
 
     comm = MPI.COMM_WORLD
     _resumed_reduced_run("w-v-u", comm.bcast(str(tmp_path) if comm.rank == 0 else None), comm)
+
+
+@pytest.mark.parametrize("rates", ["counts", "cached"])
+def test_reduction_pays_only_where_its_dense_block_is_cheaper(rates, monkeypatch):
+    """A block that is mostly boundary is kept whole; one with a small boundary is reduced.
+
+    Priced by this machine's cached rates, or without them by the counts (2 r^2 against
+    the sparse factor's entries); a small block's sparse call overhead can favour the dense
+    one, so the bar is long enough (837 dofs) for the counts to decide both ways.
+    """
+    from dd_contact import calibration
+    from dd_contact.solvers import reduced_model
+
+    if rates == "counts":
+        monkeypatch.setattr(calibration, "cached_rates", lambda: None)
+    scene = _cantilever(nx=60, parts=2)
+    model = assemble(scene)
+    block = scene.subdomains[0].block
+    A = model.system.block(block, block)
+    dofs = model.dirichlet[block][0]
+    tied = tied_dofs(coupling_layout(block, model.system)[1])
+    free = np.setdiff1d(np.arange(A.shape[0]), dofs)
+    assert 0 < tied.size < 0.1 * free.size  # a cut face of a 30-cell bar
+    assert reduced_model.reduction_pays(A, tied, dofs, 5, [])
+    assert not reduced_model.reduction_pays(A, free, dofs, 5, [])  # all boundary: r = n
+    # in a problem: asked if_cheaper with every mode (r = n), each stays whole
+    for sub in scene.subdomains:
+        sub.reduce(modes=10_000, if_cheaper=True)
+    problem = dd.StaticProblem(scene, "w-v-u")
+    try:
+        assert problem.model.system.reduced == set()
+        assert all(problem.model.system.sizes[s.block] == s.num_dofs for s in scene.subdomains)
+    finally:
+        problem.close()

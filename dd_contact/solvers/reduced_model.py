@@ -9,6 +9,7 @@ are expanded only when read (:func:`expansion`, :func:`defer_rates`). docs/solve
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Sequence
 
 from mpi4py import MPI
@@ -19,7 +20,8 @@ import scipy.sparse as sp
 from dd_contact import forms
 from dd_contact.blocks import Block
 from dd_contact.parallel import allgathered, collective
-from dd_contact.solvers.reduced import ReducedBasis
+from dd_contact.solvers.linalg import sparse_statistics
+from dd_contact.solvers.reduced import ReducedBasis, _pattern_span, _petsc
 from dd_contact.solvers.subdomains import coupling_layout
 from dd_contact.solvers.worklog import WorkLog
 
@@ -30,6 +32,7 @@ __all__ = [
     "expansion",
     "reduce_model",
     "reduced_states",
+    "reduction_pays",
     "refuse_reduced",
     "start_states",
     "tied_dofs",
@@ -41,6 +44,8 @@ REDUCED_ORDERS = ("w-u", "w-v-u")
 
 #: Coupling entries below this fraction of the largest are round-off (:func:`tied_dofs`).
 COUPLING_FLOOR = 1e-12
+
+logger = logging.getLogger(__name__)
 
 
 def reduce_model(
@@ -90,6 +95,12 @@ def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, Redu
                 f"subdomain {sub.name!r}: a reduced subdomain's tied dofs must be free (some "
                 "are prescribed); do not reduce it"
             )
+        patterns = forms.SubdomainLoad(sub).patterns()
+        if sub.reduction.if_cheaper and not reduction_pays(
+            system.block(block, block), boundary, dofs, sub.reduction.modes, patterns
+        ):
+            logger.info("subdomain %r kept whole: reducing it would not pay", sub.name)
+            continue
         mass = model.mass.get(block)
         diagonal = None if mass is None else sp.csr_array(mass).diagonal()
         del mass
@@ -99,7 +110,7 @@ def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, Redu
             model.mass.pop(block, None),
             boundary,
             dofs,
-            forms.SubdomainLoad(sub).patterns(),
+            patterns,
             sub.reduction.modes,
             log,
             sub.name,
@@ -114,6 +125,33 @@ def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, Redu
         bases[block] = model.reduced[block] = basis
     _walls_in_reduced(model.zones, bases)
     return bases
+
+
+def reduction_pays(A, boundary: np.ndarray, fixed: np.ndarray, modes: int, patterns) -> bool:
+    """Whether a reduced block's dense substitution is priced below the whole block's sparse one.
+
+    The reduced block has ``n_b + min(m, n_i) + loads`` coordinates, a dense Cholesky factor
+    whose substitution pair reads ``2 r^2``; the whole block's MUMPS factor (its entries by
+    the symbolic analysis) is read once per substitution. Each is priced with this machine's
+    cached rates (``dense_solve``, ``sparse_solve``, :mod:`dd_contact.calibration`); without
+    them, by those counts. A step substitutes either twice, so the ratio is the step's.
+    """
+    from dd_contact.calibration import cached_rates  # its rates, not its measurements
+
+    n = A.shape[0]
+    free = np.setdiff1d(np.arange(n), fixed)
+    b = np.intersect1d(boundary, free)
+    loads = _pattern_span(patterns, n, np.asarray(fixed, np.int64)).shape[1]
+    r = b.size + min(modes, free.size - b.size) + loads
+    whole = _petsc(sp.csr_array(A)[free][:, free])
+    try:
+        entries = sparse_statistics(whole).entries
+    finally:
+        whole.destroy()
+    rates = cached_rates()
+    if rates is None:
+        return 2.0 * r * r < 2.0 * entries
+    return rates.seconds("dense_solve", 2.0 * r * r) < rates.seconds("sparse_solve", entries)
 
 
 def tied_dofs(C: sp.sparray) -> np.ndarray:
