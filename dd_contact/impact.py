@@ -492,8 +492,8 @@ def _in_equilibrium(
     kinetic energy with the potential (:func:`dd_contact.solvers.reduced_model.wall_inertia`).
     """
     rows = _massless_dofs(z, free)
-    # each row's moves: its dofs, or a reduced wall's directions (reduced_model)
-    moves = {b: _moves(system.sizes[b], i, getattr(z, "directions", {}).get(b)) for b, i in rows}
+    # a reduced wall moves along directions (reduced_model), the others' dofs alone
+    moves: dict[Block, np.ndarray] = getattr(z, "directions", {})
     op = z.operator
     placed = split_by_blocks(z.parts, op.matrix(active), system.sizes)
     # the contact's force at x, on its blocks
@@ -508,7 +508,7 @@ def _in_equilibrium(
         if inertia and b in inertia:  # -dv/dq M v(q): the kinetic energy's gradient
             mass, slope, velocity = inertia[b]
             r -= slope * (mass @ velocity(x[b]))
-        residual.append(moves[b].T @ r)
+        residual.append(moves[b].T @ r if b in moves else r[i])
         line = []
         for c, j in rows:
             A = _stiffness(system, b, c)
@@ -517,23 +517,26 @@ def _in_equilibrium(
             if inertia and b == c and b in inertia:
                 mass, slope, _ = inertia[b]
                 A = sp.csr_array(slope**2 * mass) if A is None else A + slope**2 * mass
-            shape = (len(i), len(j))
-            line.append(sp.csr_array(shape if A is None else moves[b].T @ (A @ moves[c])))
+            line.append(
+                sp.csr_array((len(i), len(j))) if A is None else _part(A, b, i, c, j, moves)
+            )
         matrix.append(line)
     delta = spsolve(sp.csc_array(sp.block_array(matrix)), np.concatenate(residual))
     out, start = {}, 0
     for b, i in rows:
         out[b] = np.array(x[b], dtype=float)
-        out[b] += moves[b] @ delta[start : start + len(i)]
+        if b in moves:
+            out[b] += moves[b] @ delta[start : start + len(i)]
+        else:
+            out[b][i] += delta[start : start + len(i)]
         start += len(i)
     return out
 
 
-def _moves(n: int, dofs: np.ndarray, directions: np.ndarray | None) -> sp.csr_array:
-    """The columns a block's massless dofs move along: unit vectors, or given directions."""
-    if directions is not None:
-        return sp.csr_array(directions)
-    return sp.csr_array((np.ones(len(dofs)), (dofs, np.arange(len(dofs)))), shape=(n, len(dofs)))
+def _part(A, b: Block, i: np.ndarray, c: Block, j: np.ndarray, moves: Mapping) -> sp.csr_array:
+    """``A``'s rows i and columns j, or its product with the directions of a reduced wall."""
+    rows = moves[b].T @ A if b in moves else A[i]
+    return sp.csr_array(rows @ moves[c] if c in moves else sp.csr_array(rows)[:, j])
 
 
 def _discrete_gradient(g0: np.ndarray, g1: np.ndarray) -> np.ndarray:
