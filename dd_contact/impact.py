@@ -143,6 +143,8 @@ class StartForces:
         end_offset: The stiff ties' forces of the last solve (for :meth:`at_end`).
         time: ``t_n``. A moving obstacle's operator is put at ``t_n`` for the start forces
             and their penetrations are kept: the contact iteration moves it to ``t_n+1``.
+        inertia: Reduced blocks' ``(M, dv/dq, v(q))``: their walls' moves carry mass
+            (:func:`dd_contact.solvers.reduced_model.wall_inertia`).
     """
 
     def __init__(
@@ -159,8 +161,10 @@ class StartForces:
         end_loads: Mapping[Block, np.ndarray] | None = None,
         end_offset: Callable[[], Mapping[Block, np.ndarray]] | None = None,
         time: float | None = None,
+        inertia: Mapping[Block, tuple] | None = None,
     ):
         self.system, self.zones, self.x, self.free = system, zones, x, free
+        self._inertia = inertia or {}
         self.time = time
         #: Each contact's penetration and G at ``t_n``: every start force and theta reads
         #: them (the obstacle at ``t_n+1`` would give back a force never applied).
@@ -338,8 +342,9 @@ class StartForces:
             if (self.start[name] & ~active[name]).any() and _holds_rows(self.system, z, out):
                 self._solved_end[name] = z.gather(out)  # the step's own end, for the work
                 state = _in_equilibrium(
-                    self.system, z, out, active[name], self._end_loads, offset, self.free
-                )
+                    self.system, z, out, active[name], self._end_loads, offset, self.free,
+                    self._inertia,
+                )  # fmt: skip
                 out.update(state)
                 self.settled_blocks += list(state)
         return out
@@ -493,9 +498,16 @@ def _in_equilibrium(
     loads: Mapping[Block, np.ndarray],
     offset: Mapping[Block, np.ndarray],
     free: Callable[[Block], np.ndarray],
+    inertia: Mapping[Block, tuple] | None = None,
 ) -> dict[Block, np.ndarray]:
-    """The blocks of ``z``'s massless dofs with those in equilibrium, the rest of x held."""
+    """The blocks of ``z``'s massless dofs with those in equilibrium, the rest of x held.
+
+    A block in ``inertia`` (reduced: its walls' moves carry some mass) minimises its
+    kinetic energy with the potential (:func:`dd_contact.solvers.reduced_model.wall_inertia`).
+    """
     rows = _massless_dofs(z, free)
+    # a reduced wall moves along directions (reduced_model), the others' dofs alone
+    moves: dict[Block, np.ndarray] = getattr(z, "directions", {})
     op = z.operator
     placed = split_by_blocks(z.parts, op.matrix(active), system.sizes)
     # the contact's force at x, on its blocks
@@ -507,21 +519,38 @@ def _in_equilibrium(
         r += loads.get(b, 0.0)
         if b in force:
             r += force[b]
-        residual.append(r[i])
+        if inertia and b in inertia:  # -dv/dq M v(q): the kinetic energy's gradient
+            mass, slope, velocity = inertia[b]
+            r -= slope * (mass @ velocity(x[b]))
+        residual.append(moves[b].T @ r if b in moves else r[i])
         line = []
         for c, j in rows:
             A = _stiffness(system, b, c)
             if (b, c) in placed:
                 A = placed[(b, c)] if A is None else A + placed[(b, c)]
-            line.append(sp.csr_array((len(i), len(j))) if A is None else A[i][:, j])
+            if inertia and b == c and b in inertia:
+                mass, slope, _ = inertia[b]
+                A = sp.csr_array(slope**2 * mass) if A is None else A + slope**2 * mass
+            line.append(
+                sp.csr_array((len(i), len(j))) if A is None else _part(A, b, i, c, j, moves)
+            )
         matrix.append(line)
     delta = spsolve(sp.csc_array(sp.block_array(matrix)), np.concatenate(residual))
     out, start = {}, 0
     for b, i in rows:
         out[b] = np.array(x[b], dtype=float)
-        out[b][i] += delta[start : start + len(i)]
+        if b in moves:
+            out[b] += moves[b] @ delta[start : start + len(i)]
+        else:
+            out[b][i] += delta[start : start + len(i)]
         start += len(i)
     return out
+
+
+def _part(A, b: Block, i: np.ndarray, c: Block, j: np.ndarray, moves: Mapping) -> sp.csr_array:
+    """``A``'s rows i and columns j, or its product with the directions of a reduced wall."""
+    rows = moves[b].T @ A if b in moves else A[i]
+    return sp.csr_array(rows @ moves[c] if c in moves else sp.csr_array(rows)[:, j])
 
 
 def _discrete_gradient(g0: np.ndarray, g1: np.ndarray) -> np.ndarray:

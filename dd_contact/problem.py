@@ -48,7 +48,12 @@ from dd_contact.readout import AnalysisReadout
 from dd_contact.scene import Scene
 from dd_contact.solvers.auxiliary import solve_mass, surfaces_in_equilibrium
 from dd_contact.solvers.petsc_options import OPTIONS_PREFIX
-from dd_contact.solvers.reduced_model import defer_fields, defer_rates, start_states
+from dd_contact.solvers.reduced_model import (
+    defer_fields,
+    defer_rates,
+    start_states,
+    wall_inertia,
+)
 from dd_contact.stopping import StopRequests, raise_stopped
 from dd_contact.timestepping import time_scheme
 
@@ -369,6 +374,7 @@ class TransientProblem(AnalysisReadout):
             end_loads=dict(loads),
             end_offset=lambda: self.tie_solver.rhs_offset,
             time=self.t,
+            inertia=wall_inertia(self.model, self.analysis.reduced, owned, self.kinematics, scheme),
         )
         for sub in owned:
             block = sub.block

@@ -70,10 +70,13 @@ class Reduction:
     Attributes:
         modes: Fixed-interface normal modes kept (the lowest).
         tolerance: SLEPc's relative tolerance on those modes.
+        if_cheaper: Reduce only if the reduced block's dense substitution is priced below
+            the whole block's sparse one (``reduced_model.reduction_pays``).
     """
 
     modes: int
     tolerance: float = 1e-12
+    if_cheaper: bool = False
 
 
 class Subdomain:
@@ -143,7 +146,7 @@ class Subdomain:
         """
         self._deferred[field] = expansion
 
-    def reduce(self, modes: int, tolerance: float = 1e-12) -> Subdomain:
+    def reduce(self, modes: int, tolerance: float = 1e-12, if_cheaper: bool = False) -> Subdomain:
         """Represent this subdomain by a reduced model (Craig-Bampton; docs/solvers.md).
 
         The solvers then hold it as a small dense matrix over its boundary dofs (those of
@@ -156,6 +159,10 @@ class Subdomain:
                 its interior dofs or more: every mode, the interior kept whole, for an
                 interior of up to ``WHOLE_INTERIOR_LIMIT`` dofs).
             tolerance: SLEPc's relative tolerance on the modes.
+            if_cheaper: Keep it whole instead when its reduced block (boundary dofs, modes
+                and load modes: dense) would cost more to substitute than its sparse factor,
+                priced with this machine's measured rates: a block that is mostly boundary
+                (the pin joint's hole blocks) gains nothing.
 
         Returns:
             The subdomain, so calls can be chained.
@@ -171,7 +178,7 @@ class Subdomain:
                 f"subdomain {self.name!r}: reduce(tolerance=...) must lie in (0, 1), got "
                 f"{tolerance}; e.g. 1e-12"
             )
-        self.reduction = Reduction(int(modes), tolerance)
+        self.reduction = Reduction(int(modes), tolerance, bool(if_cheaper))
         return self
 
     # -- boundary conditions -------------------------------------------------------------

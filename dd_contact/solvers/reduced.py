@@ -409,6 +409,30 @@ class ReducedBasis:
                 q[nb:] = self.G.T @ (self._M_ii @ rest)
         return q
 
+    def wall_directions(self, wall: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A contact wall's coordinates and the moves of q that shift it alone.
+
+        ``wall``: its dofs (full numbering, all boundary). Returns their positions in q and
+        P, one column per wall dof: the coordinates of that dof's unit displacement
+        (:meth:`coordinates`), its constraint mode with the interior's motion taken back
+        through the modes. With every mode the interior stays exactly put (P is the
+        whole subdomain's unit vector in this basis), so settling a massless wall along P
+        is the whole subdomain's settle; with fewer, the interior keeps what the modes
+        cannot take back.
+        """
+        at = np.searchsorted(self.b, wall)
+        if wall.size and not np.array_equal(self.b[np.minimum(at, self.b.size - 1)], wall):
+            raise ValueError(f"subdomain {self.name!r}: a wall dof is not a boundary dof")
+        P = np.zeros((self.size, at.size))
+        P[at, np.arange(at.size)] = 1.0
+        if at.size and self.G.shape[1]:
+            rest = self.factor.solve_many(self._A_ib[:, at].toarray(), "wall directions")
+            if self._M_ii is None:
+                P[self.b.size :] = np.linalg.lstsq(self.G, rest, rcond=None)[0]
+            else:
+                P[self.b.size :] = self.G.T @ (self._M_ii @ rest)
+        return at, P
+
     def destroy(self) -> None:
         """Free the factorisation."""
         self.factor.A.destroy()

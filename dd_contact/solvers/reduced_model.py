@@ -9,6 +9,7 @@ are expanded only when read (:func:`expansion`, :func:`defer_rates`). docs/solve
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable, Sequence
 
 from mpi4py import MPI
@@ -19,7 +20,8 @@ import scipy.sparse as sp
 from dd_contact import forms
 from dd_contact.blocks import Block
 from dd_contact.parallel import allgathered, collective
-from dd_contact.solvers.reduced import ReducedBasis
+from dd_contact.solvers.linalg import sparse_statistics
+from dd_contact.solvers.reduced import ReducedBasis, _pattern_span, _petsc
 from dd_contact.solvers.subdomains import coupling_layout
 from dd_contact.solvers.worklog import WorkLog
 
@@ -30,9 +32,11 @@ __all__ = [
     "expansion",
     "reduce_model",
     "reduced_states",
+    "reduction_pays",
     "refuse_reduced",
     "start_states",
     "tied_dofs",
+    "wall_inertia",
 ]
 
 #: The orders that solve reduced subdomains (a small dense block through the subdomain seam).
@@ -40,6 +44,8 @@ REDUCED_ORDERS = ("w-u", "w-v-u")
 
 #: Coupling entries below this fraction of the largest are round-off (:func:`tied_dofs`).
 COUPLING_FLOOR = 1e-12
+
+logger = logging.getLogger(__name__)
 
 
 def reduce_model(
@@ -89,6 +95,12 @@ def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, Redu
                 f"subdomain {sub.name!r}: a reduced subdomain's tied dofs must be free (some "
                 "are prescribed); do not reduce it"
             )
+        patterns = forms.SubdomainLoad(sub).patterns()
+        if sub.reduction.if_cheaper and not reduction_pays(
+            system.block(block, block), boundary, dofs, sub.reduction.modes, patterns
+        ):
+            logger.info("subdomain %r kept whole: reducing it would not pay", sub.name)
+            continue
         mass = model.mass.get(block)
         diagonal = None if mass is None else sp.csr_array(mass).diagonal()
         del mass
@@ -98,7 +110,7 @@ def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, Redu
             model.mass.pop(block, None),
             boundary,
             dofs,
-            forms.SubdomainLoad(sub).patterns(),
+            patterns,
             sub.reduction.modes,
             log,
             sub.name,
@@ -113,6 +125,33 @@ def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, Redu
         bases[block] = model.reduced[block] = basis
     _walls_in_reduced(model.zones, bases)
     return bases
+
+
+def reduction_pays(A, boundary: np.ndarray, fixed: np.ndarray, modes: int, patterns) -> bool:
+    """Whether a reduced block's dense substitution is priced below the whole block's sparse one.
+
+    The reduced block has ``n_b + min(m, n_i) + loads`` coordinates, a dense Cholesky factor
+    whose substitution pair reads ``2 r^2``; the whole block's MUMPS factor (its entries by
+    the symbolic analysis) is read once per substitution. Each is priced with this machine's
+    cached rates (``dense_solve``, ``sparse_solve``, :mod:`dd_contact.calibration`); without
+    them, by those counts. A step substitutes either twice, so the ratio is the step's.
+    """
+    from dd_contact.calibration import cached_rates  # its rates, not its measurements
+
+    n = A.shape[0]
+    free = np.setdiff1d(np.arange(n), fixed)
+    b = np.intersect1d(boundary, free)
+    loads = _pattern_span(patterns, n, np.asarray(fixed, np.int64)).shape[1]
+    r = b.size + min(modes, free.size - b.size) + loads
+    whole = _petsc(sp.csr_array(A)[free][:, free])
+    try:
+        entries = sparse_statistics(whole).entries
+    finally:
+        whole.destroy()
+    rates = cached_rates()
+    if rates is None:
+        return 2.0 * r * r < 2.0 * entries
+    return rates.seconds("dense_solve", 2.0 * r * r) < rates.seconds("sparse_solve", entries)
 
 
 def tied_dofs(C: sp.sparray) -> np.ndarray:
@@ -130,22 +169,31 @@ def tied_dofs(C: sp.sparray) -> np.ndarray:
 
 
 def _walls_in_reduced(zones: Sequence, bases: dict[Block, ReducedBasis]) -> None:
-    """No contact wall of a reduced subdomain is put in equilibrium at a release.
+    """A reduced subdomain's contact walls, in its coordinates, with the moves that settle them.
 
-    A whole subdomain's wall dofs are massless (energy-safe contact), so a release may
-    settle them with the rest held (:meth:`dd_contact.impact.StartForces.at_end`). A wall
+    A whole subdomain's wall dofs are massless (energy-safe contact), so a release settles
+    them with the rest held (:meth:`dd_contact.impact.StartForces.at_end`). A wall
     coordinate of a reduced one moves its constraint mode, which carries the mass of the
-    interior behind it: settling it alone would throw that mass (the bar's energy grew
-    10^25-fold). Its contact interface's w, massless, is still settled.
+    interior behind it: settled alone, it threw that mass (the bar's energy grew
+    10^25-fold), and left unsettled the force history drifted (the pin joint: 5.3 % of its
+    peak with m = 1000). Each wall is settled instead along
+    :meth:`~dd_contact.solvers.reduced.ReducedBasis.wall_directions` (``zone.directions``):
+    the interior held through the modes, exactly with every mode.
     """
     for z in zones:
+        parts = z.wall_parts
+        if not any(block in bases for block, _ in parts):
+            continue
+        walls, directions = [], {}
+        for block, wall in parts:
+            if block in bases:
+                wall, directions[block] = bases[block].wall_directions(np.asarray(wall))
+            walls.append(wall)
         if hasattr(z, "walls"):  # a pair: a wall per side
-            z.walls = [
-                np.zeros(0, np.int64) if s.subdomain.block in bases else w
-                for s, w in zip(z.sides, z.walls, strict=True)
-            ]
-        elif z.contact.subdomain.block in bases:
-            z.wall = np.zeros(0, np.int64)
+            z.walls = walls
+        else:
+            z.wall = walls[0]
+        z.directions = directions
 
 
 def _replace(model, block: Block, basis: ReducedBasis) -> None:
@@ -241,3 +289,25 @@ def defer_fields(subdomains: Sequence, bases: dict[Block, ReducedBasis], kinemat
             q = kinematics.reduced[sub.block][0]
             sub.defer(expansion(bases.get(sub.block), q.copy()))
     defer_rates(subdomains, bases, kinematics)
+
+
+def wall_inertia(model, bases: dict[Block, ReducedBasis], owned: Sequence, kinematics, scheme):
+    """What a release's settle of reduced walls needs of their inertia, this step.
+
+    Per owned reduced block: ``(M_r, s, v)`` with ``v(q)`` the end velocity the scheme
+    gives q (from the state at t_n, copied now) and ``s = dv/dq``. With fewer modes than
+    the interior's, a wall's move P carries a little mass (what the modes cannot take back):
+    the settle then minimises the kinetic energy with the potential, so it still never adds
+    energy (:func:`dd_contact.impact.StartForces.at_end`); with every mode ``M_r P = 0``.
+    """
+    slope = float(scheme.update(np.ones(1), np.zeros(1), np.zeros(1), np.zeros(1))[0][0])
+    out = {}
+    for sub in owned:
+        if sub.block in bases:
+            start = tuple(a.copy() for a in kinematics.now(sub))
+
+            def velocity(q, start=start):
+                return scheme.update(q, *start)[0]
+
+            out[sub.block] = (model.mass[sub.block], slope, velocity)
+    return out
