@@ -41,10 +41,7 @@ class ContactSolver(Protocol):
     """What the contact iteration needs of a block solver."""
 
     def set_contact(self, key: str, matrix: sp.csr_array, active: np.ndarray | None = None) -> None:
-        """Replace the contact matrix of contact region ``key`` (surface dof numbering).
-
-        ``active``: its points' active flags (what the matrix is made of, point by point).
-        """
+        """Replace region ``key``'s contact matrix (surface dof numbering; its points' flags)."""
         ...
 
     def solve(self, rhs: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -512,8 +509,7 @@ class ContactIteration:
         rhs = {name: v.copy() if name in zoned else v for name, v in rhs.items()}
         contact = []
         for z in self.zones:
-            active = self.active[z.contact.name]
-            matrix, vector = z.contribution(active)
+            matrix, vector = z.contribution(active := self.active[z.contact.name])
             solver.set_contact(z.contact.name, matrix, active=active)
             contact.append((z.parts, matrix))
             for key, part in z.scatter(vector, self.sizes).items():

@@ -139,7 +139,8 @@ def test_the_low_rank_accuracy_check_measures_every_solver_against_its_reference
     differences = {}
     for label, s in solutions.items():
         x = whole.vector(s["x"])
-        assert whole.backward_error(x) <= 1e-15, label
+        # the unrefined correction is shown for what refinement buys (9.8e-15 here)
+        assert whole.backward_error(x) <= (1e-12 if label == "corrected_unrefined" else 1e-15)
         w, w_ref = whole.w(x), whole.w(x_ref)
         differences[label] = np.abs(w - w_ref).max() / np.abs(w_ref).max()
     assert solutions["corrected"]["work"]["dense_update"] == 1
