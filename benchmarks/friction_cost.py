@@ -5,7 +5,8 @@ area growing row by row) with ``friction = mu`` on its contact, runs interleaved
 repeat and algorithm a frictionless run, then a frictional one, each its own process with
 BLAS pinned to one thread (``decomposition_speed.worker``). With friction a slipping point
 makes the contact block unsymmetric: the orders factorise their dense contact group with
-LU, FULL its whole matrix with MUMPS's LU (docs/contact.md, "Friction").
+every point sticking (Cholesky) and correct for the slip (Woodbury), FULL factorises its
+whole matrix with MUMPS's LU (docs/contact.md, "Friction").
 
 Per algorithm (medians over the repeats): ``seconds_per_change`` with and without friction
 and their ratio (the issue's target: at most 2), also of the changes' lower quartile
@@ -31,7 +32,6 @@ import os
 import statistics
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import decomposition_speed
@@ -58,20 +58,7 @@ def worker(args) -> dict:
     examples.parallelepiped = with_friction  # type: ignore[assignment]
     cpu: list[float] = []  # each iteration's CPU seconds: the wall's are a loaded machine's
     plain_timed = decomposition_speed.timed_iterations
-
-    def timed_iterations(problem):
-        iterations, inner = plain_timed(problem), problem.iteration._solve_once
-
-        def timed(*a):
-            start = time.process_time()
-            out = inner(*a)
-            cpu.append(time.process_time() - start)
-            return out
-
-        problem.iteration._solve_once = timed
-        return iterations
-
-    decomposition_speed.timed_iterations = timed_iterations
+    decomposition_speed.timed_iterations = lambda problem: plain_timed(problem, cpu)
     run = speed_worker(args)
     run["mu"], run["load_average"] = args.mu, os.getloadavg()  # 1, 5, 15 min, at its end
     run["cpu_iterations"], start = [], 0
