@@ -275,7 +275,7 @@ def _rows(runs: Sequence[Run], checks: dict[str, Agreement], gflops: dict[str, f
             agreed = [
                 " ".join(f"{e:.0e}" for e in check.early),
                 f"{check.worst:.1e}",
-                f"{check.limit:.0e}",
+                f"{check.limit:.1e}",
                 "same" if check.same_history else "DIFFERS",
             ]
         rows.append([
