@@ -159,11 +159,14 @@ def timed_iterations(problem, cpu: list[float] | None = None) -> list[float]:
     return iterations
 
 
-def interleaved(script: str, args, options: list[str], mus: tuple[float, ...]) -> dict:
+def interleaved(
+    script: str, args, options: list[str], mus: tuple[float, ...], after_each=None
+) -> dict:
     """Runs of ``script``'s workers: per repeat and algorithm one per friction of ``mus``.
 
     Interleaved (the pair shares the machine's state), each its own process with BLAS
     pinned; ``options``: the worker's other arguments. By ``"<algorithm> mu=<mu>"``.
+    ``after_each(runs)``: called after every run (to write what a cut session keeps).
     """
     runs: dict[str, list] = {}
     for repeat in range(args.repeats):
@@ -173,6 +176,8 @@ def interleaved(script: str, args, options: list[str], mus: tuple[float, ...]) -
                 print(f"run {repeat + 1}/{args.repeats}: {algorithm} mu={mu}", flush=True)
                 run = pinned_record(command + options)
                 runs.setdefault(f"{algorithm} mu={mu:g}", []).append(run)
+                if after_each is not None:
+                    after_each(runs)
     return runs
 
 

@@ -31,13 +31,11 @@ import json
 import os
 import statistics
 import subprocess
-import sys
 from pathlib import Path
 
 import decomposition_speed
-from decomposition_speed import derived
+from decomposition_speed import derived, interleaved
 from decomposition_speed import worker as speed_worker
-from pinned import PINNED
 
 HERE = Path(__file__).parent / "results"
 ALGORITHMS = ["FULL", "w-u", "v-w-u", "w-v-u"]
@@ -83,20 +81,11 @@ def main() -> None:
     if args.worker:
         print(json.dumps(worker(args)))
         return
-    env = {**os.environ, **PINNED}
-    runs: dict[str, list] = {}
-    for repeat in range(args.repeats):
-        for algorithm in args.algorithms:
-            for mu in (0.0, args.mu):  # interleaved: the pair shares the machine's state
-                command = [sys.executable, __file__, "--worker", algorithm, "--mu", str(mu)]
-                command += ["--dt", str(args.dt), "--elements", *map(str, args.elements)]
-                command += ["--steps", str(args.steps), "--full-steps", str(args.full_steps)]
-                print(f"run {repeat + 1}/{args.repeats}: {algorithm} mu={mu}", flush=True)
-                done = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
-                run = json.loads(done.stdout.strip().splitlines()[-1])
-                runs.setdefault(f"{algorithm} mu={mu:g}", []).append(run)
-                summary = write(args, runs)  # after every run: a session cut short keeps it
-    print(json.dumps(summary, indent=1))
+    options = ["--dt", str(args.dt), "--elements", *map(str, args.elements)]
+    options += ["--steps", str(args.steps), "--full-steps", str(args.full_steps)]
+    # written after every run: a session cut short keeps it
+    runs = interleaved(__file__, args, options, (0.0, args.mu), lambda r: write(args, r))
+    print(json.dumps(summarise(args, runs), indent=1))
 
 
 def write(args, runs: dict) -> dict:
