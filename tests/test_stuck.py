@@ -6,8 +6,11 @@ from mpi4py import MPI
 
 import numpy as np
 import pytest
+from test_pairs import GAP, H_A, H_B, SIDE, TILT, _at, _blocks
 
+import dd_contact as dc
 from dd_contact.friction import SLIP
+from dd_contact.obstacles import Plane
 from dd_contact.paper.verify.friction import sliding_scene
 from dd_contact.problem import StaticProblem
 from dd_contact.solvers import lowrank
@@ -76,3 +79,49 @@ def test_the_stuck_matrix_is_symmetric_and_differs_at_the_slipping_points_only()
     assert set(delta.row // 3) == set(slipping)  # nodal points: 3 dofs each
     assert abs(matrix - matrix.T).max() > 1e-3 * abs(matrix).max()  # the slip's, not stuck's
     problem.close()
+
+
+# -- friction against an obstacle and a frictionless pair in one correction ------------------
+PUSH = 2e-5  # the wall's push into A's side per unit of time
+
+
+def _mixed(enabled: bool, monkeypatch):
+    """tests/test_pairs.py's blocks, B pressed down unevenly onto A, A's side on a wall with
+    friction, in w-u (one group): u, the changes, the work log and the surface."""
+    monkeypatch.setattr(LowRankSurface, "enabled", enabled)
+    cells = ("hexahedron", (4, 4, 2)), ("tetrahedron", (3, 3, 2))
+    subdomains, _, a, b, B = _blocks(*cells, False, gap=GAP)
+    press = lambda x: np.stack([0 * x[0], 0 * x[0], -TILT * x[0] * x[1]])  # noqa: E731
+    B.fix(_at(2, H_A + GAP + H_B), [2], press)
+    wall = Plane([SIDE - PUSH, 0, 0], [-1, 0, 0], motion=lambda t: (-PUSH * t, 0.0, 0.0))
+    side = dc.ContactInterface.from_boundary(subdomains[0], _at(0, SIDE), wall, friction=MU)
+    scene = dc.Scene(MPI.COMM_SELF, subdomains, None, [dc.ContactPair(a, b), side])
+    with pytest.warns(dc.errors.CoarseContactWarning), StaticProblem(scene, "w-u") as problem:
+        for step in range(1, 4):
+            problem.solve(float(step))
+        u = np.concatenate([s.u.x.array for s in scene.subdomains])
+        return u, dict(problem.changes), problem.work, problem.solver.surface
+
+
+def test_a_frictionless_pair_beside_friction_is_corrected_point_by_point(monkeypatch):
+    """The pair's changes join the slip's correction as its points' rows: no group is
+    factorised again, and the answers are the re-factorised ones."""
+    u_lu, changes_lu, _, _ = _mixed(False, monkeypatch)
+    u, changes, work, surface = _mixed(True, monkeypatch)
+    assert changes == changes_lu and min(changes.values()) >= 5
+    assert np.linalg.norm(u - u_lu) <= 1e-9 * np.linalg.norm(u_lu)
+    assert isinstance(surface, StuckSurface) and not surface.exact
+    factorised = [r for r in work.records if r.kind == "dense_factor"]
+    updates = [r for r in work.records if r.kind == "dense_update"]
+    assert len(factorised) == 1 and len(updates) == changes["gamma"] + 4  # and 4 step starts
+    # the last correction: unit columns on the wall's dofs only (those the slip deviates
+    # on among them), and one column per point of the pair, those that differ from the
+    # flags the factors hold among them (not the dofs those points touch)
+    c = surface.correction
+    units = [dofs for (dofs, _), p in zip(c.pieces, c.points, strict=True) if p is None]
+    points = np.concatenate([p for p in c.points if p is not None])
+    assert {str(b) for dofs in units for b in dofs} == {"w:contact"}
+    deviating = surface._deviating(surface.held)["w:contact"]
+    assert set(deviating) <= {j for dofs in units for j in dofs["w:contact"]}
+    assert set(np.flatnonzero(surface.flags()[1])) <= set(points) and len(points) > 0
+    assert updates[-1].size == c.rank == sum(len(d["w:contact"]) for d in units) + len(points)

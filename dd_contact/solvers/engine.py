@@ -97,7 +97,9 @@ def surface_structure(
 # -- the solver ---------------------------------------------------------------------------
 def _pointed(region: ContactRegion) -> bool:
     """Whether a region's changes reach the surface point by point (a frictionless pair)."""
-    return region.points is not None and all(b.kind != "u" for b in region.blocks)
+    return (
+        region.points is not None and region.symmetric and all(b.kind != "u" for b in region.blocks)
+    )
 
 
 def _unsymmetric(contacts: Sequence[ContactRegion]) -> list[Block]:
@@ -168,9 +170,8 @@ class BlockEliminationSolver:
             for part in pieces:
                 for r, c, A in part["matrices"]:
                     self.surface.add_base(r, c, A)
-                if isinstance(self.surface, PointwiseSurface):
-                    for name, parts, F in part["points"]:
-                        self.surface.add_points(name, parts, F)
+                for name, parts, F in part["points"]:
+                    self.surface.add_points(name, parts, F)
         #: Latest contact matrix of each region, by the block pairs it fills (and its stuck one).
         self._contact: dict[str, dict[tuple[Block, Block], sp.csr_array]] = {}
         self._stuck_contact: dict[str, dict[tuple[Block, Block], sp.csr_array]] = {}
@@ -275,14 +276,11 @@ class BlockEliminationSolver:
                 for _, part in parts:
                     for block, Z in part["Z"].items():
                         surface.set_condensed(block, Z)
+                    stuck = part.get("stuck", {})
                     for pair, matrix in part["contact"].items():
-                        if isinstance(surface, StuckSurface):
-                            surface.set_contact(pair, matrix, part["stuck"][pair])
-                        else:
-                            surface.set_contact(pair, matrix)
-                    if isinstance(surface, PointwiseSurface):
-                        for name, flags in part.get("active", {}).items():
-                            surface.set_active(name, flags)
+                        surface.set_contact(pair, matrix, stuck.get(pair))
+                    for name, flags in part.get("active", {}).items():
+                        surface.set_active(name, flags)
                 surface.factorise()
                 solved = surface.solve({b: g[w].copy() for b, w in self._where.items()}, complete)
             x = self._packed(solved)
@@ -316,7 +314,7 @@ class BlockEliminationSolver:
             return self._finish()
 
     def _finish(self) -> dict[str, np.ndarray]:
-        if isinstance(self.surface, StuckSurface):
+        if self.surface is not None:  # the root's
             self.surface.restart()
         if not self._complete:
             x = np.zeros(self._surface_size)

@@ -128,6 +128,9 @@ class Correction:
         conditioned: Its reciprocal condition number (1-norm, LAPACK's estimate).
         K: A full coupling instead of ``diag(D)`` (friction's unsymmetric correction,
             :mod:`dd_contact.solvers.stuck`), or None.
+        points: Per piece, the contact points whose rows its columns are (numbered as
+            :meth:`~dd_contact.solvers.pointwise.PointwiseSurface.joined`), or None: unit
+            columns or eigenvectors.
     """
 
     pieces: list[tuple[dict[Block, np.ndarray], np.ndarray]] = field(default_factory=list)
@@ -137,6 +140,8 @@ class Correction:
     capacitance: tuple[np.ndarray, np.ndarray] | None = None
     conditioned: float = 1.0  # the capacitance matrix's reciprocal condition number (1-norm)
     K: np.ndarray | None = None  # a full (unsymmetric) coupling instead of diag(D)
+    points: list[np.ndarray | None] = field(default_factory=list)
+    scale: tuple[np.ndarray, np.ndarray] | None = None  # its factors' row, column scaling
 
     @property
     def rank(self) -> int:
@@ -146,7 +151,10 @@ class Correction:
     def solve(self, y: np.ndarray) -> np.ndarray:
         """``(I + D G)^-1 y`` with the capacitance matrix's factors."""
         assert self.capacitance is not None  # factorised before it is applied
-        return sla.lu_solve(self.capacitance, y, check_finite=False)
+        if self.scale is None:
+            return sla.lu_solve(self.capacitance, y, check_finite=False)
+        rows, cols = self.scale
+        return cols * sla.lu_solve(self.capacitance, rows * y, check_finite=False)
 
     def projected(self, x: dict[str, np.ndarray]) -> np.ndarray:
         """``D U^T x_J``: what the changes apply to ``x``, in the columns' coordinates."""
@@ -262,7 +270,9 @@ class LowRankSurface(Surface):
         self._pass: float | None = None  # price of one complete pass through the chain
         self._residual_price = 0.0  # and of the residual product (priced with it)
 
-    def set_contact(self, pair: tuple[Block, Block], matrix: sp.csr_array) -> None:
+    def set_contact(
+        self, pair: tuple[Block, Block], matrix: sp.csr_array, stuck: sp.csr_array | None = None
+    ) -> None:
         """The new contact matrix of a block pair: corrected for, or re-factorised later."""
         if self.stale or self.changed or not self.lowrank:
             super().set_contact(pair, matrix)

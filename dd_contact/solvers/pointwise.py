@@ -20,7 +20,9 @@ priced below re-factorising the groups it would make stale), each corrected solv
 with its true residual and re-factorised if it stays inaccurate, and the corrected solves
 re-factorising once their extra passes cost what the correction saved. A change on blocks
 that a region without point rows fills too (an obstacle, friction) is corrected from the
-matrices by :class:`LowRankSurface`.
+matrices by :class:`LowRankSurface`; with friction against an obstacle,
+:class:`~dd_contact.solvers.stuck.StuckSurface` puts the points' columns in its correction
+beside the slip's unit columns.
 """
 
 from __future__ import annotations
@@ -43,7 +45,13 @@ from dd_contact.solvers.lowrank import (
 )
 from dd_contact.solvers.schedule import Operation
 
-__all__ = ["CACHE_BUDGET", "POINT_APPLICATIONS", "PointCorrection", "PointwiseSurface"]
+__all__ = [
+    "CACHE_BUDGET",
+    "POINT_APPLICATIONS",
+    "PointCorrection",
+    "PointwiseSurface",
+    "point_columns",
+]
 
 #: The eliminations of the points kept with a factorisation (each point's once, reused by
 #: every later change until the groups are re-factorised) may cost this many times the
@@ -137,7 +145,7 @@ class PointwiseSurface(LowRankSurface):
         self._rows.append((name, parts, sp.csr_array(rows)))
         self._points = None
 
-    def _joined(self) -> tuple[sp.csc_array, list[tuple[Block, slice]], dict[str, int]]:
+    def joined(self) -> tuple[sp.csc_array, list[tuple[Block, slice]], dict[str, int]]:
         """Every region's points as columns over their blocks, one block after the other.
 
         Returns the columns, each block with its rows, and each region's first column.
@@ -178,7 +186,7 @@ class PointwiseSurface(LowRankSurface):
         Each group is priced with the columns that reach it: its own blocks' and those its
         earlier groups push into it.
         """
-        _, at, _ = self._joined()
+        _, at, _ = self.joined()
         V = sp.csr_array(V)
         reach = {b: np.diff(sp.csc_array(V[rows]).indptr) > 0 for b, rows in at}
         ops = []
@@ -194,6 +202,17 @@ class PointwiseSurface(LowRankSurface):
             for r in grp.neighbours:
                 reach[r] = reach.get(r, False) | np.any(here, axis=0)
         return self._price(ops)
+
+    def flags(self) -> tuple[np.ndarray, np.ndarray]:
+        """The points' present flags and where they differ from the reference (P's columns)."""
+        P, _, offset = self.joined()
+        now = np.zeros(P.shape[1], bool)
+        changed = np.zeros(P.shape[1], bool)
+        for n, flags in self.active.items():
+            if n in offset and flags is not None and n in self.reference:
+                now[offset[n] : offset[n] + len(flags)] = flags
+                changed[offset[n] : offset[n] + len(flags)] = flags != self.reference[n]
+        return now, changed
 
     def _pointwise(self) -> bool:
         """Whether every contact change since the factorisation is known point by point."""
@@ -223,13 +242,8 @@ class PointwiseSurface(LowRankSurface):
         """The correction of the points that differ from the reference; False: re-factorise."""
         start, first = time.perf_counter(), len(self.log.records)
         refactorise = self.refactorise_seconds({b for pair in self.moved for b in pair})
-        P, at, offset = self._joined()
-        now = np.zeros(P.shape[1], bool)  # the present flags, numbered as P's columns
-        changed = np.zeros(P.shape[1], bool)
-        for n, flags in self.active.items():
-            if n in offset and flags is not None:
-                now[offset[n] : offset[n] + len(flags)] = flags
-                changed[offset[n] : offset[n] + len(flags)] = flags != self.reference[n]
+        P, at, _ = self.joined()
+        now, changed = self.flags()
         ids = np.flatnonzero(changed)
         if not len(ids):  # back to the factorised state
             self.correction, self.corrected = Correction(), dict(self.contact)
@@ -263,13 +277,20 @@ class PointwiseSurface(LowRankSurface):
 
     def _keep(self, V: sp.csc_array, at: list[tuple[Block, slice]]) -> None:
         """Eliminate the columns V forward and keep them (and their G) with the cache."""
-        V = sp.csr_array(V)
-        nonzero = np.unique(sp.coo_array(V).row)
-        dofs = {}
-        for b, rows in at:
-            J = nonzero[(nonzero >= rows.start) & (nonzero < rows.stop)] - rows.start
-            if len(J):
-                dofs[b] = J
-        U = V[nonzero].toarray()
+        dofs, U = point_columns(V, at)
         self._cache.G = self._extend(self._cache, dofs, U)
         self._cache.D = np.concatenate([self._cache.D, np.ones(V.shape[1])])
+
+
+def point_columns(
+    V: sp.csc_array, at: list[tuple[Block, slice]]
+) -> tuple[dict[Block, np.ndarray], np.ndarray]:
+    """Points' columns V as a correction's piece: the dofs they touch per block, and U."""
+    V = sp.csr_array(V)
+    nonzero = np.unique(sp.coo_array(V).row)
+    dofs = {}
+    for b, rows in at:
+        J = nonzero[(nonzero >= rows.start) & (nonzero < rows.stop)] - rows.start
+        if len(J):
+            dofs[b] = J
+    return dofs, V[nonzero].toarray()

@@ -17,7 +17,10 @@ turned, a point between stick and slip) rebuilds M and the LU of the small capac
 matrix ``I + M G``, and eliminates nothing; new dofs add their columns to G (the forward
 elimination of those only, :meth:`LowRankSurface._extend`). The groups are factorised again
 (with the stuck matrices of then) when that is priced below the correction's growth, or
-when a condensation changed. Every corrected solve is checked and refined as
+when a condensation changed. A frictionless pair's changes join the correction as its
+points' rows (:class:`PointwiseSurface` 's columns): one column per point whose flag differs
+from the one the factors hold, coupled by its sign, instead of the unit columns of the dofs
+it touches. Every corrected solve is checked and refined as
 :class:`LowRankSurface` 's; one that stays inaccurate falls back to LU factors of the true
 matrices for the rest of the run (:mod:`dd_contact.solvers.unsymmetric`).
 """
@@ -31,12 +34,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from dd_contact.blocks import Block
-from dd_contact.solvers.lowrank import (
-    CAPACITANCE_RCOND,
-    UPDATES,
-    Correction,
-    LowRankSurface,
-)
+from dd_contact.solvers.lowrank import CAPACITANCE_RCOND, UPDATES, Correction
+from dd_contact.solvers.pointwise import PointwiseSurface, point_columns
 from dd_contact.solvers.surface import Surface
 
 __all__ = ["StuckSurface"]
@@ -44,11 +43,15 @@ __all__ = ["StuckSurface"]
 Pair = tuple[Block, Block]
 
 
-class StuckSurface(LowRankSurface):
-    """A :class:`LowRankSurface` for friction: stuck Cholesky factors, the slip corrected.
+class StuckSurface(PointwiseSurface):
+    """A :class:`PointwiseSurface` for friction: stuck Cholesky factors, the slip corrected.
+
+    The frictionless pairs' changes join the same correction with their points' rows
+    (:class:`PointwiseSurface` 's columns, against the flags the factors hold), the rest
+    with the unit columns of the dofs where the true matrices differ from the held ones.
 
     Args:
-        schedule, log, recondensed, unsymmetric, rates: As :class:`LowRankSurface`.
+        schedule, log, recondensed, unsymmetric, rates: As :class:`PointwiseSurface`.
 
     Attributes:
         stuck: Per contact block pair, the matrix with every active point sticking (the
@@ -96,6 +99,9 @@ class StuckSurface(LowRankSurface):
             if held is None or (held != matrix).nnz:
                 self.changed |= set(pair)
         self.held, self.correction = dict(self.stuck), Correction()
+        self.reference = {
+            n: flags.copy() for n in self._pointable() if (flags := self.active[n]) is not None
+        }
         Surface.factorise(self)
         self.fresh = set()
         if not self._grown(priced=False):
@@ -123,14 +129,52 @@ class StuckSurface(LowRankSurface):
             (self.held[p] != m).nnz for p, m in self.stuck.items()
         ):
             return True
-        pieces = self.correction.pieces
-        deviating = self._deviating(self.held)
-        made = len(pieces) == 1 and pieces[0][0].keys() == deviating.keys()
-        if not (made and all(np.array_equal(pieces[0][0][b], J) for b, J in deviating.items())):
+        if not self._made():
             self.correction = Correction()
             if not self._grown(priced=False):
                 self._refactorise()
         return False
+
+    def _made(self) -> bool:
+        """Whether the correction is the one made at once: its deviating dofs, its points."""
+        c, deviating = self.correction, self._deviating(self.held)
+        ids = np.flatnonzero(self.flags()[1]) if self._pointed() else np.zeros(0, int)
+        kinds: list[np.ndarray | None] = [None] if deviating else []
+        kinds += [ids] if len(ids) else []
+        if len(c.pieces) != len(kinds):
+            return False
+        for (dofs, _), points, kind in zip(c.pieces, c.points, kinds, strict=True):
+            if kind is None:
+                same = points is None and dofs.keys() == deviating.keys()
+                if not (same and all(np.array_equal(dofs[b], J) for b, J in deviating.items())):
+                    return False
+            elif points is None or not np.array_equal(points, kind):
+                return False
+        return True
+
+    def _pointed(self) -> set[Pair] | None:
+        """The block pairs the regions held point by point fill (:meth:`_pointable`).
+
+        None: a region's flags are unknown now but were known when factorised (its
+        columns would not hold: factorise again).
+        """
+        if any(self.active.get(n) is None for n in self.reference):
+            return None
+        return {(a, b) for n in self.reference for a in self.regions[n] for b in self.regions[n]}
+
+    def _pointable(self) -> set[str]:
+        """The regions with point rows and known flags whose block pairs no other fills.
+
+        A pair another region fills too differs by both: it takes unit columns.
+        """
+        pairs = {n: {(a, b) for a in bl for b in bl} for n, bl in self.schedule.regions.items()}
+        out = {n for n in self.regions if self.active.get(n) is not None}
+        while True:
+            others = {p for n, ps in pairs.items() if n not in out for p in ps}
+            shared = {n for n in out if pairs[n] & others}
+            if not shared:
+                return out
+            out -= shared
 
     def _refactorise(self) -> None:
         """LU factors of the true matrices, from now on (the correction did not hold)."""
@@ -150,15 +194,24 @@ class StuckSurface(LowRankSurface):
         assert c.capacitance is not None  # a correction is made before it is applied
         g = self.forward(g)
         x = self.solve_last(g)
-        z = sla.lu_solve(c.capacitance, c.projected(x), check_finite=False)
+        z = c.solve(c.projected(x))
         x = self.solve_last(c.shifted(g, z))
         x.update(Surface.back_substitute(self, x))
         return x
 
-    def _deviating(self, since: dict[Pair, sp.csr_array]) -> dict[Block, np.ndarray]:
-        """The dofs per block where the contact matrices differ from ``since`` 's."""
+    def _deviating(
+        self, since: dict[Pair, sp.csr_array], skip: set[Pair] | None = None
+    ) -> dict[Block, np.ndarray]:
+        """The dofs per block where the contact matrices differ from ``since`` 's.
+
+        ``skip``: pairs left out (corrected by their points' rows; default: those of
+        :meth:`_pointed`).
+        """
+        skip = (self._pointed() or set()) if skip is None else skip
         touched: dict[Block, list[np.ndarray]] = {}
         for (a, b), matrix in self.contact.items():
+            if (a, b) in skip:
+                continue
             held = since.get((a, b))
             delta = sp.coo_array(matrix if held is None else matrix - held)
             delta.eliminate_zeros()
@@ -167,41 +220,74 @@ class StuckSurface(LowRankSurface):
         dofs = {b: np.unique(np.concatenate(rows)) for b, rows in sorted(touched.items())}
         return {b: J for b, J in dofs.items() if len(J)}
 
-    def _grown(self, priced: bool) -> bool:
-        """The correction for ``C - held`` on its dofs so far and any new ones.
-
-        False: factorise again (``priced``: that is priced below adding the new columns;
-        or the capacitance matrix is singular to working precision).
-        """
-        start, first = time.perf_counter(), len(self.log.records)
+    def _new_columns(self, pointed: set[Pair]) -> tuple[dict[Block, np.ndarray], np.ndarray]:
+        """What the correction lacks: dofs deviating from the held matrices, points differing."""
         c = self.correction
         none = np.zeros(0, dtype=np.int64)
         known = {
-            b: np.concatenate([none] + [d[b] for d, _ in c.pieces if b in d]) for b in self.sizes
+            b: np.concatenate(
+                [none] + [d[b] for (d, _), p in zip(c.pieces, c.points) if b in d and p is None]
+            )
+            for b in self.sizes
         }
         new = {
             b: np.setdiff1d(J, known[b], assume_unique=True)
-            for b, J in self._deviating(self.held).items()
+            for b, J in self._deviating(self.held, pointed).items()
         }
-        new = {b: J for b, J in new.items() if len(J)}
-        r0, r = c.rank, sum(map(len, new.values()))
+        ids = np.flatnonzero(self.flags()[1]) if pointed else none
+        have = np.concatenate([none] + [p for p in c.points if p is not None])
+        return {b: J for b, J in new.items() if len(J)}, np.setdiff1d(ids, have)
+
+    def _grown(self, priced: bool) -> bool:
+        """The correction for ``C - held`` on its columns so far and any new ones.
+
+        Unit columns of the dofs where the matrices differ, except on the pairs only
+        frictionless regions with point rows fill: there their points' rows, the points
+        whose flags differ from the reference. False: factorise again (``priced``: that is
+        priced below adding the new columns; or the capacitance matrix is singular to
+        working precision).
+        """
+        start, first = time.perf_counter(), len(self.log.records)
+        c, pointed = self.correction, self._pointed()
+        if pointed is None:  # a region's flags went unknown: its points no longer hold
+            if any(p is not None for p in c.points):
+                return False
+            pointed = set()
+        new, ids = self._new_columns(pointed)
+        pieces: list[tuple[dict[Block, np.ndarray], np.ndarray, np.ndarray | None]] = []
+        if new:
+            pieces.append((new, np.eye(sum(map(len, new.values()))), None))
+        if len(ids):
+            P, at, _ = self.joined()
+            pieces.append((*point_columns(P[:, ids], at), ids))
+        r0, r = c.rank, sum(U.shape[1] for _, U, _ in pieces)
         if not r0 + r:
             self.correction = Correction()  # the contact is stuck: the factors are exact
             return True
         if priced and r:
             blocks = {b for pair in self.contact for b in pair}
-            after = self._deviating(self.stuck)  # what would be left after factorising
+            after = self._deviating(self.stuck, pointed)  # what would be left after factorising
             again = self.refactorise_seconds(blocks) + self.update_seconds(
                 after, sum(map(len, after.values())), 0
             )
-            if self.update_seconds(new, r, r0) >= again:
+            reached = {b: np.zeros(0) for dofs, _, _ in pieces for b in dofs}
+            if self.update_seconds(reached, r, r0) >= again:
                 return False
-        out = Correction(list(c.pieces), G=c.G, kept=dict(c.kept), K=c.K)
-        if r:
-            out.G = self._extend(out, new, np.eye(r))
-            out.pieces.append((new, np.eye(r)))
-        out.K = self._coupling(out.pieces)
+        out = Correction(list(c.pieces), G=c.G, kept=dict(c.kept), K=c.K, points=list(c.points))
+        for dofs, U, points in pieces:
+            out.G = self._extend(out, dofs, U)
+            out.pieces.append((dofs, U))
+            out.points.append(points)
+            out.K = np.zeros_like(out.G)  # its rank so far (the coupling is made below)
+        out.K = self._coupling(out, pointed)
         C = np.eye(len(out.K)) + out.K @ out.G
+        if any(p is not None for p in out.points):
+            # a slip's rows (K ~ the penalty) dwarf the points' (K = +-1): rows, then
+            # columns equilibrated by powers of two (exact), else the LU and its condition
+            # estimate read the scales' ratio (1e17 for 1e9 on tests/test_stuck.py's mix)
+            rows = _powers(np.abs(C).max(axis=1))
+            cols = _powers(np.abs(rows[:, None] * C).max(axis=0))
+            out.scale, C = (rows, cols), rows[:, None] * C * cols
         out.capacitance = sla.lu_factor(C, check_finite=False)
         rcond, _ = sla.lapack.dgecon(out.capacitance[0], np.abs(C).sum(axis=0).max(), norm="1")
         out.conditioned = float(rcond)
@@ -213,20 +299,39 @@ class StuckSurface(LowRankSurface):
         self.log.add(UPDATES, "dense_update", out.rank, r, seconds, (2.0 / 3.0) * out.rank**3)
         return True
 
-    def _coupling(self, pieces: list) -> np.ndarray:
-        """``M = (C - held)_JJ`` in the correction's column order (dense, unsymmetric)."""
+    def _coupling(self, c: Correction, pointed: set[Pair]) -> np.ndarray:
+        """``K``: ``(C - held)_JJ`` on the unit columns, ``now - reference`` on the points'.
+
+        Dense, in the correction's column order; unsymmetric where points slip.
+        """
         where = {b: np.full(n, -1) for b, n in self.sizes.items()}
-        column = 0
-        for dofs, _ in pieces:
+        column, diagonal = 0, []
+        now, changed = self.flags() if pointed else (None, None)
+        for (dofs, U), points in zip(c.pieces, c.points, strict=True):
+            if points is not None:
+                assert now is not None and changed is not None  # flags known with points
+                sign = np.where(now[points], 1.0, -1.0) * changed[points]
+                diagonal.append((column + np.arange(len(points)), sign))
+                column += len(points)
+                continue
             for b, J in dofs.items():
                 where[b][J] = column + np.arange(len(J))
                 column += len(J)
         M = np.zeros((column, column))
         for (a, b), matrix in self.contact.items():
+            if (a, b) in pointed:
+                continue
             held = self.held.get((a, b))
             delta = sp.coo_array(matrix if held is None else matrix - held)
             rows, cols = where[a][delta.row], where[b][delta.col]
             nonzero = delta.data != 0.0
             assert np.all(rows[nonzero] >= 0) and np.all(cols[nonzero] >= 0)  # all in J
             np.add.at(M, (rows[nonzero], cols[nonzero]), delta.data[nonzero])
+        for columns, sign in diagonal:
+            M[columns, columns] = sign
         return M
+
+
+def _powers(largest: np.ndarray) -> np.ndarray:
+    """Powers of two that bring ``largest`` into [0.5, 1) (exact scaling)."""
+    return np.ldexp(1.0, -np.frexp(largest)[1])

@@ -118,10 +118,26 @@ class Surface:
                 self.base.pop(pair, None)
             self._sources_freed = True
 
-    def set_contact(self, pair: tuple[Block, Block], matrix: sp.csr_array) -> None:
-        """The new contact matrix of a block pair (``(w, w)``: a block's own)."""
+    def set_contact(
+        self, pair: tuple[Block, Block], matrix: sp.csr_array, stuck: sp.csr_array | None = None
+    ) -> None:
+        """The new contact matrix of a block pair (``(w, w)``: a block's own).
+
+        ``stuck``: the pair's matrix with every point sticking (friction), which only a
+        surface that factorises it uses (:class:`~dd_contact.solvers.stuck.StuckSurface`).
+        """
         self.contact[pair] = matrix
         self.changed |= set(pair)
+
+    # -- what only some surfaces use: every surface takes it, so the engine needs no kinds --
+    def add_points(self, name: str, parts: list[tuple[Block, np.ndarray]], rows) -> None:
+        """A frictionless region's point rows: unused here (corrections from matrices)."""
+
+    def set_active(self, name: str, active: np.ndarray | None) -> None:
+        """A region's present flags: unused here."""
+
+    def restart(self) -> None:
+        """A step ended: nothing to make again here."""
 
     def _schur_pair(self, pair) -> np.ndarray | None:
         """The pair's matrix in S (its base matrix if no subdomain touches it), or None."""
