@@ -61,6 +61,9 @@ def summary(runs: list[dict], checkouts: dict[str, str]) -> dict:
     out: dict = {}
     for label, checkout in checkouts.items():
         mine = [r for r in runs if r["checkout"] == checkout]
+        if not mine:
+            out[label] = {"runs": 0}
+            continue
         out[label] = {
             key: statistics.median(r[key] for r in mine)
             for key in ("cpu_seconds", "wall_seconds", "peak_rss_mb")
