@@ -15,6 +15,7 @@ from dd_contact.paper.verify.friction import sliding_scene
 from dd_contact.problem import StaticProblem
 from dd_contact.solvers import lowrank
 from dd_contact.solvers.lowrank import LowRankSurface
+from dd_contact.solvers.pointwise import PointwiseSurface
 from dd_contact.solvers.stuck import StuckSurface
 
 MU, STEPS = 0.3, 12
@@ -85,16 +86,18 @@ def test_the_stuck_matrix_is_symmetric_and_differs_at_the_slipping_points_only()
 PUSH = 2e-5  # the wall's push into A's side per unit of time
 
 
-def _mixed(enabled: bool, monkeypatch):
+def _mixed(enabled: bool, monkeypatch, mu: float = MU, tilt: float = 0.0):
     """tests/test_pairs.py's blocks, B pressed down unevenly onto A, A's side on a wall with
-    friction, in w-u (one group): u, the changes, the work log and the surface."""
+    friction ``mu`` (its normal tilted by ``tilt`` in z: the contact spreads down A's side),
+    in w-u (one group): u, the changes, the work log and the surface."""
     monkeypatch.setattr(LowRankSurface, "enabled", enabled)
     cells = ("hexahedron", (4, 4, 2)), ("tetrahedron", (3, 3, 2))
     subdomains, _, a, b, B = _blocks(*cells, False, gap=GAP)
     press = lambda x: np.stack([0 * x[0], 0 * x[0], -TILT * x[0] * x[1]])  # noqa: E731
     B.fix(_at(2, H_A + GAP + H_B), [2], press)
-    wall = Plane([SIDE - PUSH, 0, 0], [-1, 0, 0], motion=lambda t: (-PUSH * t, 0.0, 0.0))
-    side = dc.ContactInterface.from_boundary(subdomains[0], _at(0, SIDE), wall, friction=MU)
+    motion = lambda t: (-PUSH * t, 0.0, 0.0)  # noqa: E731
+    wall = Plane([SIDE - PUSH, 0, H_A], [-1, 0, tilt], motion=motion)
+    side = dc.ContactInterface.from_boundary(subdomains[0], _at(0, SIDE), wall, friction=mu)
     scene = dc.Scene(MPI.COMM_SELF, subdomains, None, [dc.ContactPair(a, b), side])
     with pytest.warns(dc.errors.CoarseContactWarning), StaticProblem(scene, "w-u") as problem:
         for step in range(1, 4):
@@ -125,3 +128,27 @@ def test_a_frictionless_pair_beside_friction_is_corrected_point_by_point(monkeyp
     assert set(deviating) <= {j for dofs in units for j in dofs["w:contact"]}
     assert set(np.flatnonzero(surface.flags()[1])) <= set(points) and len(points) > 0
     assert updates[-1].size == c.rank == sum(len(d["w:contact"]) for d in units) + len(points)
+
+
+def test_a_pair_beside_a_frictionless_obstacle_keeps_its_points(monkeypatch):
+    """A frictionless wall's changes (no point rows) join the pair's point correction as the
+    eigenvectors of their change: the group is factorised once, the pair's points each
+    eliminated once, and the answers are the re-factorised ones."""
+    u_lu, changes_lu, _, _ = _mixed(False, monkeypatch, 0.0, -3 * PUSH)
+    monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
+    u, changes, work, surface = _mixed(True, monkeypatch, 0.0, -3 * PUSH)
+    assert changes == changes_lu and changes["contact"] >= 2 and changes["gamma"] >= 10
+    assert np.linalg.norm(u - u_lu) <= 1e-9 * np.linalg.norm(u_lu)
+    assert isinstance(surface, PointwiseSurface) and not isinstance(surface, StuckSurface)
+    factorised = [r for r in work.records if r.kind == "dense_factor"]
+    updates = [r for r in work.records if r.kind == "dense_update"]
+    assert len(factorised) == 1 and len(updates) >= changes["gamma"]  # and step starts
+    # the points eliminated once each, kept while the factors last; the wall's columns not
+    assert sum(r.nrhs for r in updates) == len(surface._cached) == surface._cache.rank
+    # the last correction: the points that differ from the factorised flags, and the
+    # eigenvectors of the wall's change (on the wall's dofs only)
+    c = surface.correction
+    differing = int(np.count_nonzero(surface.flags()[1]))
+    assert {str(b) for dofs, _ in c.pieces for b in dofs} == {"w:contact"}
+    wall = sum(U.shape[1] for _, U in c.pieces)
+    assert c.V.shape[1] == differing and updates[-1].size == c.rank == differing + wall > differing

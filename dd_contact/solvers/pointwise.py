@@ -18,9 +18,11 @@ corrects with Woodbury as :class:`~dd_contact.solvers.lowrank.LowRankSurface` do
 Everything else is :class:`LowRankSurface` 's: the price rule (an update is taken while
 priced below re-factorising the groups it would make stale), each corrected solve refined
 with its true residual and re-factorised if it stays inaccurate, and the corrected solves
-re-factorising once their extra passes cost what the correction saved. A change on blocks
-that a region without point rows fills too (an obstacle, friction) is corrected from the
-matrices by :class:`LowRankSurface`; with friction against an obstacle,
+re-factorising once their extra passes cost what the correction saved. A change of a
+region without point rows (an obstacle) on blocks apart from the pairs' joins the points'
+correction as the eigenvectors of its change since the factorisation; one on blocks that a
+region without point rows fills too is corrected from the matrices by
+:class:`LowRankSurface`; with friction against an obstacle,
 :class:`~dd_contact.solvers.stuck.StuckSurface` puts the points' columns in its correction
 beside the slip's unit columns.
 """
@@ -42,6 +44,7 @@ from dd_contact.solvers.lowrank import (
     Correction,
     LowRankSurface,
     capacitance,
+    low_rank,
 )
 from dd_contact.solvers.schedule import Operation
 
@@ -50,6 +53,7 @@ __all__ = [
     "POINT_APPLICATIONS",
     "PointCorrection",
     "PointwiseSurface",
+    "equilibrated",
     "point_columns",
 ]
 
@@ -97,7 +101,11 @@ class PointCorrection(Correction):
                 self.capacitance = (self.cholesky[0], np.zeros(0))  # marks it factorised
                 self.conditioned = float(rcond)
                 return
-        self.capacitance, self.conditioned = capacitance(self.D, self.G)
+        if not self.pieces:
+            self.capacitance, self.conditioned = capacitance(self.D, self.G)
+            return
+        C = np.eye(self.rank) + self.D[:, None] * self.G
+        self.capacitance, self.conditioned, self.scale = equilibrated(C)
 
     def solve(self, y: np.ndarray) -> np.ndarray:
         """``(I + D G)^-1 y``."""
@@ -106,16 +114,22 @@ class PointCorrection(Correction):
         return super().solve(y)
 
     def projected(self, x: dict[str, np.ndarray]) -> np.ndarray:
-        """``D V^T x``."""
-        return self.D * (self.V.T @ np.concatenate([x[b] for b, _ in self.at]))
+        """``D V^T x``, then the pieces' ``D U^T x_J`` (other regions' changes) if any."""
+        points = self.V.T @ np.concatenate([x[b] for b, _ in self.at])
+        if not self.pieces:
+            return self.D * points
+        p = len(points)
+        rest = Correction(self.pieces, self.D[p:]).projected(x)
+        return np.concatenate([self.D[:p] * points, rest])
 
     def shifted(self, g: dict[str, np.ndarray], z: np.ndarray) -> dict[str, np.ndarray]:
-        """``g - V z``."""
+        """``g - V z``, and ``- E U z`` for the pieces if any."""
         out = {b: v.copy() for b, v in g.items()}
-        Vz = self.V @ z
+        p = self.V.shape[1]
+        Vz = self.V @ z[:p]
         for b, rows in self.at:
             out[b] -= Vz[rows]
-        return out
+        return Correction(self.pieces).shifted(out, z[p:]) if self.pieces else out
 
 
 class PointwiseSurface(LowRankSurface):
@@ -230,26 +244,60 @@ class PointwiseSurface(LowRankSurface):
         }
         return self.moved <= pointed and not self.moved & others
 
+    def _separable(self) -> set[tuple[Block, Block]] | None:
+        """The pairs the regions with point rows fill, if no other region fills them too."""
+        if (
+            self.lu
+            or not self.regions
+            or any(self.active.get(n) is None or n not in self.reference for n in self.regions)
+        ):
+            return None
+        pointed = {(a, b) for blocks in self.regions.values() for a in blocks for b in blocks}
+        others = {
+            (a, b)
+            for name, blocks in self.schedule.regions.items()
+            if name not in self.regions
+            for a in blocks
+            for b in blocks
+        }
+        return None if pointed & others else pointed
+
     def _update(self) -> bool:
-        """Correct point by point where every change is known so; else as LowRankSurface."""
+        """Correct point by point where every change is known so; else as LowRankSurface.
+
+        Changes of both kinds (a pair's and an obstacle's, on blocks apart): the points'
+        rows, and the eigenvectors of the other regions' change since the factorisation.
+        """
         if self._pointwise() and not self.lu:
-            return self._point_update()
+            return self._point_update(set())
+        if (pointed := self._separable()) is not None:
+            return self._point_update(self.moved - pointed)
         if isinstance(self.correction, PointCorrection):
             return False  # not to be mixed with a correction from matrices: re-factorise
         return super()._update()
 
-    def _point_update(self) -> bool:
-        """The correction of the points that differ from the reference; False: re-factorise."""
+    def _point_update(self, rest: set[tuple[Block, Block]]) -> bool:
+        """The correction of the points that differ from the reference; False: re-factorise.
+
+        With it, ``rest`` 's change since the factorisation (pairs without point rows).
+        """
         start, first = time.perf_counter(), len(self.log.records)
         refactorise = self.refactorise_seconds({b for pair in self.moved for b in pair})
         P, at, _ = self.joined()
         now, changed = self.flags()
         ids = np.flatnonzero(changed)
-        if not len(ids):  # back to the factorised state
+        dofs: dict[Block, np.ndarray] = {}
+        U, D = np.zeros((0, 0)), np.zeros(0)
+        if rest:  # the other regions' change: its eigenvectors, as LowRankSurface's
+            dofs, M = self._delta(rest, self.factorised)
+            if UPDATE_MARGIN * self.eigen_seconds(M) >= refactorise:
+                return False
+            U, D = low_rank(M)
+        if not len(ids) + len(D):  # back to the factorised state
             self.correction, self.corrected = Correction(), dict(self.contact)
             return True
         missing = [int(i) for i in ids if int(i) not in self._cached]
-        price = self.update_seconds({}, 0, len(ids))  # the capacitance matrix's LU
+        price = self.update_seconds(dofs, len(D), len(ids))  # rest's elimination, the LU
         solve = self.solve_seconds(None if self.applications else POINT_APPLICATIONS)
         if UPDATE_MARGIN * price + solve >= refactorise:
             return False
@@ -260,9 +308,17 @@ class PointwiseSurface(LowRankSurface):
             self._invested = invest
             self._keep(P[:, missing], at)
             self._cached.update((i, len(self._cached)) for i in missing)
-        where = np.array([self._cached[int(i)] for i in ids])
-        G = self._cache.G[np.ix_(where, where)]
-        c = PointCorrection(D=np.where(now[ids], 1.0, -1.0), G=G, V=sp.csr_array(P[:, ids]), at=at)
+        where = np.array([self._cached[int(i)] for i in ids], dtype=int)
+        signs = np.where(now[ids], 1.0, -1.0)
+        c = PointCorrection(D=signs, V=sp.csr_array(P[:, ids]), at=at)
+        if len(D):  # its columns eliminated beside the kept points' (not kept themselves)
+            cache = Correction(G=self._cache.G, kept=dict(self._cache.kept), D=self._cache.D)
+            G = self._extend(cache, dofs, U)
+            where = np.concatenate([where, self._cache.rank + np.arange(len(D))])
+            c.pieces, c.D = [(dofs, U)], np.concatenate([signs, D])
+        else:
+            G = self._cache.G
+        c.G = G[np.ix_(where, where)]
         c.factorise()
         if c.conditioned < CAPACITANCE_RCOND[1]:
             return False
@@ -294,3 +350,24 @@ def point_columns(
         if len(J):
             dofs[b] = J
     return dofs, V[nonzero].toarray()
+
+
+def equilibrated(C: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], float, tuple]:
+    """LU factors of ``C`` equilibrated, their reciprocal condition number, the scaling.
+
+    Rows then columns scaled by powers of two (exact; :attr:`Correction.scale`). A
+    correction of points (coupled by +-1) beside other columns (coupled by about the
+    penalty) has rows and columns of scales 1e9 apart: unscaled, the LU and its condition
+    estimate read their ratio (1e17 where the scaled matrix has 1e9).
+    """
+    rows = _powers(np.abs(C).max(axis=1))
+    cols = _powers(np.abs(rows[:, None] * C).max(axis=0))
+    C = rows[:, None] * C * cols
+    factors = sla.lu_factor(C, check_finite=False)
+    rcond, _ = sla.lapack.dgecon(factors[0], np.abs(C).sum(axis=0).max(), norm="1")
+    return factors, float(rcond), (rows, cols)
+
+
+def _powers(largest: np.ndarray) -> np.ndarray:
+    """Powers of two that bring ``largest`` into [0.5, 1)."""
+    return np.ldexp(1.0, -np.frexp(largest)[1])

@@ -35,7 +35,7 @@ import scipy.sparse as sp
 
 from dd_contact.blocks import Block
 from dd_contact.solvers.lowrank import CAPACITANCE_RCOND, UPDATES, Correction
-from dd_contact.solvers.pointwise import PointwiseSurface, point_columns
+from dd_contact.solvers.pointwise import PointwiseSurface, equilibrated, point_columns
 from dd_contact.solvers.surface import Surface
 
 __all__ = ["StuckSurface"]
@@ -281,16 +281,13 @@ class StuckSurface(PointwiseSurface):
             out.K = np.zeros_like(out.G)  # its rank so far (the coupling is made below)
         out.K = self._coupling(out, pointed)
         C = np.eye(len(out.K)) + out.K @ out.G
-        if any(p is not None for p in out.points):
-            # a slip's rows (K ~ the penalty) dwarf the points' (K = +-1): rows, then
-            # columns equilibrated by powers of two (exact), else the LU and its condition
-            # estimate read the scales' ratio (1e17 for 1e9 on tests/test_stuck.py's mix)
-            rows = _powers(np.abs(C).max(axis=1))
-            cols = _powers(np.abs(rows[:, None] * C).max(axis=0))
-            out.scale, C = (rows, cols), rows[:, None] * C * cols
-        out.capacitance = sla.lu_factor(C, check_finite=False)
-        rcond, _ = sla.lapack.dgecon(out.capacitance[0], np.abs(C).sum(axis=0).max(), norm="1")
-        out.conditioned = float(rcond)
+        if any(p is not None for p in out.points):  # a slip's rows beside points' rows
+            out.capacitance, out.conditioned, out.scale = equilibrated(C)
+        else:
+            out.capacitance = sla.lu_factor(C, check_finite=False)
+            norm = np.abs(C).sum(axis=0).max()
+            rcond, _ = sla.lapack.dgecon(out.capacitance[0], norm, norm="1")
+            out.conditioned = float(rcond)
         if out.conditioned < CAPACITANCE_RCOND[1]:
             return False
         self.correction = out
@@ -330,8 +327,3 @@ class StuckSurface(PointwiseSurface):
         for columns, sign in diagonal:
             M[columns, columns] = sign
         return M
-
-
-def _powers(largest: np.ndarray) -> np.ndarray:
-    """Powers of two that bring ``largest`` into [0.5, 1) (exact scaling)."""
-    return np.ldexp(1.0, -np.frexp(largest)[1])
