@@ -48,6 +48,8 @@ def rates(run: dict) -> dict:
     return {
         "setup": run["build_cpu_seconds"] + steps[0]["iterations_cpu"][0],
         "step": statistics.median(clean),
+        # the steps with changes too: their decisions and settles (not the changes' solves)
+        "step_mean": statistics.mean(clean + [b for b in base if b >= 3.0 * first]),
         "step_all": statistics.median(base),
         "clean_steps": len(clean),
         "change": statistics.median(change),
@@ -98,6 +100,11 @@ def main() -> None:
         ("m=160", "1/4"): run_of(
             "paper_scale_reduced160.json", "parallelepiped|1/4|w-u reduced m=160|run"
         ),
+        ("m=320", "1/4"): run_of(  # measured directly (branch study: a wall's changes
+            # point by point; before, m = 320 was carried from m = 20 and 160, linear in m)
+            "paper_scale_reduced320.json",
+            "parallelepiped|1/4|w-u reduced m=320|run",
+        ),
         ("m=20", "1/4"): run_of(
             "paper_scale_reduced.json", "parallelepiped|1/4|w-u reduced m=20|run"
         ),
@@ -118,7 +125,13 @@ def main() -> None:
             paper[f"exponent_{k}"] = float(slope)
         measured["m=160, paper (extrapolated)"] = paper
     low, high = measured.get("m=20, 1/4"), measured.get("m=160, 1/4")
-    if low and high:  # m = 320 (the force history within 1 % at 21k and 87k dofs): linear in m
+    direct = measured.get("m=320, 1/4")
+    if direct and "m=160, paper (extrapolated)" in measured:  # m = 160's exponents in the cells
+        paper = measured["m=160, paper (extrapolated)"]
+        measured["m=320, paper (extrapolated)"] = {
+            k: direct[k] * (CELLS["paper"] / CELLS["1/4"]) ** paper[f"exponent_{k}"] for k in KEYS
+        }
+    elif low and high:  # m = 320 (the force history within 1 % at 21k and 87k dofs): linear in m
         grown = {k: high[k] + (high[k] - low[k]) * (320 - 160) / (160 - 20) for k in KEYS}
         measured["m=320, 1/4 (linear in m)"] = grown
         if "m=160, paper (extrapolated)" in measured:
@@ -138,6 +151,8 @@ def main() -> None:
         size = "paper" if "paper" in label else "1/4"
         t = float(whole(r))
         entry = {"study_cpu_seconds": t}
+        if "step_mean" in r:  # every step at its mean (the changing steps' overhead in)
+            entry["study_cpu_seconds_mean_steps"] = float(t + STEPS * (r["step_mean"] - r["step"]))
         for ref in (
             ("measured wall", "predicted") if size == "1/4" else ("extrapolated wall", "predicted")
         ):
@@ -148,7 +163,15 @@ def main() -> None:
                 entry[f"{peer}_over_this"] = float(whole(p) / t)
         out["study_seconds"][label] = entry
         print(label, {k: round(v, 4) for k, v in entry.items()})
-    (HERE / "paper_study_estimate.json").write_text(json.dumps(out, indent=1))
+    target = HERE / "paper_study_estimate.json"
+    if target.exists():  # the estimate before the last re-measurement, kept as "before"
+        old = json.loads(target.read_text())
+        out["before"] = old.get("before") or {
+            "note": "stop 35: m = 320 linear in m from the m = 20 and m = 160 runs",
+            "measured": old["measured"],
+            "study_seconds": old["study_seconds"],
+        }
+    target.write_text(json.dumps(out, indent=1))
     print(f"wrote {HERE / 'paper_study_estimate.json'}")
 
 

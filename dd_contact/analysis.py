@@ -390,14 +390,14 @@ class Analysis:
 
     def _loads(self, t: float) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
         loads: dict[str, np.ndarray] = {}  # SubdomainLoad assembles as seldom as it can
-        supports: dict[str, np.ndarray] = {}
+        supports: dict[str, np.ndarray] = {}  # a reduced block's load on its supports
         for sub in self.owned:
             sub.set_time(t)
-            vector = loads[sub.block] = self._load[sub.block]()
-            if sub.block in self.reduced:  # in reduced coordinates: T^T r
-                loads[sub.block] = self.reduced[sub.block].project_load(vector)
-                supports[sub.block] = vector[self.reduced[sub.block].fixed]
-            if not np.all(np.isfinite(vector)):
+            basis, load = self.reduced.get(sub.block), self._load[sub.block]
+            out = [load()] if basis is None else load.reduced(basis)
+            loads[sub.block] = out[0]
+            supports.update({sub.block: out[1]} if basis is not None else {})  # T^T r, r_D
+            if not all(np.all(np.isfinite(v)) for v in out):
                 raise InputError(
                     f"subdomain {sub.name!r}: the load at t = {t} contains NaN or inf; check "
                     "the traction and body-force data"

@@ -316,7 +316,7 @@ class ContactZone:
     @property
     def region(self) -> ContactRegion:
         """What a solver reserves for this zone: its block, dofs and matrix pattern."""
-        return self.operator.region(self.contact.name, self.block, self.dofs)
+        return self.operator.region(self.contact.name, self.block, self.dofs, self.free)
 
 
 @dataclass

@@ -223,9 +223,18 @@ class ContactOperator:
         normal = self.G.T @ np.where(active, self.points.weight * self.gap / self.epsilon, 0.0)
         return normal if self.friction is None else normal + self.friction.terms(active)[1]
 
-    def region(self, name: str, block: Block, dofs: np.ndarray) -> ContactRegion:
-        """What a solver reserves for this contact (friction: unsymmetric, with history)."""
+    def region(
+        self, name: str, block: Block, dofs: np.ndarray, free: np.ndarray | None = None
+    ) -> ContactRegion:
+        """What a solver reserves for this contact (friction: unsymmetric, with history).
+
+        Its point rows on the ``free`` dofs (default all) go with it when they stay the same
+        from step to step (frictionless, the obstacle's normals fixed): a change of a few
+        points is then corrected point by point, not re-factorised.
+        """
         plain = self.friction is None
+        fixed = plain and self.obstacle.fixed_normals
+        free = np.ones(self.num_dofs, bool) if free is None else free
         return ContactRegion(
             name,
             block,
@@ -234,6 +243,7 @@ class ContactOperator:
             symmetric=plain,
             history=not plain,
             stuck=None if plain else self.stuck,
+            points=self.point_rows(free) if fixed else None,
         )
 
     def point_pressure(self, w: np.ndarray) -> np.ndarray:

@@ -6,6 +6,7 @@ assembled in :mod:`dd_contact.coupling`.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import dolfinx.fem as fem
@@ -248,17 +249,66 @@ class SubdomainLoad:
     def _sum_fixed(self) -> np.ndarray:
         return sum((self._assemble(f) for f, _ in self._fixed_terms), np.zeros(self.num_dofs))
 
-    def __call__(self) -> np.ndarray:
-        """r_D at the subdomain's current time: a new array (the fixed part itself if constant)."""
+    def _refresh(self) -> None:
+        """Assemble again the cached terms whose user data changed since."""
         if any([data.changed() for _, data in self._fixed_terms]):  # every snapshot renewed
             self._fixed = self._sum_fixed()
+        for term in self._scaled:
+            if term[3].changed():
+                term[2] = [_packed(self._assemble(f)) for f in term[1]]
+
+    def combined(self, project: Callable[[np.ndarray], list]) -> list[np.ndarray] | None:
+        """``project(r_D)`` now, as the sum of each cached part's projection (kept).
+
+        ``project`` is linear (a reduced subdomain's ``T^T r`` and its supports' rows): a
+        part is projected once per assembly, a step then only sums. ``None`` with a general
+        term (its load is assembled at every call).
+        """
+        if self._general:
+            return None
+        self._refresh()
+        kept: dict[int, tuple] = getattr(self, "_projected", {})
+        self._projected: dict[int, tuple] = {}
+        parts = [(1.0, self._fixed)] + [
+            (value, part)
+            for constant, _, packed, _ in self._scaled
+            for value, part in zip(np.ravel(constant.value), packed, strict=True)
+        ]
+        out: list[np.ndarray] | None = None
+        for value, part in parts:
+            key = id(part)
+            if key not in kept or kept[key][0] is not part:  # a new assembly: projected again
+                whole = part if isinstance(part, np.ndarray) else self._unpacked(part)
+                kept[key] = (part, [np.asarray(p, dtype=float) for p in project(whole)])
+            self._projected[key] = kept[key]
+            terms = [value * p for p in kept[key][1]]
+            out = terms if out is None else [a + b for a, b in zip(out, terms, strict=True)]
+        assert out is not None  # the fixed part at least
+        return out
+
+    def reduced(self, basis) -> list[np.ndarray]:
+        """``[T^T r_D, r_D on the supports]`` of a reduced subdomain's ``basis`` now."""
+
+        def project(v: np.ndarray) -> list[np.ndarray]:
+            return [basis.project_load(v), v[basis.fixed]]
+
+        return self.combined(project) or project(self())
+
+    def _unpacked(self, packed: tuple) -> np.ndarray:
+        index, values = packed
+        if index is None:
+            return values
+        vector = np.zeros(self.num_dofs)
+        vector[index] = values
+        return vector
+
+    def __call__(self) -> np.ndarray:
+        """r_D at the subdomain's current time: a new array (the fixed part itself if constant)."""
+        self._refresh()
         if self.constant:
             return self._fixed
         load = self._fixed.copy()
-        for term in self._scaled:
-            constant, parts, packed, data = term
-            if data.changed():
-                packed = term[2] = [_packed(self._assemble(f)) for f in parts]
+        for constant, _, packed, _ in self._scaled:
             for value, (index, values) in zip(np.ravel(constant.value), packed, strict=True):
                 if value == 0.0:
                     continue

@@ -59,6 +59,7 @@ from scipy.sparse.linalg import spsolve
 
 from dd_contact.assembly import ContactZone
 from dd_contact.blocks import Block, BlockKeyed, BlockSystem, split_by_blocks
+from dd_contact.settle import in_equilibrium
 
 __all__ = [
     "GEOMETRIC_STEPS",
@@ -341,7 +342,7 @@ class StartForces:
             name = z.contact.name
             if (self.start[name] & ~active[name]).any() and _holds_rows(self.system, z, out):
                 self._solved_end[name] = z.gather(out)  # the step's own end, for the work
-                state = _in_equilibrium(
+                state = in_equilibrium(
                     self.system, z, out, active[name], self._end_loads, offset, self.free,
                     self._inertia,
                 )  # fmt: skip
@@ -450,107 +451,10 @@ def _operator_at(z: ContactZone, t: float | None) -> Iterator[None]:
         z.operator.update(now)
 
 
-def _massless_dofs(
-    z: ContactZone, free: Callable[[Block], np.ndarray]
-) -> list[tuple[Block, np.ndarray]]:
-    """The free massless dofs of a contact: its walls, and a contact interface's surface."""
-    rows = [(sub, wall[free(sub)[wall] != 0]) for sub, wall in z.wall_parts]
-    if z.block.kind != "u":
-        rows += [
-            (block, dofs[z.free[start : start + len(dofs)]]) for block, dofs, start in _spans(z)
-        ]
-    return rows
-
-
-def _spans(z: ContactZone) -> list[tuple[Block, np.ndarray, int]]:
-    """``(block, dofs, start in the contact matrix numbering)`` of each part of ``z``."""
-    starts = np.cumsum([0] + [len(dofs) for _, dofs in z.parts])
-    return [(b, d, int(start)) for (b, d), start in zip(z.parts, starts, strict=False)]
-
-
 def _holds_rows(system: BlockSystem, z: ContactZone, x: Mapping[Block, np.ndarray]) -> bool:
     """Whether ``x`` holds every block the rows of ``z``'s massless dofs read."""
     rows = {sub for sub, _ in z.wall_parts} | {block for block, _ in z.parts}
     return all(c in x for b in rows for c, _ in system.block_row(b))
-
-
-def _stiffness(system: BlockSystem, row: Block, col: Block) -> sp.csr_array | None:
-    """``A[row, col]`` with the stiff ties' part carried on the right-hand side added."""
-    A = system.block(row, col)
-    for tie in system.stiff_ties:
-        pieces = {
-            (tie.u, tie.u): tie.P1,
-            (tie.u, tie.s): -tie.P2,
-            (tie.s, tie.u): -tie.P2.T,
-            (tie.s, tie.s): tie.P4,
-        }
-        if (row, col) in pieces:
-            part = tie.sigma * sp.csr_array(pieces[(row, col)])
-            A = part if A is None else A + part
-    return None if A is None else sp.csr_array(A)
-
-
-def _in_equilibrium(
-    system: BlockSystem,
-    z: ContactZone,
-    x: Mapping[Block, np.ndarray],
-    active: np.ndarray,
-    loads: Mapping[Block, np.ndarray],
-    offset: Mapping[Block, np.ndarray],
-    free: Callable[[Block], np.ndarray],
-    inertia: Mapping[Block, tuple] | None = None,
-) -> dict[Block, np.ndarray]:
-    """The blocks of ``z``'s massless dofs with those in equilibrium, the rest of x held.
-
-    A block in ``inertia`` (reduced: its walls' moves carry some mass) minimises its
-    kinetic energy with the potential (:func:`dd_contact.solvers.reduced_model.wall_inertia`).
-    """
-    rows = _massless_dofs(z, free)
-    # a reduced wall moves along directions (reduced_model), the others' dofs alone
-    moves: dict[Block, np.ndarray] = getattr(z, "directions", {})
-    op = z.operator
-    placed = split_by_blocks(z.parts, op.matrix(active), system.sizes)
-    # the contact's force at x, on its blocks
-    force = z.scatter(op.rhs(active) - op.matrix(active) @ z.gather(x), system.sizes)
-    residual, matrix = [], []
-    for b, i in rows:
-        r = -system.row_product(b, x)
-        r -= offset.get(b, 0.0)
-        r += loads.get(b, 0.0)
-        if b in force:
-            r += force[b]
-        if inertia and b in inertia:  # -dv/dq M v(q): the kinetic energy's gradient
-            mass, slope, velocity = inertia[b]
-            r -= slope * (mass @ velocity(x[b]))
-        residual.append(moves[b].T @ r if b in moves else r[i])
-        line = []
-        for c, j in rows:
-            A = _stiffness(system, b, c)
-            if (b, c) in placed:
-                A = placed[(b, c)] if A is None else A + placed[(b, c)]
-            if inertia and b == c and b in inertia:
-                mass, slope, _ = inertia[b]
-                A = sp.csr_array(slope**2 * mass) if A is None else A + slope**2 * mass
-            line.append(
-                sp.csr_array((len(i), len(j))) if A is None else _part(A, b, i, c, j, moves)
-            )
-        matrix.append(line)
-    delta = spsolve(sp.csc_array(sp.block_array(matrix)), np.concatenate(residual))
-    out, start = {}, 0
-    for b, i in rows:
-        out[b] = np.array(x[b], dtype=float)
-        if b in moves:
-            out[b] += moves[b] @ delta[start : start + len(i)]
-        else:
-            out[b][i] += delta[start : start + len(i)]
-        start += len(i)
-    return out
-
-
-def _part(A, b: Block, i: np.ndarray, c: Block, j: np.ndarray, moves: Mapping) -> sp.csr_array:
-    """``A``'s rows i and columns j, or its product with the directions of a reduced wall."""
-    rows = moves[b].T @ A if b in moves else A[i]
-    return sp.csr_array(rows @ moves[c] if c in moves else sp.csr_array(rows)[:, j])
 
 
 def _discrete_gradient(g0: np.ndarray, g1: np.ndarray) -> np.ndarray:

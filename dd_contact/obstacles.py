@@ -47,6 +47,15 @@ class Obstacle:
     def __init__(self, motion: Motion | None = None):
         self.motion = motion
 
+    @property
+    def fixed_normals(self) -> bool:
+        """Whether the normals at given points never change with time.
+
+        Then a contact state change is known point by point (the contact operator's point
+        rows stay the same).
+        """
+        return self.motion is None
+
     def _offset(self, t: float) -> np.ndarray:
         if self.motion is None:
             return np.zeros(3)
@@ -80,6 +89,10 @@ class Plane(Obstacle):
         super().__init__(motion)
         self.point = np.asarray(point, dtype=float).reshape(3)
         self.normal = _unit(normal, "Plane normal")
+
+    @property
+    def fixed_normals(self) -> bool:  # noqa: D102 (a translated wall keeps its normal)
+        return True
 
     def _gap_normal(self, x):
         s = (x - self.point) @ self.normal
@@ -141,6 +154,10 @@ class UserObstacle(Obstacle):
     def __init__(self, gap: Callable, normal: Callable):
         super().__init__(None)
         self.gap, self.normal = gap, normal
+
+    @property
+    def fixed_normals(self) -> bool:  # noqa: D102 (the callables may turn it)
+        return False
 
     def gap_normal(self, x, t=0.0):  # noqa: D102
         x = np.asarray(x, dtype=float)

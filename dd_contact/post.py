@@ -233,6 +233,7 @@ class Reactions:
         self.model = model
         self.rows: dict[Block, list[tuple[Block, sp.csr_array]]] = {}
         self.mass: dict[Block, sp.csr_array] = {}
+        self._summed: dict[Block, tuple[np.ndarray, np.ndarray | None]] = {}
         for block, (dofs, _) in model.dirichlet.items():
             self.rows[block] = [
                 (col, sp.csr_array(sp.csr_array(A)[dofs]))
@@ -240,6 +241,22 @@ class Reactions:
             ]
             if block in model.mass:
                 self.mass[block] = sp.csr_array(model.mass[block][dofs])
+
+    def _reduced(self, block: Block, basis, q: np.ndarray, a: np.ndarray | None) -> np.ndarray:
+        """A reduced block's ``A[D] T q + M[D] T a`` summed per component.
+
+        Its reaction rows summed per component once (3 rows): a step's product with them is
+        then 3 x (boundary + m), not one row per support dof.
+        """
+        if block not in self._summed:
+            S = sp.csr_array(
+                (np.ones(len(basis.fixed)), (basis.fixed % 3, np.arange(len(basis.fixed)))),
+                shape=(3, len(basis.fixed)),
+            )
+            mass = basis.reaction_mass
+            self._summed[block] = (S @ basis.reaction_rows, None if mass is None else S @ mass)
+        rows, mass = self._summed[block]
+        return rows @ q + (mass @ a if mass is not None and a is not None else 0.0)
 
     def of(
         self,
@@ -259,8 +276,8 @@ class Reactions:
         """
         out: dict[Block, np.ndarray] = {}
         for block, basis in self.model.reduced.items():  # in reduced coordinates
-            r = basis.reaction(x[block], accelerations.get(block), supports[block])
-            out[block] = np.bincount(basis.fixed % 3, weights=r, minlength=3)
+            out[block] = self._reduced(block, basis, x[block], accelerations.get(block))
+            out[block] -= np.bincount(basis.fixed % 3, weights=supports[block], minlength=3)
         for block, rows in self.rows.items():
             if block in self.model.reduced:
                 continue

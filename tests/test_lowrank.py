@@ -25,8 +25,13 @@ KAPPA = 1e4
 
 @pytest.fixture
 def always_update(monkeypatch):
-    """Every contact change corrected (a re-factorisation priced above any update)."""
+    """Every contact change corrected (a re-factorisation priced above any update).
+
+    A wall's changes are corrected from the matrices here, as an obstacle whose normals
+    turn needs (a plane's point by point: tests/test_pointwise.py).
+    """
     monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
+    monkeypatch.setattr(dc.Plane, "fixed_normals", property(lambda self: False))
 
 
 def _run(scene, algorithm, dynamic, enabled, monkeypatch):

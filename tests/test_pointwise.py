@@ -64,3 +64,34 @@ def test_the_capacitance_matrix_is_solved_by_cholesky_when_the_points_changed_al
     z = c.solve(y)
     assert np.abs(z + D * (G @ z) - y).max() <= 1e-12 * np.abs(y).max()
     assert 0.0 < c.conditioned <= 1.0
+
+
+@pytest.mark.parametrize(("kind", "order"), [("single", "w-u"), ("interface", "w-v-u")])
+def test_a_wall_change_is_corrected_point_by_point_with_the_refactorised_answer(
+    kind, order, monkeypatch
+):
+    """A plane's normals never turn: its changes go through its point rows, no group is
+    re-factorised, and every step's fields agree with re-factorising on every change."""
+    from dd_contact.paper.verify import orders as order_scenes
+
+    monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
+
+    def run(enabled):
+        monkeypatch.setattr(LowRankSurface, "enabled", enabled)
+        scene = order_scenes.order_scene(kind, dynamic=True, kappa=KAPPA)
+        with dc.TransientProblem(scene, 0.01, algorithm=order) as problem:
+            fields = []
+            for _ in range(40):
+                problem.advance()
+                fields.append(np.concatenate([s.u.x.array for s in scene.subdomains]))
+            return np.array(fields), dict(problem.changes), problem.work, problem.solver.surface
+
+    reference, changes, work_ref, _ = run(False)
+    fields, corrected_changes, work, surface = run(True)
+    assert corrected_changes == changes and changes["gamma"] >= 2
+    assert np.abs(fields - reference).max() <= 1e-10 * np.abs(reference).max()
+    assert isinstance(surface, PointwiseSurface) and list(surface.regions) == ["end"]
+    groups = len({r.block for r in work_ref.records if r.kind == "dense_factor"})
+    assert work.count("dense_factor") == groups < work_ref.count("dense_factor")
+    # a change back to the factorised state needs none: at most one update per change
+    assert 0 < work.count("dense_update") <= changes["gamma"]
