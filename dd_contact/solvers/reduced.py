@@ -20,6 +20,7 @@ is ``u_i = -A_ii^-1 A_ib u_b + G g``: one substitution, taken only when it is re
 
 from __future__ import annotations
 
+import tempfile
 import time
 from collections.abc import Sequence
 
@@ -144,14 +145,22 @@ def fixed_interface_modes(
             )
         values = np.array([eps.getEigenvalue(k).real for k in range(found)])
         order = np.argsort(values)[:count]
-        vectors = np.empty((n, count + extra))
+        # the modes go through a file, so SLEPc's basis is freed before their array exists:
+        # the two at once were the reduction's peak (issue 28)
+        spill = tempfile.TemporaryFile()
         x = factor.A.createVecRight()
-        for slot, k in enumerate(order):
+        for k in order:
             eps.getEigenvector(k, x)
-            vectors[:, slot] = x.getArray()
+            spill.write(x.getArray().tobytes())
         x.destroy()
     finally:
         eps.destroy()
+    release_freed_memory()
+    with spill:
+        spill.seek(0)
+        vectors = np.empty((n, count + extra), order="F")  # columns contiguous: read in place
+        for slot in range(count):
+            spill.readinto(vectors[:, slot])
     return values[order], vectors
 
 
@@ -403,11 +412,14 @@ class ReducedBasis:
         if np.any(q[:nb]):
             rest += self.factor.solve_array(self._A_ib @ q[:nb], "coordinates")
         if self.G.shape[1]:
-            if self._M_ii is None:
-                q[nb:] = np.linalg.lstsq(self.G, rest, rcond=None)[0]
-            else:
-                q[nb:] = self.G.T @ (self._M_ii @ rest)
+            q[nb:] = self._in_modes(rest)
         return q
+
+    def _in_modes(self, rest: np.ndarray) -> np.ndarray:
+        """G's coordinates of interior fields ``rest``: M-orthogonal projection (or plain)."""
+        if self._M_ii is None:
+            return np.linalg.lstsq(self.G, rest, rcond=None)[0]
+        return self.G.T @ (self._M_ii @ rest)
 
     def wall_directions(self, wall: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """A contact wall's coordinates and the moves of q that shift it alone.
@@ -425,12 +437,12 @@ class ReducedBasis:
             raise ValueError(f"subdomain {self.name!r}: a wall dof is not a boundary dof")
         P = np.zeros((self.size, at.size))
         P[at, np.arange(at.size)] = 1.0
-        if at.size and self.G.shape[1]:
-            rest = self.factor.solve_many(self._A_ib[:, at].toarray(), "wall directions")
-            if self._M_ii is None:
-                P[self.b.size :] = np.linalg.lstsq(self.G, rest, rcond=None)[0]
-            else:
-                P[self.b.size :] = self.G.T @ (self._M_ii @ rest)
+        chunk = _chunk(self.n)  # a wall may hold most of b: its columns a block at a time
+        for j0 in range(0, at.size if self.G.shape[1] else 0, chunk):
+            B = self._A_ib[:, at[j0 : j0 + chunk]].toarray()
+            P[self.b.size :, j0 : j0 + chunk] = self._in_modes(
+                self.factor.solve_many(B, "wall directions")
+            )
         return at, P
 
     def destroy(self) -> None:
