@@ -85,6 +85,39 @@ def _petsc(A: sp.sparray) -> PETSc.Mat:
     return petsc_matrix(MPI.COMM_SELF, n, n, rows, cols, values)
 
 
+class _Interior:
+    """An interior block held once, as PETSc's matrix, and applied to numpy arrays.
+
+    The factor and SLEPc need the PETSc matrix; a scipy copy kept beside it for products
+    was a second copy of the subdomain's largest matrices (issue 28).
+    """
+
+    def __init__(self, A: sp.sparray):
+        self.mat = _petsc(A)
+
+    def __matmul__(self, X: np.ndarray) -> np.ndarray:
+        X = np.asarray(X, dtype=PETSc.ScalarType)
+        if X.ndim == 1:
+            return (self @ X[:, None])[:, 0]
+        B = PETSc.Mat().createDense(
+            X.shape,
+            array=np.asfortranarray(X),  # type: ignore[arg-type]  # petsc4py's stub
+            comm=self.mat.comm,
+        )
+        try:
+            C = self.mat.matMult(B)
+            out = C.getDenseArray().copy()
+            C.destroy()
+        finally:
+            B.destroy()
+        return out
+
+    def toarray(self) -> np.ndarray:
+        """The block dense (a small interior's whole eigensolve)."""
+        rows, cols, values = self.mat.getValuesCSR()
+        return sp.csr_array((values, cols, rows), shape=self.mat.getSize()).toarray()
+
+
 class _FactorSolve:
     """A shell preconditioner applying a sparse factor's solve (SLEPc's shift-invert)."""
 
@@ -192,7 +225,7 @@ def _chunk(n: int) -> int:
     return max(16, min(REDUCTION_CHUNK, CHUNK_BYTES // (8 * max(n, 1))))
 
 
-def _congruence(G: np.ndarray, S: sp.sparray, chunk: int) -> np.ndarray:
+def _congruence(G: np.ndarray, S: sp.sparray | _Interior, chunk: int) -> np.ndarray:
     """``G^T S G``, S G taken ``chunk`` columns at a time (never a second G in memory)."""
     out = np.empty((G.shape[1], G.shape[1]))
     for j0 in range(0, G.shape[1], chunk):
@@ -200,7 +233,7 @@ def _congruence(G: np.ndarray, S: sp.sparray, chunk: int) -> np.ndarray:
     return out
 
 
-def _orthonormal(V: np.ndarray, m: int, L: np.ndarray, M: sp.sparray | None) -> np.ndarray:
+def _orthonormal(V: np.ndarray, m: int, L: np.ndarray, M: _Interior | None) -> np.ndarray:
     """``[Phi, L']``: the load modes L made M-orthonormal to Phi and each other, in place.
 
     Phi, V's first m columns, is M-orthonormal already; the load modes are written into
@@ -277,16 +310,17 @@ class ReducedBasis:
         Ap = _pieces(A, self.b, self.i, self.fixed)
         Mp = None if M is None else _pieces(M, self.b, self.i, self.fixed)
         del A, M
-        self._A_ib, A_ii = Ap["ib"], Ap["ii"]
-        interior = _petsc(A_ii)
+        self._A_ib = Ap["ib"]
+        A_ii = _Interior(Ap.pop("ii"))
+        M_ii = None if Mp is None else _Interior(Mp.pop("ii"))
         release_freed_memory()  # the slicing's temporaries, before the factor's peak
-        self.factor = SparseCholesky(interior, log, f"{name} (interior)")
-        M_ii = None if Mp is None else Mp["ii"]
+        self.factor = SparseCholesky(A_ii.mat, log, f"{name} (interior)")
         P = _pattern_span(patterns, n, self.fixed)
         self.omega2, V = self._modes(A_ii, M_ii, modes, tolerance, P.shape[1])
         raw = self.factor.solve_many(P[self.i], "load modes") if P.shape[1] else P[self.i]
         self.G = _orthonormal(V, self.omega2.size, raw, M_ii)
         self._M_ii = M_ii
+        self._A_ii = A_ii
         self.size = self.b.size + self.G.shape[1]
         #: Its massless coordinates (contact walls; set by :func:`reduce_model`).
         self.massless = np.zeros(0, np.int64)
@@ -312,11 +346,7 @@ class ReducedBasis:
         if modes >= self.i.size:  # every mode: the interior whole (SLEPc gives n - 1 at most)
             values, vectors = scipy.linalg.eigh(A_ii.toarray(), M_ii.toarray())
             return values, np.hstack([vectors, np.zeros((self.i.size, extra))])
-        Mp = _petsc(M_ii)
-        try:
-            return fixed_interface_modes(self.factor, Mp, modes, tolerance, self.name, extra)
-        finally:
-            Mp.destroy()
+        return fixed_interface_modes(self.factor, M_ii.mat, modes, tolerance, self.name, extra)
 
     def _reduced(self, Ap: dict, Mp: dict | None) -> tuple[np.ndarray, np.ndarray | None]:
         """``T^T A T`` and ``T^T M T``, Psi's columns a block at a time (from :func:`_pieces`)."""
@@ -324,8 +354,8 @@ class ReducedBasis:
         nb, r = self.b.size, self.size
         A_r = np.zeros((r, r))
         M_r = None if M is None else np.zeros((r, r))
-        A_ii, A_bb, A_bi = Ap["ii"], Ap["bb"], Ap["bi"]
-        M_ii = None if M is None else M["ii"]
+        A_ii, A_bb, A_bi = self._A_ii, Ap["bb"], Ap["bi"]
+        M_ii = self._M_ii
         chunk = _chunk(self.n)
         A_r[nb:, nb:] = _congruence(G, A_ii, chunk)  # (A Psi)_i = 0: no coupling to the modes
         D = self.fixed
@@ -449,6 +479,8 @@ class ReducedBasis:
         """Free the factorisation."""
         self.factor.A.destroy()
         self.factor.destroy()
+        if self._M_ii is not None:
+            self._M_ii.mat.destroy()
 
     def prescribed(self, values: np.ndarray, t: float) -> np.ndarray:
         """The values of its prescribed dofs as the reduced block sees them: none (zero)."""
