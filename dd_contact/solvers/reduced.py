@@ -13,9 +13,8 @@ included: they act on b only) and M its mass, the subdomain is represented by
 ``A_r = T^T A T``, ``M_r = T^T M T``: small and dense. ``Psi`` is never formed whole: its
 columns are taken :data:`REDUCTION_CHUNK` at a time (``A_r``'s boundary block is the Schur
 complement; ``M_r``'s is ``Y_b - A_bi A_ii^-1 Y_i`` with ``Y = M Psi``, two solves per
-block). The
-reduced coordinates are ``q = [u_b, g]``: the boundary dofs stay physical. The full field
-is ``u_i = -A_ii^-1 A_ib u_b + G g``: one substitution, taken only when it is read.
+block). The reduced coordinates are ``q = [u_b, g]``: the boundary dofs stay physical. The
+full field is ``u_i = -A_ii^-1 A_ib u_b + G g``: one substitution, taken only when read.
 """
 
 from __future__ import annotations
@@ -47,15 +46,14 @@ from dd_contact.solvers.worklog import WorkLog
 
 __all__ = ["DenseCondensation", "ReducedBasis", "fixed_interface_modes", "reduced_subdomains"]
 
-#: Constraint modes taken at once, at most: each block of columns holds about ten dense
-#: n x columns arrays at its peak (the modes, their mass products, two multi-RHS solves
-#: with their PETSc copies).
+#: Constraint modes taken at once, at most: each block of columns holds four dense n x
+#: columns arrays at its peak (the modes, their mass product and its solve; ten before
+#: the solves shared their arrays with PETSc).
 REDUCTION_CHUNK = 64
 
 #: ... and at most so many bytes in each such array, but 16 columns at least (a solve for
 #: fewer right-hand sides costs nearly as much: the factor is read once per solve): 21
-#: columns at 48k dofs (peak 658 MiB against 766 with 64, m = 20), 16 from 65k (at 342k,
-#: 64 would hold about 1.7 GB at once).
+#: columns at 48k dofs, 16 from 65k (64 would hold about 0.7 GB at once at 342k).
 CHUNK_BYTES = 8 * 2**20
 
 #: SLEPc's largest projected problem: its workspace is count + this many vectors of the
@@ -85,37 +83,51 @@ def _petsc(A: sp.sparray) -> PETSc.Mat:
     return petsc_matrix(MPI.COMM_SELF, n, n, rows, cols, values)
 
 
-class _Interior:
-    """An interior block held once, as PETSc's matrix, and applied to numpy arrays.
+def _dense(X: np.ndarray, comm) -> PETSc.Mat:
+    """A PETSc dense matrix on X's array (Fortran-ordered: shared, not copied)."""
+    return PETSc.Mat().createDense(X.shape, array=X, comm=comm)  # type: ignore[arg-type]  # stub
 
-    The factor and SLEPc need the PETSc matrix; a scipy copy kept beside it for products
-    was a second copy of the subdomain's largest matrices (issue 28).
+
+class _Interior:
+    """An interior block held once: the PETSc matrix the factor and SLEPc use, for products.
+
+    A scipy copy kept beside it was a second copy of the largest matrices (issue 28).
     """
 
     def __init__(self, A: sp.sparray):
         self.mat = _petsc(A)
 
     def __matmul__(self, X: np.ndarray) -> np.ndarray:
-        X = np.asarray(X, dtype=PETSc.ScalarType)
-        if X.ndim == 1:
-            return (self @ X[:, None])[:, 0]
-        B = PETSc.Mat().createDense(
-            X.shape,
-            array=np.asfortranarray(X),  # type: ignore[arg-type]  # petsc4py's stub
-            comm=self.mat.comm,
-        )
-        try:
-            C = self.mat.matMult(B)
-            out = C.getDenseArray().copy()
-            C.destroy()
-        finally:
-            B.destroy()
+        if np.ndim(X) == 1:
+            return (self @ np.asarray(X)[:, None])[:, 0]
+        B = _dense(np.asfortranarray(X, dtype=PETSc.ScalarType), self.mat.comm)
+        C = self.mat.matMult(B)
+        out = C.getDenseArray().copy()
+        B.destroy(), C.destroy()
         return out
 
     def toarray(self) -> np.ndarray:
         """The block dense (a small interior's whole eigensolve)."""
-        rows, cols, values = self.mat.getValuesCSR()
-        return sp.csr_array((values, cols, rows), shape=self.mat.getSize()).toarray()
+        return self @ np.eye(self.mat.getSize()[0])
+
+
+def _solve(factor: SparseCholesky, B: np.ndarray, what: str) -> np.ndarray:
+    """``A^-1 B`` (MUMPS multi-RHS), B's array and the answer's shared with PETSc's matrices.
+
+    ``solve_many`` copies both: four n x columns arrays at its peak, not two.
+    """
+    B = np.asfortranarray(B, dtype=PETSc.ScalarType)
+    X = np.empty_like(B, order="F")
+    Bm, Xm = _dense(B, factor.A.comm), _dense(X, factor.A.comm)
+    start = time.perf_counter()
+    factor.ksp.getPC().getFactorMatrix().matSolve(Bm, Xm)
+    seconds = time.perf_counter() - start
+    Bm.destroy(), Xm.destroy()
+    flops = 4.0 * factor.entries * B.shape[1]
+    factor.log.add(
+        factor.block, "sparse_solve", B.shape[0], B.shape[1], seconds, flops, what, factor.entries
+    )
+    return X
 
 
 class _FactorSolve:
@@ -173,8 +185,7 @@ def fixed_interface_modes(
         if found < count:
             raise SingularMatrixError(
                 f"subdomain {name!r}: SLEPc found {found} of the {count} fixed-interface modes "
-                "asked for; ask for fewer modes (Subdomain.reduce(modes=...)) or a looser "
-                "tolerance"
+                "asked for; ask for fewer (Subdomain.reduce(modes=...)) or a looser tolerance"
             )
         values = np.array([eps.getEigenvalue(k).real for k in range(found)])
         order = np.argsort(values)[:count]
@@ -189,11 +200,11 @@ def fixed_interface_modes(
     finally:
         eps.destroy()
     release_freed_memory()
-    with spill:
-        spill.seek(0)
-        vectors = np.empty((n, count + extra), order="F")  # columns contiguous: read in place
-        for slot in range(count):
-            spill.readinto(vectors[:, slot])
+    spill.seek(0)
+    vectors = np.empty((n, count + extra), order="F")  # columns contiguous: read in place
+    for slot in range(count):
+        spill.readinto(vectors[:, slot])
+    spill.close()
     return values[order], vectors
 
 
@@ -317,7 +328,7 @@ class ReducedBasis:
         self.factor = SparseCholesky(A_ii.mat, log, f"{name} (interior)")
         P = _pattern_span(patterns, n, self.fixed)
         self.omega2, V = self._modes(A_ii, M_ii, modes, tolerance, P.shape[1])
-        raw = self.factor.solve_many(P[self.i], "load modes") if P.shape[1] else P[self.i]
+        raw = _solve(self.factor, P[self.i], "load modes") if P.shape[1] else P[self.i]
         self.G = _orthonormal(V, self.omega2.size, raw, M_ii)
         self._M_ii = M_ii
         self._A_ii = A_ii
@@ -367,21 +378,22 @@ class ReducedBasis:
         if M is not None:
             self.reaction_mass = np.zeros((D.size, r))
             self.reaction_mass[:, nb:] = M["Di"] @ G
-        if M is not None:
             assert M_r is not None and M_ii is not None  # with M
             M_bb, M_bi, M_ib, M_Db, M_Di = M["bb"], M["bi"], M["ib"], M["Db"], M["Di"]
             M_r[nb:, nb:] = _congruence(G, M_ii, chunk)
         for j0 in range(0, nb, chunk):
             j1 = min(nb, j0 + chunk)
-            X = self.factor.solve_many(self._A_ib[:, j0:j1].toarray(), "constraint modes")
+            X = _solve(self.factor, self._A_ib[:, j0:j1].toarray(), "constraint modes")
             A_r[:nb, j0:j1] = A_bb[:, j0:j1].toarray() - A_bi @ X
             self.reaction_rows[:, j0:j1] = A_Db[:, j0:j1].toarray() - A_Di @ X
             if M is None:
                 continue
             assert M_r is not None and M_ii is not None  # with M
             Y_b = M_bb[:, j0:j1].toarray() - M_bi @ X  # Y = M Psi, this block of columns
-            Y_i = M_ib[:, j0:j1].toarray() - M_ii @ X
-            W = self.factor.solve_many(Y_i, "constraint modes' mass")
+            Y_i = M_ii @ X  # in place: each n x columns array costs (issue 28)
+            Y_i *= -1.0
+            Y_i += M_ib[:, j0:j1].toarray()
+            W = _solve(self.factor, Y_i, "constraint modes' mass")
             M_r[:nb, j0:j1] = Y_b - A_bi @ W
             M_r[nb:, j0:j1] = G.T @ Y_i
             M_r[j0:j1, nb:] = M_r[nb:, j0:j1].T
@@ -471,7 +483,7 @@ class ReducedBasis:
         for j0 in range(0, at.size if self.G.shape[1] else 0, chunk):
             B = self._A_ib[:, at[j0 : j0 + chunk]].toarray()
             P[self.b.size :, j0 : j0 + chunk] = self._in_modes(
-                self.factor.solve_many(B, "wall directions")
+                _solve(self.factor, B, "wall directions")
             )
         return at, P
 
