@@ -46,6 +46,7 @@ class CpuPhases(Phases):
         cpu = time.process_time() - self._cpu
         super().close(name)
         self.records[-1]["cpu_seconds"] = round(cpu, 2)
+        print(json.dumps({"phase": self.records[-1]}), file=sys.stderr, flush=True)  # if cut
         self._cpu = time.process_time()
 
 
@@ -104,9 +105,10 @@ def run(args, tree: str) -> dict:
     command += ["--modes", args.modes, "--steps", str(args.steps), "--dt", str(args.dt)]
     here = str(Path(__file__).parent)
     env = {**os.environ, **PINNED, "PYTHONPATH": os.pathsep.join([str(Path(tree)), here])}
-    done = subprocess.run(command, env=env, capture_output=True, text=True, check=False)
+    with open(args.out.with_suffix(".log"), "a") as log:  # each phase as it ends
+        done = subprocess.run(command, env=env, stdout=subprocess.PIPE, stderr=log, text=True)
     if done.returncode:
-        raise RuntimeError(f"{tree} failed:\n{done.stderr[-3000:]}")
+        raise RuntimeError(f"{tree} failed: see {args.out.with_suffix('.log')}")
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
