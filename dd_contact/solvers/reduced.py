@@ -90,10 +90,7 @@ def _dense(X: np.ndarray, comm) -> PETSc.Mat:
 
 
 class _Interior:
-    """An interior block held once: the PETSc matrix the factor and SLEPc use, for products.
-
-    A scipy copy kept beside it was a second copy of the largest matrices (issue 28).
-    """
+    """An interior block held once, as the PETSc matrix the factor and SLEPc use (issue 28)."""
 
     def __init__(self, A: sp.sparray):
         self.mat = _petsc(A)
@@ -106,10 +103,6 @@ class _Interior:
         out = C.getDenseArray().copy()
         B.destroy(), C.destroy()
         return out
-
-    def toarray(self) -> np.ndarray:
-        """The block dense (a small interior's whole eigensolve)."""
-        return self @ np.eye(self.mat.getSize()[0])
 
 
 def _solve(factor: SparseCholesky, B: np.ndarray, what: str) -> np.ndarray:
@@ -244,6 +237,11 @@ def _congruence(G: np.ndarray, S: sp.sparray | _Interior, chunk: int) -> np.ndar
     return out
 
 
+def _by_columns(S: sp.sparray, G: np.ndarray, chunk: int) -> np.ndarray:
+    """``S G``, G's columns a block at a time: scipy copies the modes whole (F-ordered)."""
+    return np.hstack([S @ G[:, j0 : j0 + chunk] for j0 in range(0, max(G.shape[1], 1), chunk)])
+
+
 def _orthonormal(V: np.ndarray, m: int, L: np.ndarray, M: _Interior | None) -> np.ndarray:
     """``[Phi, L']``: the load modes L made M-orthonormal to Phi and each other, in place.
 
@@ -316,8 +314,7 @@ class ReducedBasis:
                 f"than its {self.i.size} interior dofs allow; ask for fewer (0 to "
                 f"{max(self.i.size - 1, 0)})"
             )
-        # the pieces the reduction reads; the whole matrices are let go before the
-        # interior is factorised (the caller holds no other reference: reduce_model)
+        # its pieces; the whole matrices go before the factor (reduce_model keeps none)
         Ap = _pieces(A, self.b, self.i, self.fixed)
         Mp = None if M is None else _pieces(M, self.b, self.i, self.fixed)
         del A, M
@@ -355,7 +352,8 @@ class ReducedBasis:
                 "density) for its normal modes; use modes=0 for a static reduction"
             )
         if modes >= self.i.size:  # every mode: the interior whole (SLEPc gives n - 1 at most)
-            values, vectors = scipy.linalg.eigh(A_ii.toarray(), M_ii.toarray())
+            eye = np.eye(self.i.size)
+            values, vectors = scipy.linalg.eigh(A_ii @ eye, M_ii @ eye)
             return values, np.hstack([vectors, np.zeros((self.i.size, extra))])
         return fixed_interface_modes(self.factor, M_ii.mat, modes, tolerance, self.name, extra)
 
@@ -373,11 +371,11 @@ class ReducedBasis:
         A_Db, A_Di = Ap["Db"], Ap["Di"]
         #: ``A[D, :] T`` and ``M[D, :] T``: the supports' rows, for their reactions.
         self.reaction_rows = np.zeros((D.size, r))
-        self.reaction_rows[:, nb:] = A_Di @ G
+        self.reaction_rows[:, nb:] = _by_columns(A_Di, G, chunk)
         self.reaction_mass: np.ndarray | None = None
         if M is not None:
             self.reaction_mass = np.zeros((D.size, r))
-            self.reaction_mass[:, nb:] = M["Di"] @ G
+            self.reaction_mass[:, nb:] = _by_columns(M["Di"], G, chunk)
             assert M_r is not None and M_ii is not None  # with M
             M_bb, M_bi, M_ib, M_Db, M_Di = M["bb"], M["bi"], M["ib"], M["Db"], M["Di"]
             M_r[nb:, nb:] = _congruence(G, M_ii, chunk)
