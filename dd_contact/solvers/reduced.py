@@ -13,13 +13,13 @@ included: they act on b only) and M its mass, the subdomain is represented by
 ``A_r = T^T A T``, ``M_r = T^T M T``: small and dense. ``Psi`` is never formed whole: its
 columns are taken :data:`REDUCTION_CHUNK` at a time (``A_r``'s boundary block is the Schur
 complement; ``M_r``'s is ``Y_b - A_bi A_ii^-1 Y_i`` with ``Y = M Psi``, two solves per
-block). The
-reduced coordinates are ``q = [u_b, g]``: the boundary dofs stay physical. The full field
-is ``u_i = -A_ii^-1 A_ib u_b + G g``: one substitution, taken only when it is read.
+block). The reduced coordinates are ``q = [u_b, g]``: the boundary dofs stay physical. The
+full field is ``u_i = -A_ii^-1 A_ib u_b + G g``: one substitution, taken only when read.
 """
 
 from __future__ import annotations
 
+import tempfile
 import time
 from collections.abc import Sequence
 
@@ -46,20 +46,20 @@ from dd_contact.solvers.worklog import WorkLog
 
 __all__ = ["DenseCondensation", "ReducedBasis", "fixed_interface_modes", "reduced_subdomains"]
 
-#: Constraint modes taken at once, at most: each block of columns holds about ten dense
-#: n x columns arrays at its peak (the modes, their mass products, two multi-RHS solves
-#: with their PETSc copies).
+#: Constraint modes taken at once, at most (four n x columns arrays at a block's peak) ...
 REDUCTION_CHUNK = 64
 
-#: ... and at most so many bytes in each such array, but 16 columns at least (a solve for
-#: fewer right-hand sides costs nearly as much: the factor is read once per solve): 21
-#: columns at 48k dofs (peak 658 MiB against 766 with 64, m = 20), 16 from 65k (at 342k,
-#: 64 would hold about 1.7 GB at once).
+#: ... at most so many bytes in each, but 16 columns at least (a solve for fewer costs
+#: nearly as much: the factor is read once per solve): 21 at 48k dofs, 16 from 65k.
 CHUNK_BYTES = 8 * 2**20
 
-#: SLEPc's largest projected problem: its workspace is count + this many vectors of the
-#: interior (its default, twice the count, held 640 vectors for 320 modes).
+#: SLEPc's workspace is count + this many vectors of the interior (its default, twice the
+#: count, held 640 vectors for 320 modes) ...
 MODES_WORKSPACE = 64
+
+#: ... and its largest projected problem (None: the whole workspace). 320 modes at 15k
+#: dofs: 1,545 solves with 64 (as before), 1,011 with 128, 800 with None, 41 % less CPU.
+MODES_PROJECTED: int | None = None
 
 #: An interior of at most this many dofs is kept whole (every fixed-interface mode, by a
 #: dense eigensolve) when as many modes as its dofs or more are asked (SLEPc gives one less): a
@@ -82,6 +82,46 @@ def _petsc(A: sp.sparray) -> PETSc.Mat:
     rows, cols, values = coo_of(sp.csr_array(A))
     n = A.shape[0]
     return petsc_matrix(MPI.COMM_SELF, n, n, rows, cols, values)
+
+
+def _dense(X: np.ndarray, comm) -> PETSc.Mat:
+    """A PETSc dense matrix on X's array (Fortran-ordered: shared, not copied)."""
+    return PETSc.Mat().createDense(X.shape, array=X, comm=comm)  # type: ignore[arg-type]  # stub
+
+
+class _Interior:
+    """An interior block held once, as the PETSc matrix the factor and SLEPc use (issue 28)."""
+
+    def __init__(self, A: sp.sparray):
+        self.mat = _petsc(A)
+
+    def __matmul__(self, X: np.ndarray) -> np.ndarray:
+        if np.ndim(X) == 1:
+            return (self @ np.asarray(X)[:, None])[:, 0]
+        B = _dense(np.asfortranarray(X, dtype=PETSc.ScalarType), self.mat.comm)
+        C = self.mat.matMult(B)
+        out = C.getDenseArray().copy()
+        B.destroy(), C.destroy()
+        return out
+
+
+def _solve(factor: SparseCholesky, B: np.ndarray, what: str) -> np.ndarray:
+    """``A^-1 B`` (MUMPS multi-RHS), B's array and the answer's shared with PETSc's matrices.
+
+    ``solve_many`` copies both: four n x columns arrays at its peak, not two.
+    """
+    B = np.asfortranarray(B, dtype=PETSc.ScalarType)
+    X = np.empty_like(B, order="F")
+    Bm, Xm = _dense(B, factor.A.comm), _dense(X, factor.A.comm)
+    start = time.perf_counter()
+    factor.ksp.getPC().getFactorMatrix().matSolve(Bm, Xm)
+    seconds = time.perf_counter() - start
+    Bm.destroy(), Xm.destroy()
+    flops = 4.0 * factor.entries * B.shape[1]
+    factor.log.add(
+        factor.block, "sparse_solve", B.shape[0], B.shape[1], seconds, flops, what, factor.entries
+    )
+    return X
 
 
 class _FactorSolve:
@@ -115,7 +155,7 @@ def fixed_interface_modes(
         eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
         n = factor.A.getSize()[0]
         ncv = min(n, count + max(15, min(count, MODES_WORKSPACE)))
-        eps.setDimensions(count, ncv, min(ncv, MODES_WORKSPACE))
+        eps.setDimensions(count, ncv, min(ncv, MODES_PROJECTED or ncv))
         eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
         eps.setTarget(0.0)
         st = eps.getST()
@@ -139,19 +179,25 @@ def fixed_interface_modes(
         if found < count:
             raise SingularMatrixError(
                 f"subdomain {name!r}: SLEPc found {found} of the {count} fixed-interface modes "
-                "asked for; ask for fewer modes (Subdomain.reduce(modes=...)) or a looser "
-                "tolerance"
+                "asked for; ask for fewer (Subdomain.reduce(modes=...)) or a looser tolerance"
             )
         values = np.array([eps.getEigenvalue(k).real for k in range(found)])
         order = np.argsort(values)[:count]
-        vectors = np.empty((n, count + extra))
+        # through a file: SLEPc's basis is freed before their array exists (issue 28)
+        spill = tempfile.TemporaryFile()
         x = factor.A.createVecRight()
-        for slot, k in enumerate(order):
+        for k in order:
             eps.getEigenvector(k, x)
-            vectors[:, slot] = x.getArray()
+            spill.write(x.getArray().tobytes())
         x.destroy()
     finally:
         eps.destroy()
+    release_freed_memory()
+    spill.seek(0)
+    vectors = np.empty((n, count + extra), order="F")  # columns contiguous: read in place
+    for slot in range(count):
+        spill.readinto(vectors[:, slot])
+    spill.close()
     return values[order], vectors
 
 
@@ -183,7 +229,7 @@ def _chunk(n: int) -> int:
     return max(16, min(REDUCTION_CHUNK, CHUNK_BYTES // (8 * max(n, 1))))
 
 
-def _congruence(G: np.ndarray, S: sp.sparray, chunk: int) -> np.ndarray:
+def _congruence(G: np.ndarray, S: sp.sparray | _Interior, chunk: int) -> np.ndarray:
     """``G^T S G``, S G taken ``chunk`` columns at a time (never a second G in memory)."""
     out = np.empty((G.shape[1], G.shape[1]))
     for j0 in range(0, G.shape[1], chunk):
@@ -191,7 +237,12 @@ def _congruence(G: np.ndarray, S: sp.sparray, chunk: int) -> np.ndarray:
     return out
 
 
-def _orthonormal(V: np.ndarray, m: int, L: np.ndarray, M: sp.sparray | None) -> np.ndarray:
+def _by_columns(S: sp.sparray, G: np.ndarray, chunk: int) -> np.ndarray:
+    """``S G``, G's columns a block at a time: scipy copies the modes whole (F-ordered)."""
+    return np.hstack([S @ G[:, j0 : j0 + chunk] for j0 in range(0, max(G.shape[1], 1), chunk)])
+
+
+def _orthonormal(V: np.ndarray, m: int, L: np.ndarray, M: _Interior | None) -> np.ndarray:
     """``[Phi, L']``: the load modes L made M-orthonormal to Phi and each other, in place.
 
     Phi, V's first m columns, is M-orthonormal already; the load modes are written into
@@ -263,21 +314,21 @@ class ReducedBasis:
                 f"than its {self.i.size} interior dofs allow; ask for fewer (0 to "
                 f"{max(self.i.size - 1, 0)})"
             )
-        # the pieces the reduction reads; the whole matrices are let go before the
-        # interior is factorised (the caller holds no other reference: reduce_model)
+        # its pieces; the whole matrices go before the factor (reduce_model keeps none)
         Ap = _pieces(A, self.b, self.i, self.fixed)
         Mp = None if M is None else _pieces(M, self.b, self.i, self.fixed)
         del A, M
-        self._A_ib, A_ii = Ap["ib"], Ap["ii"]
-        interior = _petsc(A_ii)
+        self._A_ib = Ap["ib"]
+        A_ii = _Interior(Ap.pop("ii"))
+        M_ii = None if Mp is None else _Interior(Mp.pop("ii"))
         release_freed_memory()  # the slicing's temporaries, before the factor's peak
-        self.factor = SparseCholesky(interior, log, f"{name} (interior)")
-        M_ii = None if Mp is None else Mp["ii"]
+        self.factor = SparseCholesky(A_ii.mat, log, f"{name} (interior)")
         P = _pattern_span(patterns, n, self.fixed)
         self.omega2, V = self._modes(A_ii, M_ii, modes, tolerance, P.shape[1])
-        raw = self.factor.solve_many(P[self.i], "load modes") if P.shape[1] else P[self.i]
+        raw = _solve(self.factor, P[self.i], "load modes") if P.shape[1] else P[self.i]
         self.G = _orthonormal(V, self.omega2.size, raw, M_ii)
         self._M_ii = M_ii
+        self._A_ii = A_ii
         self.size = self.b.size + self.G.shape[1]
         #: Its massless coordinates (contact walls; set by :func:`reduce_model`).
         self.massless = np.zeros(0, np.int64)
@@ -301,13 +352,10 @@ class ReducedBasis:
                 "density) for its normal modes; use modes=0 for a static reduction"
             )
         if modes >= self.i.size:  # every mode: the interior whole (SLEPc gives n - 1 at most)
-            values, vectors = scipy.linalg.eigh(A_ii.toarray(), M_ii.toarray())
+            eye = np.eye(self.i.size)
+            values, vectors = scipy.linalg.eigh(A_ii @ eye, M_ii @ eye)
             return values, np.hstack([vectors, np.zeros((self.i.size, extra))])
-        Mp = _petsc(M_ii)
-        try:
-            return fixed_interface_modes(self.factor, Mp, modes, tolerance, self.name, extra)
-        finally:
-            Mp.destroy()
+        return fixed_interface_modes(self.factor, M_ii.mat, modes, tolerance, self.name, extra)
 
     def _reduced(self, Ap: dict, Mp: dict | None) -> tuple[np.ndarray, np.ndarray | None]:
         """``T^T A T`` and ``T^T M T``, Psi's columns a block at a time (from :func:`_pieces`)."""
@@ -315,34 +363,35 @@ class ReducedBasis:
         nb, r = self.b.size, self.size
         A_r = np.zeros((r, r))
         M_r = None if M is None else np.zeros((r, r))
-        A_ii, A_bb, A_bi = Ap["ii"], Ap["bb"], Ap["bi"]
-        M_ii = None if M is None else M["ii"]
+        A_ii, A_bb, A_bi = self._A_ii, Ap["bb"], Ap["bi"]
+        M_ii = self._M_ii
         chunk = _chunk(self.n)
         A_r[nb:, nb:] = _congruence(G, A_ii, chunk)  # (A Psi)_i = 0: no coupling to the modes
         D = self.fixed
         A_Db, A_Di = Ap["Db"], Ap["Di"]
         #: ``A[D, :] T`` and ``M[D, :] T``: the supports' rows, for their reactions.
         self.reaction_rows = np.zeros((D.size, r))
-        self.reaction_rows[:, nb:] = A_Di @ G
+        self.reaction_rows[:, nb:] = _by_columns(A_Di, G, chunk)
         self.reaction_mass: np.ndarray | None = None
         if M is not None:
             self.reaction_mass = np.zeros((D.size, r))
-            self.reaction_mass[:, nb:] = M["Di"] @ G
-        if M is not None:
+            self.reaction_mass[:, nb:] = _by_columns(M["Di"], G, chunk)
             assert M_r is not None and M_ii is not None  # with M
             M_bb, M_bi, M_ib, M_Db, M_Di = M["bb"], M["bi"], M["ib"], M["Db"], M["Di"]
             M_r[nb:, nb:] = _congruence(G, M_ii, chunk)
         for j0 in range(0, nb, chunk):
             j1 = min(nb, j0 + chunk)
-            X = self.factor.solve_many(self._A_ib[:, j0:j1].toarray(), "constraint modes")
+            X = _solve(self.factor, self._A_ib[:, j0:j1].toarray(), "constraint modes")
             A_r[:nb, j0:j1] = A_bb[:, j0:j1].toarray() - A_bi @ X
             self.reaction_rows[:, j0:j1] = A_Db[:, j0:j1].toarray() - A_Di @ X
             if M is None:
                 continue
             assert M_r is not None and M_ii is not None  # with M
             Y_b = M_bb[:, j0:j1].toarray() - M_bi @ X  # Y = M Psi, this block of columns
-            Y_i = M_ib[:, j0:j1].toarray() - M_ii @ X
-            W = self.factor.solve_many(Y_i, "constraint modes' mass")
+            Y_i = M_ii @ X  # in place: each n x columns array costs (issue 28)
+            Y_i *= -1.0
+            Y_i += M_ib[:, j0:j1].toarray()
+            W = _solve(self.factor, Y_i, "constraint modes' mass")
             M_r[:nb, j0:j1] = Y_b - A_bi @ W
             M_r[nb:, j0:j1] = G.T @ Y_i
             M_r[j0:j1, nb:] = M_r[nb:, j0:j1].T
@@ -403,11 +452,14 @@ class ReducedBasis:
         if np.any(q[:nb]):
             rest += self.factor.solve_array(self._A_ib @ q[:nb], "coordinates")
         if self.G.shape[1]:
-            if self._M_ii is None:
-                q[nb:] = np.linalg.lstsq(self.G, rest, rcond=None)[0]
-            else:
-                q[nb:] = self.G.T @ (self._M_ii @ rest)
+            q[nb:] = self._in_modes(rest)
         return q
+
+    def _in_modes(self, rest: np.ndarray) -> np.ndarray:
+        """G's coordinates of interior fields ``rest``: M-orthogonal projection (or plain)."""
+        if self._M_ii is None:
+            return np.linalg.lstsq(self.G, rest, rcond=None)[0]
+        return self.G.T @ (self._M_ii @ rest)
 
     def wall_directions(self, wall: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """A contact wall's coordinates and the moves of q that shift it alone.
@@ -425,18 +477,20 @@ class ReducedBasis:
             raise ValueError(f"subdomain {self.name!r}: a wall dof is not a boundary dof")
         P = np.zeros((self.size, at.size))
         P[at, np.arange(at.size)] = 1.0
-        if at.size and self.G.shape[1]:
-            rest = self.factor.solve_many(self._A_ib[:, at].toarray(), "wall directions")
-            if self._M_ii is None:
-                P[self.b.size :] = np.linalg.lstsq(self.G, rest, rcond=None)[0]
-            else:
-                P[self.b.size :] = self.G.T @ (self._M_ii @ rest)
+        chunk = _chunk(self.n)  # a wall may hold most of b: its columns a block at a time
+        for j0 in range(0, at.size if self.G.shape[1] else 0, chunk):
+            B = self._A_ib[:, at[j0 : j0 + chunk]].toarray()
+            P[self.b.size :, j0 : j0 + chunk] = self._in_modes(
+                _solve(self.factor, B, "wall directions")
+            )
         return at, P
 
     def destroy(self) -> None:
         """Free the factorisation."""
         self.factor.A.destroy()
         self.factor.destroy()
+        if self._M_ii is not None:
+            self._M_ii.mat.destroy()
 
     def prescribed(self, values: np.ndarray, t: float) -> np.ndarray:
         """The values of its prescribed dofs as the reduced block sees them: none (zero)."""

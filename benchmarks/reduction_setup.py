@@ -1,0 +1,143 @@
+"""A reduced subdomain's set-up, phase by phase: CPU seconds and peak memory (issue 28).
+
+Builds the parallelepiped of ``paper_scale.py`` at ``--scale`` (``1/16``: about 85k dofs,
+``1/4``: about 340k) with every subdomain reduced to ``--modes`` fixed-interface modes, runs
+``--steps`` steps with w-u, and records per phase the wall and CPU seconds and the peak
+resident memory (``VmHWM``, reset at each phase's start; ``setup_memory.Phases``). The
+phases end where the reduction's calls return (wrapped here, unchanged): the interior's
+pieces and factor, the fixed-interface modes (SLEPc), the load modes, ``A_r``/``M_r`` (the
+constraint modes), the rest of the model's reduction, the solver, the steps. Also recorded:
+the seconds the reduction's solves took by what they were for (the work log). ``--modes``
+``none`` runs the unreduced w-u, whose peak is the target.
+
+``--trees`` runs each case once per source tree (``PYTHONPATH``), the trees interleaved and
+the whole ``--repeats`` times: e.g. a checkout of main against this branch. Writes
+``benchmarks/results/reduction_setup.json`` (``--out``), keyed by label, scale and case,
+after every run.
+
+Run: python benchmarks/reduction_setup.py --scale 1/16 --modes 320 --trees before=/tmp/main
+     after=. [--repeats 2] [--label 1over16]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from pinned import PINNED
+from setup_memory import Phases, wrap_after, wrap_before
+
+OUT = Path(__file__).parent / "results" / "reduction_setup.json"
+
+
+class CpuPhases(Phases):
+    """:class:`setup_memory.Phases` with each phase's CPU seconds too."""
+
+    def __init__(self, trim):
+        self._cpu = time.process_time()
+        super().__init__(trim)
+
+    def close(self, name: str) -> None:
+        cpu = time.process_time() - self._cpu
+        super().close(name)
+        self.records[-1]["cpu_seconds"] = round(cpu, 2)
+        print(json.dumps({"phase": self.records[-1]}), file=sys.stderr, flush=True)  # if cut
+        self._cpu = time.process_time()
+
+
+def worker(args) -> dict:
+    """One case in this process: the scene, its reduction by phases, the steps."""
+    from mpi4py import MPI
+
+    import paper_scale
+
+    import dd_contact as dc
+    from dd_contact import analysis
+    from dd_contact.paper import examples
+    from dd_contact.solvers import reduced
+    from dd_contact.solvers.linalg import release_freed_memory
+
+    phases = CpuPhases(release_freed_memory)
+    basis = reduced.ReducedBasis
+    wrap_before(basis, "_modes", phases, "assembly, pieces, interior factor")
+    wrap_after(basis, "_modes", phases, "fixed-interface modes (SLEPc)")
+    wrap_before(basis, "_reduced", phases, "load modes")
+    wrap_after(basis, "_reduced", phases, "A_r, M_r (constraint modes)")
+    wrap_after(analysis, "reduce_model", phases, "rest of the reduction")
+    modes = None if args.modes == "none" else int(args.modes)
+    elements = paper_scale._bar_scale(args.scale)
+    scene = examples.parallelepiped("w-u", elements, comm=MPI.COMM_SELF)
+    for sub in scene.subdomains if modes is not None else ():
+        sub.reduce(modes=modes)
+    phases.close("scene")
+    problem = dc.TransientProblem(scene, args.dt, algorithm="w-u", track_energy=False)
+    phases.close("solver")
+    for _ in range(args.steps):
+        problem.advance()
+    phases.close(f"{args.steps} steps")
+    by_what: dict[str, float] = {}
+    for r in problem.work.records:
+        if r.block.endswith("(interior)"):
+            key = f"{r.kind} {r.what}".strip()
+            by_what[key] = round(by_what.get(key, 0.0) + r.seconds, 2)
+    out = {
+        "modes": modes,
+        "elements": list(elements),
+        "dofs": int(sum(s.num_dofs for s in scene.subdomains)),
+        "reduced_sizes": {b: int(problem.model.system.sizes[b]) for b in problem.model.reduced},
+        "phases": phases.records,
+        "peak_mb": max(r["peak_mb"] for r in phases.records),
+        "cpu_seconds": round(sum(r["cpu_seconds"] for r in phases.records), 2),
+        "reduction_solves_seconds": by_what,
+    }
+    problem.close()
+    return out
+
+
+def run(args, tree: str) -> dict:
+    """One case in a fresh process on source tree ``tree``, BLAS pinned."""
+    command = [sys.executable, __file__, "--worker", "--scale", args.scale]
+    command += ["--modes", args.modes, "--steps", str(args.steps), "--dt", str(args.dt)]
+    here = str(Path(__file__).parent)
+    env = {**os.environ, **PINNED, "PYTHONPATH": os.pathsep.join([str(Path(tree)), here])}
+    with open(args.out.with_suffix(".log"), "a") as log:  # each phase as it ends
+        done = subprocess.run(command, env=env, stdout=subprocess.PIPE, stderr=log, text=True)
+    if done.returncode:
+        raise RuntimeError(f"{tree} failed: see {args.out.with_suffix('.log')}")
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--scale", default="1/16", help="paper_scale.py's bar scale")
+    parser.add_argument("--modes", default="320", help="fixed-interface modes, or none")
+    parser.add_argument("--steps", type=int, default=2)
+    parser.add_argument("--dt", type=float, default=1e-6)
+    parser.add_argument("--trees", nargs="+", default=["after=."], help="name=path ...")
+    parser.add_argument("--repeats", type=int, default=1)
+    parser.add_argument("--label", default="", help="prefix of the runs' keys")
+    parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker:
+        print(json.dumps(worker(args)))
+        return
+    results = json.loads(args.out.read_text()) if args.out.exists() else {}
+    trees = dict(t.split("=", 1) for t in args.trees)
+    for _ in range(args.repeats):
+        for name, tree in trees.items():  # interleaved: each tree once per round
+            load = os.getloadavg()[0]
+            record = {**run(args, tree), "load_average": round(load, 2)}
+            key = f"{args.label}|{args.scale}|m={args.modes}|{name}"
+            results.setdefault(key, []).append(record)
+            print(key, json.dumps({k: record[k] for k in ("cpu_seconds", "peak_mb")}))
+            args.out.write_text(json.dumps(results, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
