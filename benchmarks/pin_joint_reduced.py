@@ -44,7 +44,7 @@ from pinned import PINNED
 
 HERE = Path(__file__).parent / "results"
 DT, PERIOD = 1.6e-6, 2e-3
-REFERENCE = "w-v-u"
+REFERENCE = "w-v-u"  # the force histories' reference (``--reference``)
 
 
 def _scene(cells: str, case: str):
@@ -152,6 +152,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=2500)
     parser.add_argument("--repeats", type=int, default=1)
     parser.add_argument("--cases", nargs="+", default=["FULL", "v-w-u", "w-v-u", "reduced:100"])
+    parser.add_argument("--reference", default=REFERENCE, help="the unreduced case compared to")
     parser.add_argument("--out", help="the JSON (default by the cells)")
     parser.add_argument("--keep", help="keep the force histories here (to --combine later)")
     parser.add_argument("--combine", nargs="+", help="JSONs of runs kept in --keep: one JSON")
@@ -193,9 +194,9 @@ def main() -> None:
 def _write(args, runs: dict[str, list[dict]], forces: dict, loads: list[float]) -> None:
     """The JSON of the runs so far: medians, errors against the reference, speed-ups."""
     results = {case: _medians(r) | {"runs": r} for case, r in runs.items() if r}
-    if REFERENCE in forces:
+    if args.reference in forces:
         for case in results:
-            results[case] |= _errors(forces[case], forces[REFERENCE])
+            results[case] |= _errors(forces[case], forces[args.reference])
     unreduced = [c for c in results if ":" not in c]
     for clock in ("whole_seconds", "whole_cpu_seconds"):
         best = min(unreduced, key=lambda c: results[c][clock]) if unreduced else None
@@ -205,7 +206,7 @@ def _write(args, runs: dict[str, list[dict]], forces: dict, loads: list[float]) 
                 r[f"best_unreduced_by_{clock}"] = best
     settings = {"cells": args.cells, "steps": args.steps, "dt": DT, "period": PERIOD}
     settings |= {"repeats": args.repeats, "load_average": [round(x, 2) for x in loads]}
-    settings |= {"reference": REFERENCE, "cpus": os.cpu_count(), "threads": "pinned to 1"}
+    settings |= {"reference": args.reference, "cpus": os.cpu_count(), "threads": "pinned to 1"}
     out = Path(args.out or HERE / f"pin_joint_reduced_{args.cells.replace(',', '-')}.json")
     out.write_text(json.dumps({**settings, "results": results}, indent=1))
 

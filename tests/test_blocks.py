@@ -106,6 +106,21 @@ def test_a_block_is_the_stored_matrix_or_its_transpose():
     assert system.block(_U, _V) is system.matrices[(_U, _V)]
 
 
+def test_a_transpose_is_made_once_and_follows_its_stored_block():
+    system, dense, where, _ = _system_and_dense()
+    first = system.block(_V, _U)
+    assert system.block(_V, _U) is first  # kept: block rows are read many times a step
+    assert [A for c, A in system.block_row(_V) if c == _U] == [first]
+    system.matrices[(_U, _V)].data *= 2.0  # changed in place: the view sees it
+    np.testing.assert_array_equal(first.toarray(), 2.0 * dense[where[_V], where[_U]])
+    system.matrices[(_U, _V)] = sp.csr_array(-dense[where[_U], where[_V]])  # replaced
+    again = system.block(_V, _U)
+    assert again is not first
+    np.testing.assert_array_equal(again.toarray(), -dense[where[_V], where[_U]])
+    copied = pickle.loads(pickle.dumps(system))  # sent without the cache
+    np.testing.assert_array_equal(copied.block(_V, _U).toarray(), again.toarray())
+
+
 def test_all_blocks_gives_each_block_of_the_symmetric_matrix_once_stored_first():
     system, dense, where, _ = _system_and_dense()
     blocks = list(system.all_blocks())
