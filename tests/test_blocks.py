@@ -11,7 +11,7 @@ import pytest
 import scipy.sparse as sp
 
 import dd_contact as dd
-from dd_contact.blocks import Block, BlockSystem, ContactRegion
+from dd_contact.blocks import Block, BlockSystem, ContactRegion, split_by_blocks
 from dd_contact.paper import verify
 
 
@@ -36,6 +36,27 @@ def test_a_contact_region_shifts_into_a_larger_matrix():
     moved = region.shifted(10)
     assert moved.dofs.tolist() == [10, 11, 12] and region.dofs.tolist() == [0, 1, 2]
     assert moved.block is region.block and moved.pattern is region.pattern
+
+
+def test_a_pair_split_again_gives_its_last_pieces_until_the_matrix_changes():
+    a, b = Block("w", "a"), Block("w", "b")
+    sizes = {a: 4, b: 5}
+    region = ContactRegion("pair", a, np.array([0, 2]), sp.csr_array((3, 3)), b, np.array([4]))
+    rng = np.random.default_rng(3)
+    matrix = sp.csr_array(rng.integers(-3, 4, (3, 3)) * 1.0)
+    first = region.in_blocks(matrix, sizes)
+    assert len(first) == 4
+    again = region.in_blocks(sp.csr_array(matrix, copy=True), sizes)  # equal, not the same
+    assert again is not first and all(again[k] is first[k] for k in first)
+    changed = matrix.copy()
+    changed.data[0] += 1.0
+    fresh = region.in_blocks(changed, sizes)
+    for pair, piece in fresh.items():
+        expected = split_by_blocks(region.parts, changed, sizes)[pair]
+        assert piece is not first[pair]
+        np.testing.assert_array_equal(piece.toarray(), expected.toarray())
+    copied = pickle.loads(pickle.dumps(region))  # sent without its last split
+    assert copied.in_blocks(changed, sizes)[(a, b)] is not fresh[(a, b)]
 
 
 @pytest.mark.parametrize(
