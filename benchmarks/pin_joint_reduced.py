@@ -20,6 +20,10 @@ over each plate's walls (``plate_force_error``). ``FULL`` against w-v-u is the r
 yardstick. Cases are interleaved over ``--repeats``; medians are given, the load average
 before each run too (the machine is shared).
 
+``--profile``: the steps run under cProfile (CPU clock), and each case's record gets the CPU
+seconds per step of the parts in :data:`PARTS` (cumulative: a part includes what it calls,
+so parts overlap; profiled runs are slower, their times are shares, not speeds).
+
 Writes benchmarks/results/pin_joint_reduced_<cells>.json.
 
 Run: python benchmarks/pin_joint_reduced.py [--cells 8,3,2,12] [--steps 2500]
@@ -29,6 +33,7 @@ Run: python benchmarks/pin_joint_reduced.py [--cells 8,3,2,12] [--steps 2500]
 from __future__ import annotations
 
 import argparse
+import cProfile
 import json
 import os
 import resource
@@ -43,8 +48,36 @@ from pathlib import Path
 from pinned import PINNED
 
 HERE = Path(__file__).parent / "results"
+SIDES = ("surface_rhs", "back_substitute")
 DT, PERIOD = 1.6e-6, 2e-3
-REFERENCE = "w-v-u"
+REFERENCE = "w-v-u"  # the force histories' reference (``--reference``)
+
+#: Profiled parts of a step: label -> (module, function's qualified name), each summed.
+PARTS = {
+    "advance": [("problem", "TransientProblem._advance")],
+    "start_forces": [("problem", "TransientProblem._inertia_loads")],
+    "contact_iteration": [("analysis", "Analysis.solve")],
+    "set_contact": [
+        ("solvers.engine", "BlockEliminationSolver.set_contact"),
+        ("solvers.full", "MonolithicSolver.set_contact"),
+    ],
+    "solver_solve": [
+        ("solvers.engine", "BlockEliminationSolver._solve"),
+        ("solvers.full", "MonolithicSolver._solve"),
+    ],
+    "solver_finish": [("solvers.engine", "BlockEliminationSolver._finish")],
+    "full_substitution": [("solvers.full", "MonolithicSolver._apply")],
+    "full_refactorise": [("solvers.full", "MonolithicSolver._refactorise")],
+    "sparse_sweeps": [("solvers.subdomains", f"SubdomainCondensation.{f}") for f in SIDES],
+    "reduced_substitutions": [("solvers.reduced", f"DenseCondensation.{f}") for f in SIDES],
+    "surface_factorise": [("solvers.surface", "Surface.factorise")],
+    "reduced_loads": [("solvers.reduced", "ReducedBasis.project_load")],
+    "wall_inertia": [("solvers.reduced_model", "wall_inertia")],
+    "contact_update": [("contact", "ContactOperator.update")],
+    "residual_check": [("solvers.residual", "ResidualCheck.estimate")],
+    "publish": [("analysis", "Analysis.publish")],
+    "agree": [("analysis", "Analysis.agree")],
+}
 
 
 def _scene(cells: str, case: str):
@@ -80,11 +113,16 @@ def worker(args) -> dict:
     )
     problem.start()
     setup, setup_cpu = time.perf_counter() - start, time.process_time() - cpu_start
+    profile = cProfile.Profile(time.process_time) if args.profile else None
     start, cpu_start = time.perf_counter(), time.process_time()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # coarse contact/time step: the demo's scene
+        if profile is not None:
+            profile.enable()
         for _ in range(args.steps):
             problem.advance()
+        if profile is not None:
+            profile.disable()
     steps, steps_cpu = time.perf_counter() - start, time.process_time() - cpu_start
     walls = sorted(problem.history[0]["force"])
     forces = np.array([[r["force"][w][1] for w in walls] for r in problem.history])
@@ -108,7 +146,29 @@ def worker(args) -> dict:
             for kind, w in problem.work.summary().items()
         },
     }
+    if profile is not None:
+        out["profile_cpu_per_step"] = _parts(profile, args.steps)
     problem.close()
+    return out
+
+
+def _parts(profile: cProfile.Profile, steps: int) -> dict[str, float]:
+    """CPU seconds per step of each of :data:`PARTS` (cumulative, so parts overlap)."""
+    import importlib
+    import pstats
+
+    stats = pstats.Stats(profile).stats  # type: ignore[attr-defined]
+    out = {}
+    for label, functions in PARTS.items():
+        total = 0.0
+        for module, name in functions:
+            function = importlib.import_module(f"dd_contact.{module}")
+            for attribute in name.split("."):
+                function = getattr(function, attribute)
+            code = function.__code__
+            key = (code.co_filename, code.co_firstlineno, code.co_name)
+            total += stats[key][3] if key in stats else 0.0
+        out[label] = round(total / steps, 6)
     return out
 
 
@@ -152,9 +212,11 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=2500)
     parser.add_argument("--repeats", type=int, default=1)
     parser.add_argument("--cases", nargs="+", default=["FULL", "v-w-u", "w-v-u", "reduced:100"])
+    parser.add_argument("--reference", default=REFERENCE, help="the unreduced case compared to")
     parser.add_argument("--out", help="the JSON (default by the cells)")
     parser.add_argument("--keep", help="keep the force histories here (to --combine later)")
     parser.add_argument("--combine", nargs="+", help="JSONs of runs kept in --keep: one JSON")
+    parser.add_argument("--profile", action="store_true", help="the steps under cProfile")
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     parser.add_argument("--dump", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -177,6 +239,7 @@ def main() -> None:
             for case in args.cases:
                 command = [sys.executable, __file__, "--worker", case, "--cells", args.cells]
                 command += ["--steps", str(args.steps), "--dump", dump]
+                command += ["--profile"] * args.profile
                 loads.append(os.getloadavg()[0])
                 done = subprocess.run(
                     command, env={**os.environ, **PINNED}, capture_output=True, text=True
@@ -193,9 +256,9 @@ def main() -> None:
 def _write(args, runs: dict[str, list[dict]], forces: dict, loads: list[float]) -> None:
     """The JSON of the runs so far: medians, errors against the reference, speed-ups."""
     results = {case: _medians(r) | {"runs": r} for case, r in runs.items() if r}
-    if REFERENCE in forces:
+    if args.reference in forces:
         for case in results:
-            results[case] |= _errors(forces[case], forces[REFERENCE])
+            results[case] |= _errors(forces[case], forces[args.reference])
     unreduced = [c for c in results if ":" not in c]
     for clock in ("whole_seconds", "whole_cpu_seconds"):
         best = min(unreduced, key=lambda c: results[c][clock]) if unreduced else None
@@ -205,7 +268,7 @@ def _write(args, runs: dict[str, list[dict]], forces: dict, loads: list[float]) 
                 r[f"best_unreduced_by_{clock}"] = best
     settings = {"cells": args.cells, "steps": args.steps, "dt": DT, "period": PERIOD}
     settings |= {"repeats": args.repeats, "load_average": [round(x, 2) for x in loads]}
-    settings |= {"reference": REFERENCE, "cpus": os.cpu_count(), "threads": "pinned to 1"}
+    settings |= {"reference": args.reference, "cpus": os.cpu_count(), "threads": "pinned to 1"}
     out = Path(args.out or HERE / f"pin_joint_reduced_{args.cells.replace(',', '-')}.json")
     out.write_text(json.dumps({**settings, "results": results}, indent=1))
 

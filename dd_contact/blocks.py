@@ -106,6 +106,13 @@ class ContactRegion:
     history: bool = False
     points: sp.csr_array | None = None
     stuck: Callable[[], sp.csr_array] | None = field(default=None, repr=False)
+    # the last matrix split by in_blocks (its arrays) and its pieces: a step without a
+    # change sends each region's same matrix again, and a split cost about 0.2 ms
+    _last_split: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def __getstate__(self) -> dict:
+        """Pickled (sent to another rank) without the last split."""
+        return {**self.__dict__, "_last_split": {}}
 
     @property
     def blocks(self) -> tuple[Block, ...]:
@@ -131,8 +138,33 @@ class ContactRegion:
     def in_blocks(
         self, matrix: sp.sparray, sizes: Mapping[Block, int]
     ) -> dict[tuple[Block, Block], sp.csr_array]:
-        """The contact matrix (surface numbering) as the block pairs it fills, block numbered."""
-        return split_by_blocks(self.parts, matrix, sizes)
+        """The contact matrix (surface numbering) as the block pairs it fills, block numbered.
+
+        Given the last matrix again (equal arrays), the last pieces themselves: they are
+        shared, to be read and never changed in place.
+        """
+        last = self._last_split
+        arrays = _csr_arrays(matrix)
+        if arrays is not None and last.get("sizes") == dict(sizes):
+            known = last.get("arrays")
+            if known is not None and all(map(_same_array, known, arrays)):
+                return dict(last["pieces"])
+        pieces = split_by_blocks(self.parts, matrix, sizes)
+        if arrays is not None:
+            last["sizes"], last["arrays"] = dict(sizes), tuple(a.copy() for a in arrays)
+            last["pieces"] = pieces
+        return dict(pieces)
+
+
+def _csr_arrays(matrix: sp.sparray) -> tuple[np.ndarray, ...] | None:
+    """A CSR matrix's shape, indptr, indices and data (``None`` for another format)."""
+    if not isinstance(matrix, sp.csr_array | sp.csr_matrix):
+        return None
+    return np.array(matrix.shape), matrix.indptr, matrix.indices, matrix.data
+
+
+def _same_array(a: np.ndarray, b: np.ndarray) -> bool:
+    return a.shape == b.shape and bool(np.array_equal(a, b))
 
 
 def split_by_blocks(
@@ -242,6 +274,13 @@ class BlockSystem:
     kappas: dict[tuple[str, str], float] = field(default_factory=dict)
     stiff_ties: list[StiffTie] = field(default_factory=list)
     reduced: set[Block] = field(default_factory=set)
+    # stored pair -> its transpose (a view sharing the stored arrays), made once: a step
+    # reads block rows some 40 times, and each transpose built anew cost about 60 us
+    _transposes: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def __getstate__(self) -> dict:
+        """Pickled (sent to another rank) without the transposes' cache."""
+        return {**self.__dict__, "_transposes": {}}
 
     def copy(self) -> BlockSystem:
         """A copy whose matrices and vectors can be changed independently."""
@@ -314,8 +353,19 @@ class BlockSystem:
         if (row, col) in self.matrices:
             return self.matrices[(row, col)]
         if (col, row) in self.matrices:
-            return self.matrices[(col, row)].T
+            return self._transposed(col, row)
         return None
+
+    def _transposed(self, row: Block, col: Block) -> sp.sparray:
+        """The transpose of the stored ``(row, col)`` block: a view, remade if A was replaced."""
+        A = self.matrices[(row, col)]
+        arrays = (A, A.data, A.indices, A.indptr)  # a view sees in-place changes, not new arrays
+        cached = self._transposes.get((row, col))
+        if cached is not None and all(a is b for a, b in zip(cached[0], arrays, strict=True)):
+            return cached[1]
+        T = A.T
+        self._transposes[(row, col)] = (arrays, T)
+        return T
 
     def all_blocks(self) -> Iterator[tuple[Block, Block, sp.sparray]]:
         """``(row, col, A[row, col])`` of every non-zero block of A.
@@ -327,16 +377,18 @@ class BlockSystem:
         for (row, col), A in self.matrices.items():
             yield row, col, A
             if row != col:
-                yield col, row, A.T
+                yield col, row, self._transposed(row, col)
 
     def block_row(self, row: Block) -> Iterator[tuple[Block, sp.sparray]]:
         """``(col, A[row, col])`` of every non-zero block in block row ``row``.
 
         The diagonal block included, in the order of :meth:`all_blocks`.
         """
-        for r, col, A in self.all_blocks():
+        for (r, col), A in self.matrices.items():  # all_blocks' order, only row's transposed
             if r == row:
                 yield col, A
+            if r != col and col == row:
+                yield r, self._transposed(r, col)
 
     def coupled(self, block: Block) -> Iterator[tuple[Block, sp.sparray]]:
         """``(other, A[block, other])`` of every other block coupled to ``block``."""

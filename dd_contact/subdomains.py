@@ -328,4 +328,7 @@ class Subdomain:
     @property
     def block(self) -> Block:
         """This subdomain's block of unknowns u in system (14)."""
-        return Block("u", self.name)
+        block = self.__dict__.get("_block")  # read some 500 times a step: made once per name
+        if block is None or block.name != self.name:
+            block = self._block = Block("u", self.name)
+        return block

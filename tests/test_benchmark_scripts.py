@@ -23,6 +23,22 @@ def test_every_part_the_step_profile_times_is_a_function_of_the_package():
     assert missing == []
 
 
+def test_every_part_the_pin_joint_profile_reads_is_a_function_of_the_package():
+    import importlib
+
+    parts = _script("pin_joint_reduced").PARTS
+    assert len(parts) == 17
+    missing = []
+    for functions in parts.values():
+        for module, name in functions:
+            owner = importlib.import_module(f"dd_contact.{module}")
+            for attribute in name.split("."):
+                owner = getattr(owner, attribute, None)
+            if owner is None or not hasattr(owner, "__code__"):
+                missing.append(f"{module}.{name}")
+    assert missing == []
+
+
 def test_the_cpu_clock_of_auto_choice_patches_the_timers_the_work_records_use():
     import time
 

@@ -11,7 +11,7 @@ import pytest
 import scipy.sparse as sp
 
 import dd_contact as dd
-from dd_contact.blocks import Block, BlockSystem, ContactRegion
+from dd_contact.blocks import Block, BlockSystem, ContactRegion, split_by_blocks
 from dd_contact.paper import verify
 
 
@@ -36,6 +36,27 @@ def test_a_contact_region_shifts_into_a_larger_matrix():
     moved = region.shifted(10)
     assert moved.dofs.tolist() == [10, 11, 12] and region.dofs.tolist() == [0, 1, 2]
     assert moved.block is region.block and moved.pattern is region.pattern
+
+
+def test_a_pair_split_again_gives_its_last_pieces_until_the_matrix_changes():
+    a, b = Block("w", "a"), Block("w", "b")
+    sizes = {a: 4, b: 5}
+    region = ContactRegion("pair", a, np.array([0, 2]), sp.csr_array((3, 3)), b, np.array([4]))
+    rng = np.random.default_rng(3)
+    matrix = sp.csr_array(rng.integers(-3, 4, (3, 3)) * 1.0)
+    first = region.in_blocks(matrix, sizes)
+    assert len(first) == 4
+    again = region.in_blocks(sp.csr_array(matrix, copy=True), sizes)  # equal, not the same
+    assert again is not first and all(again[k] is first[k] for k in first)
+    changed = matrix.copy()
+    changed.data[0] += 1.0
+    fresh = region.in_blocks(changed, sizes)
+    for pair, piece in fresh.items():
+        expected = split_by_blocks(region.parts, changed, sizes)[pair]
+        assert piece is not first[pair]
+        np.testing.assert_array_equal(piece.toarray(), expected.toarray())
+    copied = pickle.loads(pickle.dumps(region))  # sent without its last split
+    assert copied.in_blocks(changed, sizes)[(a, b)] is not fresh[(a, b)]
 
 
 @pytest.mark.parametrize(
@@ -104,6 +125,21 @@ def test_a_block_is_the_stored_matrix_or_its_transpose():
     # a transpose is a view of the stored matrix, no copy
     assert np.shares_memory(system.block(_V, _U).data, system.matrices[(_U, _V)].data)
     assert system.block(_U, _V) is system.matrices[(_U, _V)]
+
+
+def test_a_transpose_is_made_once_and_follows_its_stored_block():
+    system, dense, where, _ = _system_and_dense()
+    first = system.block(_V, _U)
+    assert system.block(_V, _U) is first  # kept: block rows are read many times a step
+    assert [A for c, A in system.block_row(_V) if c == _U] == [first]
+    system.matrices[(_U, _V)].data *= 2.0  # changed in place: the view sees it
+    np.testing.assert_array_equal(first.toarray(), 2.0 * dense[where[_V], where[_U]])
+    system.matrices[(_U, _V)] = sp.csr_array(-dense[where[_U], where[_V]])  # replaced
+    again = system.block(_V, _U)
+    assert again is not first
+    np.testing.assert_array_equal(again.toarray(), -dense[where[_V], where[_U]])
+    copied = pickle.loads(pickle.dumps(system))  # sent without the cache
+    np.testing.assert_array_equal(copied.block(_V, _U).toarray(), again.toarray())
 
 
 def test_all_blocks_gives_each_block_of_the_symmetric_matrix_once_stored_first():

@@ -32,6 +32,29 @@ def test_obstacle_gaps_and_normals():
     assert np.allclose(moving.gap_normal(x, t=2.0)[0], [1.0, -1.0])
 
 
+def test_an_obstacle_at_rest_is_evaluated_once_a_moving_one_every_time():
+    import scipy.sparse as sp
+
+    from dd_contact.contact import ContactOperator, ContactPoints
+
+    x = np.array([[0.0, 0.0, 0.1], [0.5, 0.2, 0.3]])
+    points = ContactPoints(x, np.ones(2), sp.eye_array(2, format="csr"), np.ones(2))
+    plane = dd.Plane((0, 0, 0), (0, 0, 1))
+    op = ContactOperator(points, plane, 1e-3)
+    G = op.G
+    op.update(1.0)
+    assert op.G is G and op.t == 1.0  # kept: the same gap and normals at every time
+    plane.motion = lambda t: (0.0, 0.0, t)  # moving from now on: evaluated again
+    op.update(0.05)
+    np.testing.assert_allclose(op.gap, plane.gap_normal(x, 0.05)[0])
+    assert op.G is not G
+    down = lambda x, t: np.tile([0, 0, -1.0], (len(x), 1))  # noqa: E731
+    user = dd.UserObstacle(lambda x, t: x[:, 2] - t, down)
+    op = ContactOperator(points, user, 1e-3)
+    op.update(0.05)  # a gap_normal of its own may depend on t
+    np.testing.assert_allclose(op.gap, x[:, 2] - 0.05)
+
+
 def test_user_obstacle_is_checked():
     ok = dd.UserObstacle(lambda x, t: x[:, 2], lambda x, t: np.tile([0, 0, -1.0], (len(x), 1)))
     assert np.allclose(ok.gap_normal(np.ones((2, 3)))[0], [1, 1])
