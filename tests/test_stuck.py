@@ -131,9 +131,11 @@ def test_a_frictionless_pair_beside_friction_is_corrected_point_by_point(monkeyp
 
 
 def test_a_pair_beside_a_frictionless_obstacle_keeps_its_points(monkeypatch):
-    """A frictionless wall's changes (no point rows) join the pair's point correction as the
-    eigenvectors of their change: the group is factorised once, the pair's points each
-    eliminated once, and the answers are the re-factorised ones."""
+    """A frictionless wall whose normals may turn (no point rows: taken as such here) has its
+    changes join the pair's point correction as the eigenvectors of their change: the group
+    is factorised once, the pair's points each eliminated once, and the answers are the
+    re-factorised ones."""
+    monkeypatch.setattr(Plane, "fixed_normals", property(lambda self: False))
     u_lu, changes_lu, _, _ = _mixed(False, monkeypatch, 0.0, -3 * PUSH)
     monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
     u, changes, work, surface = _mixed(True, monkeypatch, 0.0, -3 * PUSH)
@@ -152,3 +154,16 @@ def test_a_pair_beside_a_frictionless_obstacle_keeps_its_points(monkeypatch):
     assert {str(b) for dofs, _ in c.pieces for b in dofs} == {"w:contact"}
     wall = sum(U.shape[1] for _, U in c.pieces)
     assert c.V.shape[1] == differing and updates[-1].size == c.rank == differing + wall > differing
+
+
+def test_a_pair_beside_a_fixed_wall_corrects_both_point_by_point(monkeypatch):
+    """A plane's normals never turn, so its point rows go with its region: its changes and
+    the pair's are all point columns (no eigen-pieces), with the re-factorised answers."""
+    u_lu, changes_lu, _, _ = _mixed(False, monkeypatch, 0.0, -3 * PUSH)
+    monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
+    u, changes, work, surface = _mixed(True, monkeypatch, 0.0, -3 * PUSH)
+    assert changes == changes_lu and changes["contact"] >= 2 and changes["gamma"] >= 10
+    assert np.linalg.norm(u - u_lu) <= 1e-9 * np.linalg.norm(u_lu)
+    assert len([r for r in work.records if r.kind == "dense_factor"]) == 1
+    c = surface.correction
+    assert not c.pieces and c.V.shape[1] == c.rank == int(np.count_nonzero(surface.flags()[1]))
