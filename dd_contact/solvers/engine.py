@@ -214,7 +214,7 @@ class BlockEliminationSolver:
         old = self._contact.get(key, {})
         pieces = region.in_blocks(matrix, self.system.sizes)  # a pair's: four pieces
         for pair, piece in pieces.items():
-            if pair not in old or (old[pair] != piece).nnz:
+            if pair not in old or (old[pair] is not piece and (old[pair] != piece).nnz):
                 self._pending_contact.add(pair)
         self._contact[key] = pieces
         if self._stuck:
