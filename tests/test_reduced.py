@@ -100,7 +100,13 @@ def _static(parts, algorithm, reduce):
 
 @pytest.mark.parametrize(
     ("parts", "algorithm", "reduce"),
-    [(1, "w-u", [0]), (1, "w-u", [6]), (2, "w-v-u", [None, 4]), (2, "w-v-u", [3, 0])],
+    [
+        (1, "w-u", [0]),
+        (1, "w-u", [6]),
+        (2, "w-v-u", [None, 4]),
+        (2, "w-v-u", [3, 0]),
+        (2, "v-w-u", [3, 0]),
+    ],
 )
 def test_quasi_static_reduced_equals_unreduced(parts, algorithm, reduce):
     u, force, _ = _static(parts, algorithm, [None] * parts)
@@ -142,7 +148,7 @@ def test_expansion_waits_for_a_read():
 
 
 def test_reduced_subdomains_refuse_what_is_not_built():
-    with pytest.raises(NotImplementedError, match="w-u or w-v-u"):
+    with pytest.raises(NotImplementedError, match="w-u, w-v-u, v-w-u"):
         scene = _cantilever(nx=4)
         scene.subdomains[0].reduce(modes=2)
         dd.StaticProblem(scene, "FULL")
@@ -189,7 +195,7 @@ def _complete(scene):
     return [n - 1 for n in _interior(scene)]
 
 
-@pytest.mark.parametrize("algorithm", ["w-u", "w-v-u"])
+@pytest.mark.parametrize("algorithm", ["w-u", "w-v-u", "v-w-u"])
 def test_impact_in_reduced_coordinates_converges_to_the_unreduced_run(algorithm):
     """The classic trapezoidal contact (energy_safe_contact=False): the same equations."""
     force, _, u, _ = _impact(algorithm, None, safe=False)
@@ -204,7 +210,7 @@ def test_impact_in_reduced_coordinates_converges_to_the_unreduced_run(algorithm)
     # (the velocity is not compared: the one mode left out, the highest, rings in it)
 
 
-@pytest.mark.parametrize("algorithm", ["w-u", "w-v-u"])
+@pytest.mark.parametrize("algorithm", ["w-u", "w-v-u", "v-w-u"])
 def test_energy_safe_contact_of_reduced_subdomains(algorithm):
     """Energy never grows; a complete basis is the unreduced run but for its missing mode.
 
@@ -229,12 +235,13 @@ def test_generalized_alpha_in_reduced_coordinates():
 
 
 @pytest.mark.mpi
-def test_reduced_subdomains_on_every_rank_count():
-    """w-v-u with both pieces reduced: each rank owns one on two ranks; same answers."""
-    du, df = verify.reduced.static_difference(2, "w-v-u", [3, 0])
+@pytest.mark.parametrize("algorithm", ["w-v-u", "v-w-u"])
+def test_reduced_subdomains_on_every_rank_count(algorithm):
+    """Both pieces reduced: each rank owns one on two ranks; same answers."""
+    du, df = verify.reduced.static_difference(2, algorithm, [3, 0])
     assert du <= 1e-8 and df <= 1e-8
-    force, _, _, _ = _impact("w-v-u", None, steps=10)
-    f, e, _, _ = _impact("w-v-u", lambda s: [10] * len(s.subdomains), steps=10)
+    force, _, _, _ = _impact(algorithm, None, steps=10)
+    f, e, _, _ = _impact(algorithm, lambda s: [10] * len(s.subdomains), steps=10)
     assert 0 < np.abs(f - force).max() <= 0.5 * np.abs(force).max()
     assert e.max() <= e[0] * (1 + 1e-9)
 

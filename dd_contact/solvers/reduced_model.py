@@ -40,7 +40,7 @@ __all__ = [
 ]
 
 #: The orders that solve reduced subdomains (a small dense block through the subdomain seam).
-REDUCED_ORDERS = ("w-u", "w-v-u")
+REDUCED_ORDERS = ("w-u", "w-v-u", "v-w-u")
 
 #: Coupling entries below this fraction of the largest are round-off (:func:`tied_dofs`).
 COUPLING_FLOOR = 1e-12
@@ -228,14 +228,14 @@ def reduced_states(system) -> dict[Block, tuple[np.ndarray, np.ndarray, np.ndarr
 
 
 def refuse_reduced(subdomains: Sequence, algorithm: str) -> None:
-    """Reduced subdomains are solved by w-u and w-v-u (the others refuse them)."""
+    """Reduced subdomains are solved by w-u, w-v-u and v-w-u (FULL and v-u refuse them)."""
     reduced = [s.name for s in subdomains if s.reduction is not None]
     if not reduced:
         return
     if algorithm not in REDUCED_ORDERS:
         raise NotImplementedError(
             f"subdomain(s) {reduced} are reduced (Subdomain.reduce): algorithm {algorithm!r} "
-            f"does not solve reduced subdomains yet; use {' or '.join(REDUCED_ORDERS)}"
+            f"does not solve reduced subdomains yet; use {', '.join(REDUCED_ORDERS)}"
         )
 
 
