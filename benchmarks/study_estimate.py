@@ -19,6 +19,13 @@ The machine was shared (load average 12-17 during these runs, 4-7 during FULL's)
 At the paper's size: the reduced run by a power law in the cells through its runs at 1/16
 and 1/4, FULL as ``paper_scale.py`` extrapolates it, the peer linear in the cells.
 
+Branch study re-measured m = 20 at 1/4 with its cuts to the step and the change
+(``paper_scale_reduced20_study.json``); its m = 320 run at 1/4 was killed at 14.9 GiB
+(``paper_scale_reduced320.json``), so m = 320 keeps the estimate above with its step and
+change scaled by the m = 20 run's ratios (``m=320 (study)``). The estimate before it is
+kept in the JSON as ``before``; ``study_cpu_seconds_mean_steps`` counts every step at the
+run's mean step (the settles of the steps with changes in), not its quiet median.
+
 Writes benchmarks/results/paper_study_estimate.json.
 
 Run: python benchmarks/study_estimate.py
@@ -70,6 +77,23 @@ def run_of(name: str, key: str) -> dict | None:
     return json.loads(path.read_text())["runs"].get(key)
 
 
+def _scaled_by_study(measured: dict) -> None:
+    """m = 320 with its step and change scaled as the m = 20 run's were by branch study.
+
+    The m = 320 run at 1/4 did not finish (killed at 14.9 GiB, the machine shared); its
+    set-up is kept as estimated, its step and change taken down by the ratio the same
+    m = 20 run measured before and after (the work cut is per step, not per mode).
+    """
+    before, after = measured.get("m=20, 1/4"), measured.get("m=20 (study), 1/4")
+    if not (before and after):
+        return
+    ratio = {k: after[k] / before[k] for k in ("step", "change")} | {"setup": 1.0}
+    for size in ("1/4 (linear in m)", "paper (extrapolated)"):
+        if f"m=320, {size}" in measured:
+            m320 = measured[f"m=320, {size}"]
+            measured[f"m=320 (study), {size}"] = {k: m320[k] * ratio[k] for k in KEYS}
+
+
 def main() -> None:
     base = json.loads((HERE / "paper_scale.json").read_text())
     s = base["summary"]
@@ -105,6 +129,9 @@ def main() -> None:
             "paper_scale_reduced320.json",
             "parallelepiped|1/4|w-u reduced m=320|run",
         ),
+        ("m=20 (study)", "1/4"): run_of(  # branch study's code, the same run as m=20's
+            "paper_scale_reduced20_study.json", "parallelepiped|1/4|w-u reduced m=20|run"
+        ),
         ("m=20", "1/4"): run_of(
             "paper_scale_reduced.json", "parallelepiped|1/4|w-u reduced m=20|run"
         ),
@@ -139,6 +166,7 @@ def main() -> None:
             measured["m=320, paper (extrapolated)"] = {
                 k: paper[k] * grown[k] / high[k] for k in KEYS
             }
+    _scaled_by_study(measured)
     for label in [k for k in measured if k.startswith("CG+")]:
         peer = measured[label]
         measured[label.replace("1/4", "paper (linear in the cells)")] = {
