@@ -20,11 +20,12 @@ At the paper's size: the reduced run by a power law in the cells through its run
 and 1/4, FULL as ``paper_scale.py`` extrapolates it, the peer linear in the cells.
 
 Branch study re-measured m = 20 at 1/4 with its cuts to the step and the change
-(``paper_scale_reduced20_study.json``); its m = 320 run at 1/4 was killed at 14.9 GiB
-(``paper_scale_reduced320.json``), so m = 320 keeps the estimate above with its step and
-change scaled by the m = 20 run's ratios (``m=320 (study)``). The estimate before it is
-kept in the JSON as ``before``; ``study_cpu_seconds_mean_steps`` counts every step at the
-run's mean step (the settles of the steps with changes in), not its quiet median.
+(``paper_scale_reduced20_study.json``). The m = 320 run at 1/4 was measured directly on the
+merged tree of stop 38 (``paper_scale_reduced320.json``, load 2.4); at the paper's size it is
+carried with m = 160's exponents in the cells. The estimate before it is kept in the JSON
+as ``before``; ``study_cpu_seconds_mean_steps`` counts every step at the run's mean step
+(the settles of the steps with changes in, and the zone's first settle), not its quiet
+median.
 
 Writes benchmarks/results/paper_study_estimate.json.
 
