@@ -228,28 +228,13 @@ class PointwiseSurface(LowRankSurface):
                 changed[offset[n] : offset[n] + len(flags)] = flags != self.reference[n]
         return now, changed
 
-    def _pointwise(self) -> bool:
-        """Whether every contact change since the factorisation is known point by point."""
+    def _filled(self) -> tuple[set, set] | None:
+        """The block pairs the regions with point rows fill, and those the others fill.
+
+        ``None``: no such region, or one whose flags are not known against the reference.
+        """
         if not self.regions or any(
             self.active.get(n) is None or n not in self.reference for n in self.regions
-        ):
-            return False
-        pointed = {(a, b) for blocks in self.regions.values() for a in blocks for b in blocks}
-        others = {
-            (a, b)
-            for name, blocks in self.schedule.regions.items()
-            if name not in self.regions
-            for a in blocks
-            for b in blocks
-        }
-        return self.moved <= pointed and not self.moved & others
-
-    def _separable(self) -> set[tuple[Block, Block]] | None:
-        """The pairs the regions with point rows fill, if no other region fills them too."""
-        if (
-            self.lu
-            or not self.regions
-            or any(self.active.get(n) is None or n not in self.reference for n in self.regions)
         ):
             return None
         pointed = {(a, b) for blocks in self.regions.values() for a in blocks for b in blocks}
@@ -260,6 +245,20 @@ class PointwiseSurface(LowRankSurface):
             for a in blocks
             for b in blocks
         }
+        return pointed, others
+
+    def _pointwise(self) -> bool:
+        """Whether every contact change since the factorisation is known point by point."""
+        if (filled := self._filled()) is None:
+            return False
+        pointed, others = filled
+        return self.moved <= pointed and not self.moved & others
+
+    def _separable(self) -> set[tuple[Block, Block]] | None:
+        """The pairs the regions with point rows fill, if no other region fills them too."""
+        if self.lu or (filled := self._filled()) is None:
+            return None
+        pointed, others = filled
         return None if pointed & others else pointed
 
     def _update(self) -> bool:
