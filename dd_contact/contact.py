@@ -159,23 +159,13 @@ class ContactOperator:
     def update(self, t: float) -> None:
         """Evaluate gap and normals at time ``t`` (the obstacle may move)."""
         self.t = t
-        if self._at_rest() and getattr(self, "G", None) is not None:
+        if self.obstacle.at_rest and getattr(self, "G", None) is not None:
             return  # the same gap, normals and G at every time (rebuilt: 0.5 ms a step, 10 walls)
         self.gap, self.normal = self.obstacle.gap_normal(self.points.x, t)
         vals = self._g_shape * self.normal[self._g_rows, self._g_cols % 3]
         self.G = sp.csr_array(
             (vals, (self._g_rows, self._g_cols)), shape=(self.num_points, self.num_dofs)
         )
-
-    def _at_rest(self) -> bool:
-        """Whether the obstacle's gap and normals are the same at every time.
-
-        A built-in obstacle without a motion (its ``_gap_normal`` is the obstacle at rest);
-        a motion given later, or a ``gap_normal`` of its own (``UserObstacle``), is not.
-        """
-        obstacle = self.obstacle
-        own = type(obstacle).gap_normal is not Obstacle.gap_normal
-        return isinstance(obstacle, Obstacle) and not own and obstacle.motion is None
 
     def pattern(self) -> sp.csr_array:
         """Every entry the contact matrix can ever fill (all points active, any normal)."""

@@ -48,13 +48,22 @@ class Obstacle:
         self.motion = motion
 
     @property
+    def at_rest(self) -> bool:
+        """Whether gap and normals at given points are the same at every time.
+
+        A built-in obstacle without a motion (its :meth:`_gap_normal` is the obstacle at
+        rest); a motion given later, or a ``gap_normal`` of its own (``UserObstacle``), is not.
+        """
+        return self.motion is None and type(self).gap_normal is Obstacle.gap_normal
+
+    @property
     def fixed_normals(self) -> bool:
         """Whether the normals at given points never change with time.
 
         Then a contact state change is known point by point (the contact operator's point
-        rows stay the same).
+        rows stay the same). At rest at least.
         """
-        return self.motion is None
+        return self.at_rest
 
     def _offset(self, t: float) -> np.ndarray:
         if self.motion is None:
@@ -154,10 +163,6 @@ class UserObstacle(Obstacle):
     def __init__(self, gap: Callable, normal: Callable):
         super().__init__(None)
         self.gap, self.normal = gap, normal
-
-    @property
-    def fixed_normals(self) -> bool:  # noqa: D102 (the callables may turn it)
-        return False
 
     def gap_normal(self, x, t=0.0):  # noqa: D102
         x = np.asarray(x, dtype=float)
