@@ -10,7 +10,8 @@ periods), each case in its own process with every BLAS pinned to one thread:
 * ``grips:M``: w-v-u with only the two grips reduced (the hole blocks, mostly boundary,
   stay sparse);
 * ``cheaper:M``: w-v-u with every subdomain asked ``reduce(modes=M, if_cheaper=True)``: each
-  reduced only where its dense block is priced below its sparse factor.
+  reduced only where its dense block is priced below its sparse factor;
+* a reduced case followed by ``@ORDER`` (``cheaper:300@v-w-u``) runs in that order instead.
 
 Reported per case: set-up and step-loop wall and CPU seconds (the whole run is their sum),
 the peak resident memory (``ru_maxrss``), contact state changes, and the force history's
@@ -80,6 +81,15 @@ PARTS = {
 }
 
 
+def _case(case: str) -> tuple[str, str, int]:
+    """A case's algorithm, reduction kind ("" when unreduced) and modes."""
+    if ":" not in case:
+        return case, "", 0
+    which, rest = case.split(":")
+    modes, _, algorithm = rest.partition("@")
+    return algorithm or "w-v-u", which, int(modes)
+
+
 def _scene(cells: str, case: str):
     import dataclasses
 
@@ -91,11 +101,10 @@ def _scene(cells: str, case: str):
     counts = dict(zip(names, map(int, cells.split(",")), strict=True))
     layout = dataclasses.replace(models.pin_joint_layout("small"), **counts)
     scene = models.pin_joint(layout, period=PERIOD, comm=MPI.COMM_SELF)
-    if ":" in case:
-        which, modes = case.split(":")
-        for sub in scene.subdomains:
-            if which in ("reduced", "cheaper") or sub.name.endswith("grip"):
-                sub.reduce(modes=int(modes), if_cheaper=which == "cheaper")
+    _, which, modes = _case(case)
+    for sub in scene.subdomains if which else ():
+        if which in ("reduced", "cheaper") or sub.name.endswith("grip"):
+            sub.reduce(modes=modes, if_cheaper=which == "cheaper")
     return scene
 
 
@@ -105,7 +114,7 @@ def worker(args) -> dict:
     import dd_contact as dd
 
     case = args.worker
-    algorithm = case if ":" not in case else "w-v-u"
+    algorithm = _case(case)[0]
     start, cpu_start = time.perf_counter(), time.process_time()
     scene = _scene(args.cells, case)
     problem = dd.TransientProblem(
