@@ -142,6 +142,7 @@ class ContactOperator:
     #: Whether :meth:`matrix` may reuse its last normal part (False: a benchmark's "before").
     reuse: bool = True
     _active: np.ndarray  # the last matrix's active set (friction: what stuck() is for)
+    _nodal = False  # whether N is the identity (a pair's operator: never)
 
     def __init__(self, points: ContactPoints, obstacle: Obstacle, epsilon: float):
         self.points = points
@@ -154,6 +155,11 @@ class ContactOperator:
         self._g_rows = np.repeat(coo.row, 3)
         self._g_cols = (3 * coo.col[:, None] + np.arange(3)).ravel()
         self._g_shape = np.repeat(coo.data, 3)
+        #: Nodal points (N the identity): G w is each node's w . n, taken without a sparse
+        #: product (a step takes some 90 of them on the pin joint's ten walls).
+        N = points.N
+        square = N.shape[0] == N.shape[1] == N.nnz
+        self._nodal = bool(square and np.array_equal(coo.row, coo.col) and np.all(coo.data == 1))
         self.update(0.0)
 
     def update(self, t: float) -> None:
@@ -166,6 +172,25 @@ class ContactOperator:
         self.G = sp.csr_array(
             (vals, (self._g_rows, self._g_cols)), shape=(self.num_points, self.num_dofs)
         )
+        # what G w needs without G (nodal points, rows in node order), with the G it is of
+        self._normals_of = (self.G, np.ascontiguousarray(self.normal)) if self._nodal else None
+
+    def _transposed(self, name: str) -> sp.csc_array:
+        """``G.T`` or ``points.N.T``, made once per matrix (each ``.T`` builds a new one)."""
+        matrix = self.G if name == "G" else self.points.N
+        store: dict[str, tuple] = self.__dict__.setdefault("_transposes", {})
+        kept = store.get(name)
+        if kept is None or kept[0] is not matrix:
+            kept = store[name] = (matrix, matrix.T)
+        return kept[1]
+
+    def _times_g(self, w: np.ndarray) -> np.ndarray:
+        """``G @ w``; at nodal points summed in G's order (the same bits), without scipy."""
+        fast, w = getattr(self, "_normals_of", None), np.asarray(w)
+        if fast is None or fast[0] is not self.G or w.ndim != 1:  # a pair's G, say
+            return self.G @ w
+        n, v = fast[1], w.reshape(-1, 3)
+        return n[:, 0] * v[:, 0] + n[:, 1] * v[:, 1] + n[:, 2] * v[:, 2]
 
     def pattern(self) -> sp.csr_array:
         """Every entry the contact matrix can ever fill (all points active, any normal)."""
@@ -177,7 +202,7 @@ class ContactOperator:
 
     def penetration(self, w: np.ndarray) -> np.ndarray:
         """``w . n - s`` at the points (positive: the body is inside the obstacle)."""
-        return self.G @ w - self.gap
+        return self._times_g(w) - self.gap
 
     def active_set(self, w: np.ndarray) -> np.ndarray:
         """Points with positive penetration."""
@@ -197,12 +222,21 @@ class ContactOperator:
         A sparse product a solve saved on most steps of an impact (``reuse = False``:
         computed every time).
         """
-        key = (active.tobytes(), self.G.data.tobytes(), self.G.indices.tobytes(), self.epsilon)
+        key, G = (active.tobytes(), self.epsilon), self.G
         kept = getattr(self, "_kept", None)
-        if not (self.reuse and kept is not None and kept[0] == key):
+        if not (self.reuse and kept is not None and kept[0] == key and _same(kept[1], G)):
             scale = np.where(active, self.points.weight / self.epsilon, 0.0)
-            self._kept = kept = (key, sp.csr_array(self.G.T @ (scale[:, None] * self.G)))
-        return kept[1]
+            self._kept = kept = (key, G, sp.csr_array(G.T @ (scale[:, None] * G)))
+        return kept[2]
+
+    def _normal_rhs(self, active: np.ndarray) -> np.ndarray:
+        """The normal part of :meth:`rhs`, kept while the active set, G and the gap stay."""
+        key, G = (active.tobytes(), self.epsilon), self.G
+        kept = getattr(self, "_kept_rhs", None)
+        if not (kept is not None and kept[0] == key and kept[1] is G and kept[2] is self.gap):
+            scaled = np.where(active, self.points.weight * self.gap / self.epsilon, 0.0)
+            self._kept_rhs = kept = (key, G, self.gap, self._transposed("G") @ scaled)
+        return kept[3].copy()  # the caller's to change
 
     def stuck(self) -> sp.csr_array:
         """The last :meth:`matrix` with every active point sticking (friction).
@@ -222,7 +256,7 @@ class ContactOperator:
 
     def rhs(self, active: np.ndarray) -> np.ndarray:
         """p_C2 of (A9) for the active points (and friction's terms)."""
-        normal = self.G.T @ np.where(active, self.points.weight * self.gap / self.epsilon, 0.0)
+        normal = self._normal_rhs(active)
         return normal if self.friction is None else normal + self.friction.terms(active)[1]
 
     def region(
@@ -254,7 +288,9 @@ class ContactOperator:
 
     def nodal_pressure(self, w: np.ndarray) -> np.ndarray:
         """Pressure at the nodes: nodal contact force over lumped nodal area."""
-        force = self.points.N.T @ (self.points.weight * self.point_pressure(w))
+        force = self.points.weight * self.point_pressure(w)
+        if not self._nodal:  # N the identity: its product would give the same values
+            force = self._transposed("N") @ force
         return force / np.maximum(self.points.lumped, 1e-300)
 
     def force(self, w: np.ndarray) -> np.ndarray:
@@ -270,6 +306,13 @@ class ContactOperator:
         g = np.maximum(self.penetration(w), 0.0)
         normal = 0.5 * float(np.dot(self.points.weight, g * g)) / self.epsilon
         return normal if self.friction is None else normal + self.friction.energy(w)
+
+
+def _same(A: sp.csr_array, B: sp.csr_array) -> bool:
+    """Whether two G hold the same entries (a moving obstacle's are rebuilt at each time)."""
+    if A is B:
+        return True
+    return bool(np.array_equal(A.indices, B.indices) and np.array_equal(A.data, B.data))
 
 
 def contact_operator(contact, epsilon: float) -> ContactOperator:

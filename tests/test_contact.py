@@ -55,6 +55,37 @@ def test_an_obstacle_at_rest_is_evaluated_once_a_moving_one_every_time():
     np.testing.assert_allclose(op.gap, x[:, 2] - 0.05)
 
 
+def test_nodal_products_are_the_sparse_ones_bit_for_bit():
+    import scipy.sparse as sp
+
+    from dd_contact.contact import ContactOperator, ContactPoints
+
+    rng = np.random.default_rng(3)
+    x = rng.uniform(0.1, 1.0, (50, 3))
+    points = ContactPoints(
+        x, rng.uniform(0.5, 1.0, 50), sp.eye_array(50, format="csr"), np.ones(50)
+    )
+    sphere = dd.Sphere((0.0, 0.0, -1.0), 1.0, motion=lambda t: (0.0, 0.0, 0.1 * t))
+    op = ContactOperator(points, sphere, 1e-3)
+    active = rng.uniform(size=50) < 0.5
+    for t in (0.0, 0.3):  # moving: G rebuilt, the products follow it
+        op.update(t)
+        w = rng.standard_normal(150)
+        assert np.array_equal(op.penetration(w), op.G @ w - op.gap)  # the same bits
+        rhs = op.G.T @ np.where(active, op.points.weight * op.gap / op.epsilon, 0.0)
+        assert np.array_equal(op.rhs(active), rhs)
+        op.rhs(active)[:] = 1.0  # the caller's copy: the kept one stays
+        assert np.array_equal(op.rhs(active), rhs)
+        pressure = op.points.N.T @ (op.points.weight * op.point_pressure(w))
+        assert np.array_equal(op.nodal_pressure(w), pressure)
+        W = rng.standard_normal((150, 2))  # several at once: the sparse product
+        assert np.array_equal(op._times_g(W), op.G @ W)
+    kept = op.matrix(active)
+    assert op.matrix(active.copy()) is kept  # the same active set and G: kept
+    op.update(0.6)
+    assert op.matrix(active) is not kept  # G moved
+
+
 def test_user_obstacle_is_checked():
     ok = dd.UserObstacle(lambda x, t: x[:, 2], lambda x, t: np.tile([0, 0, -1.0], (len(x), 1)))
     assert np.allclose(ok.gap_normal(np.ones((2, 3)))[0], [1, 1])

@@ -137,6 +137,8 @@ class ResidualCheck:
         self.comm, self.probes = comm, probes
         self.sizes: dict[str, int] = {b: n for b, n in system.sizes.items()}
         self._z: dict[str, np.ndarray] = {}
+        self._zf: dict[str, np.ndarray] = {}  # probes on the free rows
+        self._zc: dict[tuple, tuple[list, np.ndarray]] = {}  # probes on contact dofs
         # Free rows: subdomain dofs without a tie or contact term (known on their owner).
         self._free = {
             b: f.astype(float)[:, None] for b, f in free_rows(system, contact_dofs).items()
@@ -164,6 +166,21 @@ class ResidualCheck:
             self._z[block] = rng.standard_normal((self.sizes[block], self.probes))
         return self._z[block]
 
+    def _free_probe(self, block: str) -> np.ndarray:
+        """The probes on ``block`` zero off its free rows (made once: not a copy per solve)."""
+        if block not in self._zf:
+            self._zf[block] = self.probe(block) * self._free[block]
+        return self._zf[block]
+
+    def _contact_probe(self, parts: Sequence[tuple[str, np.ndarray]]) -> np.ndarray:
+        """The probes on a contact matrix's dofs, in its numbering (kept for its dofs)."""
+        key = tuple((block, id(dofs)) for block, dofs in parts)
+        kept = self._zc.get(key)
+        if kept is None or any(a is not b for a, (_, b) in zip(kept[0], parts, strict=True)):
+            stacked = np.vstack([self.probe(block)[dofs] for block, dofs in parts])
+            kept = self._zc[key] = ([dofs for _, dofs in parts], stacked)
+        return kept[1]
+
     def estimate(
         self,
         rhs: Mapping[str, np.ndarray],
@@ -184,10 +201,9 @@ class ResidualCheck:
         zb, zr, zr_free = np.zeros(k), np.zeros(k), np.zeros(k)
         if finite:
             for block, vector in rhs.items():
-                z = self.probe(block)
-                zb += z.T @ vector
+                zb += self.probe(block).T @ vector
                 if block in self._free:
-                    zr_free += (z * self._free[block]).T @ vector
+                    zr_free += self._free_probe(block).T @ vector
             zr += zb
             for block, az in self._az.items():
                 zr -= az.T @ x[block]
@@ -195,7 +211,7 @@ class ResidualCheck:
                 zr_free -= az.T @ x[block]
             for parts, matrix in contact:  # free rows have no contact term
                 y = matrix @ np.concatenate([x[block][dofs] for block, dofs in parts])
-                zr -= np.vstack([self.probe(block)[dofs] for block, dofs in parts]).T @ y
+                zr -= self._contact_probe(parts).T @ y
         local = np.concatenate([zb, zr, zr_free, [0.0 if finite else 1.0]])
         sums = np.array(sum_over_ranks(self.comm, local))
         if sums[-1] > 0:
