@@ -504,9 +504,7 @@ class ContactIteration:
 
     def _solve_once(self, solver: ContactSolver, rhs: dict[str, np.ndarray], where: str):
         self._check_held(where)
-        # the contact terms are added in place: only their blocks are copied
-        zoned = {b for z in self.zones for b, _ in z.parts}
-        rhs = {name: v.copy() if name in zoned else v for name, v in rhs.items()}
+        rhs = dict(rhs)  # the contact terms make new vectors: the caller's stay as they are
         contact = []
         for z in self.zones:
             matrix, vector = z.contribution(active := self.active[z.contact.name])

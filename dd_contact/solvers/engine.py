@@ -176,6 +176,7 @@ class BlockEliminationSolver:
         self._contact: dict[str, dict[tuple[Block, Block], sp.csr_array]] = {}
         self._stuck_contact: dict[str, dict[tuple[Block, Block], sp.csr_array]] = {}
         self._pending_contact: set[tuple[Block, Block]] = set()  # changed since the last solve
+        self._given: dict[str, sp.csr_array] = {}  # the last matrix given per region
         #: The active flags of the regions with point rows, changed since the last solve.
         self._pointed = {r.name for r in contacts if _pointed(r)}
         self._active: dict[str, np.ndarray | None] = {}
@@ -200,7 +201,9 @@ class BlockEliminationSolver:
         """Replace the contact matrix of region ``key`` (surface dof numbering).
 
         ``active``: its points' flags, which a region with point rows sends to the surface
-        (``None``: unknown, and its changes are then corrected from the matrices).
+        (``None``: unknown, and its changes are then corrected from the matrices). The same
+        matrix object given again is taken as unchanged: a given matrix is never changed in
+        place (the contact operator keeps and gives back its last one).
         """
         region = self._regions[key]
         if key in self._pointed:
@@ -211,6 +214,9 @@ class BlockEliminationSolver:
         if region.block in self.subdomains:
             self.subdomains[region.block].matrix.set_contact(key, matrix)
             return
+        if not self._stuck and self._given.get(key) is matrix:
+            return  # the operator's kept matrix (its active set unchanged): the same pieces
+        self._given[key] = matrix
         old = self._contact.get(key, {})
         pieces = region.in_blocks(matrix, self.system.sizes)  # a pair's: four pieces
         for pair, piece in pieces.items():
@@ -255,7 +261,8 @@ class BlockEliminationSolver:
             if sub.changing:
                 sub.factorise()
                 changed["Z"][block], sub.Z = sub.Z, None  # the surface's from now on
-            reduced = sub.surface_rhs(rhs.get(block, np.zeros(self.system.sizes[block])))
+            b = rhs[block] if block in rhs else np.zeros(self.system.sizes[block])
+            reduced = sub.surface_rhs(b)
             start = 0
             for s, J in sub.layout:
                 g[self._where[s]][J] += reduced[start : start + len(J)]
