@@ -55,7 +55,6 @@ from contextlib import contextmanager
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import spsolve
 
 from dd_contact.assembly import ContactZone
 from dd_contact.blocks import Block, BlockKeyed, BlockSystem, split_by_blocks
@@ -434,11 +433,9 @@ class StartForces:
         blocks = [w for w, _ in z.parts]
         with _operator_at(z, self.time):
             matrix, vector = z.contribution(active[z.contact.name])
-        A = sp.block_array([[self.system.block(a, b) for b in blocks] for a in blocks])
-        A = sp.csc_array(A + matrix)  # the zone's dofs are its blocks', in order
         rest = {k: v for k, v in self.x.items() if k not in blocks}
         b = np.concatenate([-self.system.row_product(w, rest) for w in blocks])
-        return spsolve(A, b + vector - forces)
+        return self.settles.surface_solve(self.system, z, matrix, b + vector - forces)
 
 
 @contextmanager

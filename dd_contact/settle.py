@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
-from scipy.sparse.linalg import spsolve
+from scipy.sparse.linalg import SuperLU, splu, spsolve
 
 from dd_contact.assembly import ContactZone
 from dd_contact.blocks import Block, BlockSystem, split_by_blocks
@@ -165,7 +165,7 @@ class Points:
 
     def same(self, F: sp.csr_array) -> bool:
         """Whether ``F`` is the one this was made for."""
-        return (
+        return F is self.F or (
             F.shape == self.F.shape
             and np.array_equal(F.indptr, self.F.indptr)
             and np.array_equal(F.indices, self.F.indices)
@@ -203,6 +203,7 @@ class Kept:
             product of the reduced block's size.
         points: The contact's point rows through the others' fixed part (:class:`Points`),
             when the contact has them.
+        point_rows: The operator's G they were made from, and F on the others' unknowns.
     """
 
     key: tuple
@@ -212,6 +213,7 @@ class Kept:
     moves: dict[Block, Moves] = field(default_factory=dict)
     projected: dict[Block, tuple[np.ndarray, np.ndarray | None]] = field(default_factory=dict)
     points: Points | None = None
+    point_rows: tuple[sp.csr_array, sp.csr_array] | None = None  # (the operator's G, F)
     _factor: np.ndarray | None = None  # Cholesky factor of the held block
     _coupling: sp.csr_array | None = None  # rows (others) x held
     _schur: np.ndarray | None = None  # the others' fixed part less its coupling's
@@ -394,6 +396,25 @@ class Settles:
     """
 
     kept: dict[str, Kept] = field(default_factory=dict)
+    #: Per zone, its surface blocks' matrix with the last contact part, factorised (SuperLU)
+    surfaces: dict[str, tuple[tuple, SuperLU]] = field(default_factory=dict)
+
+    def surface_solve(
+        self, system: BlockSystem, z: ContactZone, contact: sp.csr_array, rhs: np.ndarray
+    ) -> np.ndarray:
+        """``(A_ww + C)^-1 rhs`` on the zone's surface blocks (``w``, a pair's two).
+
+        The factorisation is kept while the contact matrix C stays the same: a step's
+        corrections ask again with the same points in contact at both ends.
+        """
+        C = sp.csr_array(contact)
+        key = (C.shape, C.indptr.tobytes(), C.indices.tobytes(), C.data.tobytes())
+        last = self.surfaces.get(z.contact.name)
+        if last is None or last[0] != key:
+            blocks = [w for w, _ in z.parts]
+            A = sp.block_array([[system.block(a, b) for b in blocks] for a in blocks])
+            last = self.surfaces[z.contact.name] = (key, splu(sp.csc_array(A + C)))
+        return last[1].solve(rhs)
 
     def of(self, system: BlockSystem, z: ContactZone, rows: Rows, inertia) -> Kept:
         """The zone's :class:`Kept` for these rows (made again when the rows or slopes change)."""
@@ -457,6 +478,8 @@ def _point_rows(z: ContactZone, kept: Kept, index: dict, sizes) -> sp.csr_array 
     obstacle = getattr(op, "obstacle", None)
     if getattr(op, "friction", None) is not None or not getattr(obstacle, "fixed_normals", False):
         return None
+    if kept.point_rows is not None and kept.point_rows[0] is op.G:  # at rest: the same G
+        return kept.point_rows[1]
     F = sp.csr_array(op.point_rows(z.free))
     starts = np.cumsum([0] + [len(dofs) for _, dofs in z.parts])
     segments = {b: (s, dofs) for (b, dofs), s in zip(z.parts, starts, strict=False)}
@@ -471,7 +494,8 @@ def _point_rows(z: ContactZone, kept: Kept, index: dict, sizes) -> sp.csr_array 
         )
         Fb = sp.csr_array(F[:, start : start + len(dofs)] @ to_block)
         pieces.append(sp.csr_array(kept.moves[b].times(Fb)) if b in kept.moves else Fb[:, index[b]])
-    return sp.csr_array(sp.hstack(pieces))
+    kept.point_rows = (op.G, sp.csr_array(sp.hstack(pieces)))
+    return kept.point_rows[1]
 
 
 def in_equilibrium(
