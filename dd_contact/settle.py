@@ -31,6 +31,7 @@ from dd_contact.assembly import ContactZone
 from dd_contact.blocks import Block, BlockSystem, split_by_blocks
 
 __all__ = [
+    "DENSE_FILL",
     "REFINED",
     "REFINEMENTS",
     "Kept",
@@ -49,6 +50,8 @@ type Matrix = np.ndarray | sp.csr_array
 REFINED = 1e-8
 #: ... at most this many times: removing a stiff point's penalty may cancel digits.
 REFINEMENTS = 1
+#: A sparse matrix filled above this fraction is multiplied by P as a dense one.
+DENSE_FILL = 0.2
 
 
 def massless_dofs(z: ContactZone, free: Callable[[Block], np.ndarray]) -> Rows:
@@ -109,6 +112,8 @@ class Moves:
 
     def times(self, A) -> np.ndarray:
         """``A P`` (A: anything x coordinates, sparse or dense), dense."""
+        if sp.issparse(A) and A.nnz > DENSE_FILL * A.shape[0] * A.shape[1]:
+            A = A.toarray()  # a reduced block: its columns sliced once, not per sparse copy
         out = np.zeros((A.shape[0], self.shape[1]))
         out[:, self.unit_cols] = _columns(A, self.unit_rows)
         if len(self.dense_rows):
