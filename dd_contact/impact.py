@@ -55,11 +55,10 @@ from contextlib import contextmanager
 
 import numpy as np
 import scipy.sparse as sp
-from scipy.sparse.linalg import spsolve
 
 from dd_contact.assembly import ContactZone
 from dd_contact.blocks import Block, BlockKeyed, BlockSystem, split_by_blocks
-from dd_contact.settle import in_equilibrium
+from dd_contact.settle import Settles, in_equilibrium
 
 __all__ = [
     "GEOMETRIC_STEPS",
@@ -146,6 +145,8 @@ class StartForces:
             and their penetrations are kept: the contact iteration moves it to ``t_n+1``.
         inertia: Reduced blocks' ``(M, dv/dq, v(q))``: their walls' moves carry mass
             (:func:`dd_contact.solvers.reduced_model.wall_inertia`).
+        settles: What the zones' settles keep from step to step (the problem's; by default
+            this step's own: each settle's fixed part is then made again).
     """
 
     def __init__(
@@ -163,8 +164,10 @@ class StartForces:
         end_offset: Callable[[], Mapping[Block, np.ndarray]] | None = None,
         time: float | None = None,
         inertia: Mapping[Block, tuple] | None = None,
+        settles: Settles | None = None,
     ):
         self.system, self.zones, self.x, self.free = system, zones, x, free
+        self.settles = settles if settles is not None else Settles()
         self._inertia = inertia or {}
         self.time = time
         #: Each contact's penetration and G at ``t_n``: every start force and theta reads
@@ -344,7 +347,7 @@ class StartForces:
                 self._solved_end[name] = z.gather(out)  # the step's own end, for the work
                 state = in_equilibrium(
                     self.system, z, out, active[name], self._end_loads, offset, self.free,
-                    self._inertia,
+                    self._inertia, self.settles,
                 )  # fmt: skip
                 out.update(state)
                 self.settled_blocks += list(state)
@@ -430,11 +433,9 @@ class StartForces:
         blocks = [w for w, _ in z.parts]
         with _operator_at(z, self.time):
             matrix, vector = z.contribution(active[z.contact.name])
-        A = sp.block_array([[self.system.block(a, b) for b in blocks] for a in blocks])
-        A = sp.csc_array(A + matrix)  # the zone's dofs are its blocks', in order
         rest = {k: v for k, v in self.x.items() if k not in blocks}
         b = np.concatenate([-self.system.row_product(w, rest) for w in blocks])
-        return spsolve(A, b + vector - forces)
+        return self.settles.surface_solve(self.system, z, matrix, b + vector - forces)
 
 
 @contextmanager

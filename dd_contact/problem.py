@@ -25,7 +25,7 @@ from dd_contact.analysis import Analysis
 from dd_contact.arguments import positive_int
 from dd_contact.checkpointing import RunState
 from dd_contact.errors import InputError
-from dd_contact.impact import BlockProducts, StartForces
+from dd_contact.impact import BlockProducts, Settles, StartForces
 from dd_contact.io import RunOutput
 from dd_contact.iteration import ContactSettings
 from dd_contact.kinematics import Kinematics
@@ -254,6 +254,7 @@ class TransientProblem(AnalysisReadout):
         #: keeps a copy of x: without the energy there is nothing to share)
         owned = [sub.block for sub in self.analysis.owned]
         self._products = BlockProducts(self.model.system, owned) if track_energy else None
+        self._settles = Settles()  # the release settles' fixed parts, from step to step
         self.dt, self.t0 = dt, t0
         self.t, self.step = t0, 0
         self.history: list[dict] = []
@@ -375,6 +376,7 @@ class TransientProblem(AnalysisReadout):
             end_offset=lambda: self.tie_solver.rhs_offset,
             time=self.t,
             inertia=wall_inertia(self.model, self.analysis.reduced, owned, self.kinematics, scheme),
+            settles=self._settles,
         )
         for sub in owned:
             block = sub.block

@@ -9,6 +9,7 @@ the answer of solving its whole matrix.
 import warnings
 
 import numpy as np
+import scipy.sparse as sp
 
 import dd_contact as dc
 from dd_contact import impact, settle
@@ -65,20 +66,56 @@ def test_a_reduced_reaction_summed_per_component_is_the_rows_sum():
 def test_a_settle_eliminates_its_dense_wall_once_with_the_whole_matrixs_answer(monkeypatch):
     built, gaps = [], []
     eliminate, solve = settle.Kept.eliminate, settle.in_equilibrium
-    monkeypatch.setattr(settle.Kept, "eliminate", lambda s, o: built.append(1) or eliminate(s, o))
+    monkeypatch.setattr(settle.Kept, "eliminate", lambda s: built.append(1) or eliminate(s))
 
     def checked(system, z, x, *args):
         out = solve(system, z, x, *args)
-        kept, z.settle_kept = z.settle_kept, None
-        with monkeypatch.context() as m:  # the whole matrix, solved sparse
+        with monkeypatch.context() as m:  # the whole matrix, solved sparse, made anew
             m.setattr(settle, "_held", lambda rows, moves, contact: [])
-            whole = solve(system, z, x, *args)
-        z.settle_kept = kept
+            whole = solve(system, z, x, *args[:-1], settle.Settles())
         gaps.append(max(np.abs(out[b] - whole[b]).max() / np.abs(whole[b]).max() for b in out))
         return out
 
     monkeypatch.setattr(impact, "in_equilibrium", checked)
     with _bar() as problem:
         _steps(problem, 30)
+        (kept,) = problem._settles.kept.values()
     assert len(gaps) >= 2 and len(built) == 1  # one zone: eliminated at its first settle
+    assert kept.points is not None  # a plane wall: its point rows corrected, not factorised
     assert max(gaps) <= 1e-10
+
+
+def test_a_walls_moves_multiply_as_its_whole_directions():
+    rng = np.random.default_rng(3)
+    P = np.zeros((12, 4))
+    P[[1, 4, 6, 9], [2, 0, 3, 1]] = 1.0  # the wall's own coordinates: unit rows
+    P[10:] = rng.standard_normal((2, 4))  # the modes' rows: dense
+    moves = settle.Moves(P)
+    assert (len(moves.unit_rows), len(moves.dense_rows)) == (4, 2)
+    A = sp.random_array((12, 12), density=0.4, random_state=rng, format="csr")
+    d, r = rng.standard_normal(4), rng.standard_normal(12)
+    dense = A.toarray()
+    for got, exact in [
+        (moves.times(A), dense @ P),
+        (moves.transposed_times(A), P.T @ dense),
+        (moves.move(d), P @ d),
+        (moves.project(r), P.T @ r),
+    ]:
+        assert np.abs(got - exact).max() <= 1e-14 * np.abs(exact).max()
+
+
+def test_a_settles_woodbury_correction_is_the_direct_solve():
+    rng = np.random.default_rng(5)
+    n, p = 30, 12
+    B = rng.standard_normal((n, n))
+    S = B @ B.T + n * np.eye(n)
+    F = sp.csr_array(1e3 * sp.random_array((p, n), density=0.2, random_state=rng))
+    L = np.linalg.cholesky(S)
+    Y = np.linalg.solve(S, F.T.toarray())
+    points = settle.Points(F, Y, F @ Y)
+    r = rng.standard_normal(n)
+    for active in (np.zeros(p, bool), rng.random(p) < 0.5, np.ones(p, bool)):
+        Fa = F[active].toarray()
+        exact = np.linalg.solve(S + Fa.T @ Fa, r)
+        got = points.solve(L, active, r)
+        assert np.abs(got - exact).max() <= 1e-10 * np.abs(exact).max()
