@@ -101,6 +101,7 @@ def worker(args) -> dict:
         "cpu_seconds": round(sum(r["cpu_seconds"] for r in phases.records), 2),
         "reduction_solves_seconds": by_what,
         "modes_solves": modes_solves,
+        "omega2": {b: problem.model.reduced[b].omega2.tolist() for b in problem.model.reduced},
         "eigensolver": args.eigensolver,
     }
     problem.close()
