@@ -178,7 +178,8 @@ class Subdomain:
                 (the pin joint's hole blocks) gains nothing.
             eigensolver: How the modes are found: ``"block"`` (a block Lanczos whose every
                 solve takes many columns at once) or ``"slepc"`` (SLEPc's Krylov-Schur, one
-                column per solve): the same modes, the first several times faster.
+                column per solve): the same modes, the first 2.5-2.8 times faster at 86k
+                interior dofs (docs/solvers.md, "Reduced subdomains").
 
         Returns:
             The subdomain, so calls can be chained.
