@@ -5,10 +5,12 @@ Builds the parallelepiped of ``paper_scale.py`` at ``--scale`` (``1/16``: about 
 ``--steps`` steps with w-u, and records per phase the wall and CPU seconds and the peak
 resident memory (``VmHWM``, reset at each phase's start; ``setup_memory.Phases``). The
 phases end where the reduction's calls return (wrapped here, unchanged): the interior's
-pieces and factor, the fixed-interface modes (SLEPc), the load modes, ``A_r``/``M_r`` (the
+pieces and factor, the fixed-interface modes, the load modes, ``A_r``/``M_r`` (the
 constraint modes), the rest of the model's reduction, the solver, the steps. Also recorded:
-the seconds the reduction's solves took by what they were for (the work log). ``--modes``
-``none`` runs the unreduced w-u, whose peak is the target.
+the seconds the reduction's solves took by what they were for (the work log), and how
+many columns the modes' solves took in how many solves. ``--modes`` ``none`` runs the
+unreduced w-u, whose peak is the target. ``--eigensolvers`` runs each case with each of
+``Subdomain.reduce``'s eigensolvers (``block``, ``slepc``), interleaved.
 
 ``--trees`` runs each case once per source tree (``PYTHONPATH``), the trees interleaved and
 the whole ``--repeats`` times: e.g. a checkout of main against this branch. Writes
@@ -16,7 +18,7 @@ the whole ``--repeats`` times: e.g. a checkout of main against this branch. Writ
 after every run.
 
 Run: python benchmarks/reduction_setup.py --scale 1/16 --modes 320 --trees before=/tmp/main
-     after=. [--repeats 2] [--label 1over16]
+     after=. [--repeats 2] [--label 1over16] [--eigensolvers block slepc]
 """
 
 from __future__ import annotations
@@ -65,7 +67,7 @@ def worker(args) -> dict:
     phases = CpuPhases(release_freed_memory)
     basis = reduced.ReducedBasis
     wrap_before(basis, "_modes", phases, "assembly, pieces, interior factor")
-    wrap_after(basis, "_modes", phases, "fixed-interface modes (SLEPc)")
+    wrap_after(basis, "_modes", phases, f"fixed-interface modes ({args.eigensolver})")
     wrap_before(basis, "_reduced", phases, "load modes")
     wrap_after(basis, "_reduced", phases, "A_r, M_r (constraint modes)")
     wrap_after(analysis, "reduce_model", phases, "rest of the reduction")
@@ -73,7 +75,7 @@ def worker(args) -> dict:
     elements = paper_scale._bar_scale(args.scale)
     scene = examples.parallelepiped("w-u", elements, comm=MPI.COMM_SELF)
     for sub in scene.subdomains if modes is not None else ():
-        sub.reduce(modes=modes)
+        sub.reduce(modes=modes, **({"eigensolver": args.eigensolver} if args.eigensolver else {}))
     phases.close("scene")
     problem = dc.TransientProblem(scene, args.dt, algorithm="w-u", track_energy=False)
     phases.close("solver")
@@ -81,10 +83,14 @@ def worker(args) -> dict:
         problem.advance()
     phases.close(f"{args.steps} steps")
     by_what: dict[str, float] = {}
+    modes_solves = {"solves": 0, "columns": 0}
     for r in problem.work.records:
         if r.block.endswith("(interior)"):
             key = f"{r.kind} {r.what}".strip()
             by_what[key] = round(by_what.get(key, 0.0) + r.seconds, 2)
+            if r.what == "modes":  # SLEPc's one record: its single-column solves
+                modes_solves["solves"] += r.nrhs if args.eigensolver == "slepc" else 1
+                modes_solves["columns"] += r.nrhs
     out = {
         "modes": modes,
         "elements": list(elements),
@@ -94,6 +100,9 @@ def worker(args) -> dict:
         "peak_mb": max(r["peak_mb"] for r in phases.records),
         "cpu_seconds": round(sum(r["cpu_seconds"] for r in phases.records), 2),
         "reduction_solves_seconds": by_what,
+        "modes_solves": modes_solves,
+        "omega2": {b: problem.model.reduced[b].omega2.tolist() for b in problem.model.reduced},
+        "eigensolver": args.eigensolver,
     }
     problem.close()
     return out
@@ -103,6 +112,7 @@ def run(args, tree: str) -> dict:
     """One case in a fresh process on source tree ``tree``, BLAS pinned."""
     command = [sys.executable, __file__, "--worker", "--scale", args.scale]
     command += ["--modes", args.modes, "--steps", str(args.steps), "--dt", str(args.dt)]
+    command += ["--eigensolver", args.eigensolver] if args.eigensolver else []
     here = str(Path(__file__).parent)
     env = {**os.environ, **PINNED, "PYTHONPATH": os.pathsep.join([str(Path(tree)), here])}
     with open(args.out.with_suffix(".log"), "a") as log:  # each phase as it ends
@@ -122,6 +132,8 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=1)
     parser.add_argument("--label", default="", help="prefix of the runs' keys")
     parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--eigensolvers", nargs="+", default=[""], help="block slepc")
+    parser.add_argument("--eigensolver", default="", help=argparse.SUPPRESS)
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
@@ -129,12 +141,15 @@ def main() -> None:
         return
     results = json.loads(args.out.read_text()) if args.out.exists() else {}
     trees = dict(t.split("=", 1) for t in args.trees)
+    cases = [(name, tree, e) for name, tree in trees.items() for e in args.eigensolvers]
     for _ in range(args.repeats):
-        for name, tree in trees.items():  # interleaved: each tree once per round
+        for name, tree, eigensolver in cases:  # interleaved: each case once per round
+            args.eigensolver = eigensolver
             load = os.getloadavg()[0]
             record = {**run(args, tree), "load_average": round(load, 2)}
             key = f"{args.label}|{args.scale}|m={args.modes}|{name}"
-            results.setdefault(key, []).append(record)
+            key += f"|{eigensolver}" if eigensolver else ""
+            results.setdefault("runs", {}).setdefault(key, []).append(record)
             print(key, json.dumps({k: record[k] for k in ("cpu_seconds", "peak_mb")}))
             args.out.write_text(json.dumps(results, indent=1) + "\n")
 

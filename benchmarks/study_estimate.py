@@ -31,6 +31,13 @@ Branch settle cut the release steps' settles (``benchmarks/settle_cost.py``); ``
 (settle, estimated)`` is the direct run with those steps' settles scaled by the
 ratios measured at 1/16 (:func:`_settled`): the mean-step variant is the one it changes.
 
+``m=320 (block eigensolver)``: the same run with its set-up measured again with the block
+eigensolver (``benchmarks/reduction_setup.py`` at 1/4, the phases up to the solver,
+``reduction_setup_eigen_1-4.json``; the steps and changes do not depend on how the modes were
+found), carried to the paper's size as m = 320 is. Without that run, ``m=320 (block
+eigensolver, scaled)``: the set-up with its modes' phase cut by the ratio the two
+eigensolvers measured at 1/16 (``reduction_setup_eigen.json``, :func:`block_setup_scaled`).
+
 Writes benchmarks/results/paper_study_estimate.json.
 
 Run: python benchmarks/study_estimate.py
@@ -83,6 +90,59 @@ def run_of(name: str, key: str) -> dict | None:
     if not path.exists():
         return None
     return json.loads(path.read_text())["runs"].get(key)
+
+
+def _build(record: dict) -> float:
+    """A ``reduction_setup.py`` run's build: its phases' CPU seconds up to the steps."""
+    return sum(p["cpu_seconds"] for p in record["phases"] if "steps" not in p["phase"])
+
+
+def _modes_phase(record: dict) -> float:
+    return next(p["cpu_seconds"] for p in record["phases"] if "modes (" in p["phase"])
+
+
+def block_setup_scaled(direct: dict | None) -> dict | None:
+    """The m = 320 run at 1/4, its modes' phase cut as the block eigensolver cut it at 1/16.
+
+    The modes' phase is taken to be the same share of the build at 1/4 as at 1/16 (75 % at
+    1/16 with SLEPc, as estimated at 1/4 from its solves), and cut by the ratio measured at
+    1/16 (medians of the interleaved runs, ``reduction_setup_eigen.json``).
+    """
+    path = HERE / "reduction_setup_eigen.json"
+    if direct is None or not path.exists():
+        return None
+    runs = json.loads(path.read_text())["runs"]
+    slepc, block = (
+        runs.get("blockeig|1/16|m=320|after|slepc"),
+        runs.get("blockeig|1/16|m=320|after|block"),
+    )
+    if not (slepc and block):
+        return None
+    share = statistics.median(_modes_phase(r) / _build(r) for r in slepc)
+    ratio = statistics.median(map(_modes_phase, block)) / statistics.median(
+        map(_modes_phase, slepc)
+    )
+    cut = direct["build_cpu_seconds"] * share * (1.0 - ratio)
+    return {**direct, "setup": direct["setup"] - cut, "modes_share": share, "modes_ratio": ratio}
+
+
+def block_setup(direct: dict | None) -> dict | None:
+    """The m = 320 run at 1/4 with its set-up measured with the block eigensolver."""
+    path = HERE / "reduction_setup_eigen_1-4.json"
+    if direct is None or not path.exists():
+        return None
+    runs = [r for k, v in json.loads(path.read_text())["runs"].items() for r in v if "1/4" in k]
+    if not runs:
+        return None
+    build = [_build(r) for r in runs]
+    first = direct["setup"] - direct["build_cpu_seconds"]  # the first step's solve, as rates()
+    peak = max(r["peak_mb"] for r in runs) * 1e6 / 2**30  # VmHWM's kB as MB
+    return {
+        **direct,
+        "setup": statistics.median(build) + first,
+        "setup_slepc": direct["setup"],
+        "peak_rss_gib": max(direct["peak_rss_gib"], peak),
+    }
 
 
 def _scaled_by_study(measured: dict) -> None:
@@ -190,6 +250,14 @@ def main() -> None:
         ("CG+Jacobi", "1/4"): run_of("paper_scale_jacobi.json", "parallelepiped|1/4|CG+Jacobi|run"),
     }
     measured = {f"{a}, {b}": rates(r) for (a, b), r in runs.items() if r and "steps" in r}
+    if "m=320, 1/4" in measured:
+        measured["m=320, 1/4"]["build_cpu_seconds"] = runs[("m=320", "1/4")]["build_cpu_seconds"]
+    block = block_setup(measured.get("m=320, 1/4"))
+    if block is not None:
+        measured["m=320 (block eigensolver), 1/4"] = block
+    scaled = block_setup_scaled(measured.get("m=320, 1/4"))
+    if scaled is not None:
+        measured["m=320 (block eigensolver, scaled), 1/4"] = scaled
     out: dict = {"full": full, "measured": measured, "study_seconds": {}, "verdict": {}}
     small, quarter = measured.get("m=160, 1/16"), measured.get("m=160, 1/4")
     if small and quarter:  # a power law in the cells through 1/16 and 1/4
@@ -200,13 +268,15 @@ def main() -> None:
             paper[f"exponent_{k}"] = float(slope)
         measured["m=160, paper (extrapolated)"] = paper
     low, high = measured.get("m=20, 1/4"), measured.get("m=160, 1/4")
-    direct = measured.get("m=320, 1/4")
-    if direct and "m=160, paper (extrapolated)" in measured:  # m = 160's exponents in the cells
-        paper = measured["m=160, paper (extrapolated)"]
-        measured["m=320, paper (extrapolated)"] = {
-            k: direct[k] * (CELLS["paper"] / CELLS["1/4"]) ** paper[f"exponent_{k}"] for k in KEYS
-        }
-    elif low and high:  # m = 320 (the force history within 1 % at 21k and 87k dofs): linear in m
+    for m320 in ("m=320", "m=320 (block eigensolver)", "m=320 (block eigensolver, scaled)"):
+        direct = measured.get(f"{m320}, 1/4")
+        if direct and "m=160, paper (extrapolated)" in measured:  # m = 160's exponents
+            paper = measured["m=160, paper (extrapolated)"]
+            measured[f"{m320}, paper (extrapolated)"] = {
+                k: direct[k] * (CELLS["paper"] / CELLS["1/4"]) ** paper[f"exponent_{k}"]
+                for k in KEYS
+            }
+    if not measured.get("m=320, 1/4") and low and high:  # m = 320 linear in m
         grown = {k: high[k] + (high[k] - low[k]) * (320 - 160) / (160 - 20) for k in KEYS}
         measured["m=320, 1/4 (linear in m)"] = grown
         if "m=160, paper (extrapolated)" in measured:

@@ -5,8 +5,9 @@ act on (the boundary dofs b); call the other free dofs i. With A its stiffness (
 included: they act on b only) and M its mass, the subdomain is represented by
 
 * constraint modes ``Psi = [I; -A_ii^-1 A_ib]``, the static response to each boundary dof;
-* m fixed-interface modes ``A_ii phi = omega^2 M_ii phi``, the lowest (SLEPc, shift-invert
-  with the subdomain's own MUMPS factor of ``A_ii``);
+* m fixed-interface modes ``A_ii phi = omega^2 M_ii phi``, the lowest (a block Lanczos on
+  ``A_ii^-1 M_ii``, :mod:`~dd_contact.solvers.eigen`, or SLEPc's shift-invert, both with
+  the subdomain's own MUMPS factor of ``A_ii``);
 * a load mode ``A_ii^-1 p_i`` per load pattern p (so that quasi-static response is exact),
 
 ``T = [Psi, [0; G]]`` with G the modes and load modes M-orthonormalised, and becomes
@@ -19,7 +20,6 @@ full field is ``u_i = -A_ii^-1 A_ib u_b + G g``: one substitution, taken only wh
 
 from __future__ import annotations
 
-import tempfile
 import time
 from collections.abc import Sequence
 
@@ -31,7 +31,13 @@ import scipy.linalg
 import scipy.sparse as sp
 
 from dd_contact.blocks import Block, BlockSystem
-from dd_contact.errors import InputError, SingularMatrixError
+from dd_contact.errors import InputError
+from dd_contact.solvers.eigen import (
+    MODES_BLOCK,
+    MODES_WORKSPACE,
+    fixed_interface_modes,
+    lowest_modes,
+)
 from dd_contact.solvers.linalg import (
     DenseCholesky,
     PatternedMatrix,
@@ -52,14 +58,6 @@ REDUCTION_CHUNK = 64
 #: ... at most so many bytes in each, but 16 columns at least (a solve for fewer costs
 #: nearly as much: the factor is read once per solve): 21 at 48k dofs, 16 from 65k.
 CHUNK_BYTES = 8 * 2**20
-
-#: SLEPc's workspace is count + this many vectors of the interior (its default, twice the
-#: count, held 640 vectors for 320 modes) ...
-MODES_WORKSPACE = 64
-
-#: ... and its largest projected problem (None: the whole workspace). 320 modes at 15k
-#: dofs: 1,545 solves with 64 (as before), 1,011 with 128, 800 with None, 41 % less CPU.
-MODES_PROJECTED: int | None = None
 
 #: An interior of at most this many dofs is kept whole (every fixed-interface mode, by a
 #: dense eigensolve) when as many modes as its dofs or more are asked (SLEPc gives one less): a
@@ -122,83 +120,6 @@ def _solve(factor: SparseCholesky, B: np.ndarray, what: str) -> np.ndarray:
         factor.block, "sparse_solve", B.shape[0], B.shape[1], seconds, flops, what, factor.entries
     )
     return X
-
-
-class _FactorSolve:
-    """A shell preconditioner applying a sparse factor's solve (SLEPc's shift-invert)."""
-
-    def __init__(self, factor: SparseCholesky):
-        self.factor, self.solves = factor, 0
-
-    def apply(self, pc, x: PETSc.Vec, y: PETSc.Vec) -> None:
-        """Y = A^-1 x."""
-        self.factor.ksp.solve(x, y)
-        self.solves += 1
-
-
-def fixed_interface_modes(
-    factor: SparseCholesky, M: PETSc.Mat, count: int, tolerance: float, name: str, extra: int = 0
-) -> tuple[np.ndarray, np.ndarray]:
-    """The ``count`` lowest eigenpairs of ``A phi = omega^2 M phi`` (SLEPc, shift-invert at 0).
-
-    The spectral transform's solves are ``factor``'s: SLEPc's operator at shift 0 is A
-    itself, and its KSP applies the factor through a shell preconditioner (SLEPc resets a
-    KSP it is given; this one keeps ``factor`` whole), so nothing is factorised again.
-    Returns ``omega^2`` ascending and the modes, M-orthonormal, as the first ``count``
-    columns of an array with ``extra`` more (left for the load modes: no copy of the modes).
-    """
-    from slepc4py import SLEPc  # the reduction's only user of SLEPc
-
-    eps = SLEPc.EPS().create(MPI.COMM_SELF)
-    try:
-        eps.setOperators(factor.A, M)
-        eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
-        n = factor.A.getSize()[0]
-        ncv = min(n, count + max(15, min(count, MODES_WORKSPACE)))
-        eps.setDimensions(count, ncv, min(ncv, MODES_PROJECTED or ncv))
-        eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
-        eps.setTarget(0.0)
-        st = eps.getST()
-        st.setType(SLEPc.ST.Type.SINVERT)
-        st.setShift(0.0)
-        ksp = st.getKSP()
-        ksp.setType(PETSc.KSP.Type.PREONLY)
-        pc = ksp.getPC()
-        pc.setType(PETSc.PC.Type.PYTHON)
-        shell = _FactorSolve(factor)
-        pc.setPythonContext(shell)
-        eps.setTolerances(tolerance, 1000)
-        start = time.perf_counter()
-        eps.solve()
-        seconds = time.perf_counter() - start
-        flops = 4.0 * factor.entries * shell.solves
-        factor.log.add(
-            factor.block, "sparse_solve", n, shell.solves, seconds, flops, "modes", factor.entries
-        )
-        found = eps.getConverged()
-        if found < count:
-            raise SingularMatrixError(
-                f"subdomain {name!r}: SLEPc found {found} of the {count} fixed-interface modes "
-                "asked for; ask for fewer (Subdomain.reduce(modes=...)) or a looser tolerance"
-            )
-        values = np.array([eps.getEigenvalue(k).real for k in range(found)])
-        order = np.argsort(values)[:count]
-        # through a file: SLEPc's basis is freed before their array exists (issue 28)
-        spill = tempfile.TemporaryFile()
-        x = factor.A.createVecRight()
-        for k in order:
-            eps.getEigenvector(k, x)
-            spill.write(x.getArray().tobytes())
-        x.destroy()
-    finally:
-        eps.destroy()
-    release_freed_memory()
-    spill.seek(0)
-    vectors = np.empty((n, count + extra), order="F")  # columns contiguous: read in place
-    for slot in range(count):
-        spill.readinto(vectors[:, slot])
-    spill.close()
-    return values[order], vectors
 
 
 def _pattern_span(patterns: Sequence[np.ndarray], n: int, fixed: np.ndarray) -> np.ndarray:
@@ -280,7 +201,9 @@ class ReducedBasis:
         modes: Number of fixed-interface modes m.
         log: Where the factorisation and solves are recorded.
         name: The subdomain's name, for the log and messages.
-        tolerance: SLEPc's relative tolerance on the modes.
+        tolerance: The eigensolver's relative tolerance on the modes.
+        eigensolver: ``"block"`` (:func:`~dd_contact.solvers.eigen.lowest_modes`) or
+            ``"slepc"`` (:func:`fixed_interface_modes`).
 
     Attributes:
         b, i: The boundary and interior dofs (sorted; the prescribed ones in neither).
@@ -301,6 +224,7 @@ class ReducedBasis:
         log: WorkLog,
         name: str,
         tolerance: float = 1e-12,
+        eigensolver: str = "block",
     ):
         n = A.shape[0]
         self.n, self.name, self.log = n, name, log
@@ -324,7 +248,7 @@ class ReducedBasis:
         release_freed_memory()  # the slicing's temporaries, before the factor's peak
         self.factor = SparseCholesky(A_ii.mat, log, f"{name} (interior)")
         P = _pattern_span(patterns, n, self.fixed)
-        self.omega2, V = self._modes(A_ii, M_ii, modes, tolerance, P.shape[1])
+        self.omega2, V = self._modes(A_ii, M_ii, modes, (tolerance, eigensolver), P.shape[1])
         raw = _solve(self.factor, P[self.i], "load modes") if P.shape[1] else P[self.i]
         self.G = _orthonormal(V, self.omega2.size, raw, M_ii)
         self._M_ii = M_ii
@@ -337,12 +261,11 @@ class ReducedBasis:
         self._patterns: np.ndarray = P
         self._F = np.vstack([P[self.b] - self._A_ib.T @ raw, self.G.T @ P[self.i]])
 
-    def _modes(
-        self, A_ii, M_ii, modes: int, tolerance: float, extra: int
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def _modes(self, A_ii, M_ii, modes: int, how: tuple, extra: int) -> tuple:
         """The ``modes`` lowest fixed-interface modes (none: empty; all if that many or more).
 
-        As the first columns of an array with ``extra`` more (:func:`fixed_interface_modes`).
+        As the first columns of an array with ``extra`` more (:func:`fixed_interface_modes`);
+        ``how``: the tolerance and the eigensolver.
         """
         if not modes:
             return np.zeros(0), np.zeros((self.i.size, extra))
@@ -355,7 +278,13 @@ class ReducedBasis:
             eye = np.eye(self.i.size)
             values, vectors = scipy.linalg.eigh(A_ii @ eye, M_ii @ eye)
             return values, np.hstack([vectors, np.zeros((self.i.size, extra))])
-        return fixed_interface_modes(self.factor, M_ii.mat, modes, tolerance, self.name, extra)
+        tolerance, eigensolver = how
+        if eigensolver == "slepc":
+            return fixed_interface_modes(self.factor, M_ii.mat, modes, tolerance, self.name, extra)
+        return lowest_modes(
+            lambda X: _solve(self.factor, X, "modes"), M_ii.__matmul__, self.i.size, modes,
+            tolerance, self.name, MODES_BLOCK, MODES_WORKSPACE, extra
+        )  # fmt: skip
 
     def _reduced(self, Ap: dict, Mp: dict | None) -> tuple[np.ndarray, np.ndarray | None]:
         """``T^T A T`` and ``T^T M T``, Psi's columns a block at a time (from :func:`_pieces`)."""

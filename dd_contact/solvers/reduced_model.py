@@ -115,6 +115,7 @@ def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, Redu
             log,
             sub.name,
             sub.reduction.tolerance,
+            sub.reduction.eigensolver,
         )
         # the massless (wall) dofs among the boundary ones: their reported rates are the
         # step's mean, as a whole subdomain's (dd_contact.kinematics)
