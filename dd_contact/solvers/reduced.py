@@ -198,6 +198,15 @@ def _add_sparse(Y: np.ndarray, S: sp.sparray) -> None:
     Y[S.row, S.col] += S.data
 
 
+def _symmetrise(S: np.ndarray, rows: int = 256) -> None:
+    """``S = (S + S^T) / 2`` in place, by blocks of rows (no temporary of S's size)."""
+    for r0 in range(0, S.shape[0], rows):
+        r1 = min(r0 + rows, S.shape[0])
+        S[r0:r1, r0:r1] = 0.5 * (S[r0:r1, r0:r1] + S[r0:r1, r0:r1].T)
+        S[r0:r1, r1:] = 0.5 * (S[r0:r1, r1:] + S[r1:, r0:r1].T)
+        S[r1:, r0:r1] = S[r0:r1, r1:].T
+
+
 def _congruence(G: np.ndarray, S: sp.sparray | InteriorMatrix, chunk: int) -> np.ndarray:
     """``G^T S G``, S G taken ``chunk`` columns at a time (never a second G in memory)."""
     out = np.empty((G.shape[1], G.shape[1]))
@@ -304,8 +313,6 @@ class ReducedBasis:
         # T^T p of each pattern (p_b - A_bi A_ii^-1 p_i; G^T p_i), for loads in their span
         self._patterns: np.ndarray = P
         self._F = np.vstack([P[self.b] - self._A_ib.T @ raw, self.G.T @ P[self.i]])
-        del A_ii, Ap
-        self.factor.drop_matrix()  # A_ii is read no more (issue 28)
 
     def _modes(
         self, A_ii, M_ii, modes: int, tolerance: float, extra: int
@@ -337,6 +344,8 @@ class ReducedBasis:
         M_ii = self._M_ii
         chunk = _chunk(self.n)
         A_r[nb:, nb:] = _congruence(G, A_ii, chunk)  # (A Psi)_i = 0: no coupling to the modes
+        del A_ii, Ap["ii"]
+        self.factor.drop_matrix()  # A_ii is read no more: gone before the blocks' arrays
         D = self.fixed
         A_Db, A_Di = Ap["Db"], Ap["Di"]
         #: ``A[D, :] T`` and ``M[D, :] T``: the supports' rows, for their reactions.
@@ -367,9 +376,9 @@ class ReducedBasis:
             M_r[j0:j1, nb:] = M_r[nb:, j0:j1].T
             assert self.reaction_mass is not None  # with M
             self.reaction_mass[:, j0:j1] = M_Db[:, j0:j1].toarray() - M_Di @ X
-        A_r = 0.5 * (A_r + A_r.T)  # symmetric up to round-off; make it exact
+        _symmetrise(A_r)  # symmetric up to round-off; make it exact
         if M_r is not None:
-            M_r = 0.5 * (M_r + M_r.T)
+            _symmetrise(M_r)
         return A_r, M_r
 
     # -- vectors ---------------------------------------------------------------------------
