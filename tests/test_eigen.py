@@ -16,8 +16,8 @@ from dd_contact.errors import InputError, SingularMatrixError
 from dd_contact.paper.verify.reduced import STEEL, cantilever, locator
 from dd_contact.solvers import eigen
 from dd_contact.solvers.eigen import EigenStatistics, fixed_interface_modes, lowest_modes
-from dd_contact.solvers.linalg import SparseCholesky
-from dd_contact.solvers.reduced import _Interior, _solve
+from dd_contact.solvers.interior import InteriorCholesky, InteriorMatrix
+from dd_contact.solvers.interior import multi_solve as _solve
 from dd_contact.solvers.worklog import WorkLog
 
 
@@ -33,8 +33,8 @@ class Pencil:
         self.A, self.M = A[free][:, free], sp.csr_array(model.mass[sub.block])[free][:, free]
         self.n = free.size
         self.log = WorkLog()
-        self.mass = _Interior(self.M)
-        self.factor = SparseCholesky(_Interior(self.A).mat, self.log, "beam")
+        self.mass = InteriorMatrix(self.M)
+        self.factor = InteriorCholesky(InteriorMatrix(self.A), self.log, "beam")
 
     def block(self, count, block=16, workspace=64, stats=None, extra=0):
         return lowest_modes(
@@ -54,7 +54,6 @@ class Pencil:
         return fixed_interface_modes(self.factor, self.mass.mat, count, 1e-12, "beam")
 
     def destroy(self):
-        self.factor.A.destroy()
         self.factor.destroy()
         self.mass.mat.destroy()
 

@@ -20,7 +20,6 @@ full field is ``u_i = -A_ii^-1 A_ib u_b + G g``: one substitution, taken only wh
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 
 from mpi4py import MPI
@@ -38,10 +37,11 @@ from dd_contact.solvers.eigen import (
     fixed_interface_modes,
     lowest_modes,
 )
+from dd_contact.solvers.interior import InteriorCholesky, InteriorMatrix
+from dd_contact.solvers.interior import multi_solve as _solve
 from dd_contact.solvers.linalg import (
     DenseCholesky,
     PatternedMatrix,
-    SparseCholesky,
     SparseStatistics,
     coo_of,
     petsc_matrix,
@@ -82,46 +82,6 @@ def _petsc(A: sp.sparray) -> PETSc.Mat:
     return petsc_matrix(MPI.COMM_SELF, n, n, rows, cols, values)
 
 
-def _dense(X: np.ndarray, comm) -> PETSc.Mat:
-    """A PETSc dense matrix on X's array (Fortran-ordered: shared, not copied)."""
-    return PETSc.Mat().createDense(X.shape, array=X, comm=comm)  # type: ignore[arg-type]  # stub
-
-
-class _Interior:
-    """An interior block held once, as the PETSc matrix the factor and SLEPc use (issue 28)."""
-
-    def __init__(self, A: sp.sparray):
-        self.mat = _petsc(A)
-
-    def __matmul__(self, X: np.ndarray) -> np.ndarray:
-        if np.ndim(X) == 1:
-            return (self @ np.asarray(X)[:, None])[:, 0]
-        B = _dense(np.asfortranarray(X, dtype=PETSc.ScalarType), self.mat.comm)
-        C = self.mat.matMult(B)
-        out = C.getDenseArray().copy()
-        B.destroy(), C.destroy()
-        return out
-
-
-def _solve(factor: SparseCholesky, B: np.ndarray, what: str) -> np.ndarray:
-    """``A^-1 B`` (MUMPS multi-RHS), B's array and the answer's shared with PETSc's matrices.
-
-    ``solve_many`` copies both: four n x columns arrays at its peak, not two.
-    """
-    B = np.asfortranarray(B, dtype=PETSc.ScalarType)
-    X = np.empty_like(B, order="F")
-    Bm, Xm = _dense(B, factor.A.comm), _dense(X, factor.A.comm)
-    start = time.perf_counter()
-    factor.ksp.getPC().getFactorMatrix().matSolve(Bm, Xm)
-    seconds = time.perf_counter() - start
-    Bm.destroy(), Xm.destroy()
-    flops = 4.0 * factor.entries * B.shape[1]
-    factor.log.add(
-        factor.block, "sparse_solve", B.shape[0], B.shape[1], seconds, flops, what, factor.entries
-    )
-    return X
-
-
 def _pattern_span(patterns: Sequence[np.ndarray], n: int, fixed: np.ndarray) -> np.ndarray:
     """An orthonormal basis of the load patterns' span off the prescribed dofs.
 
@@ -150,7 +110,23 @@ def _chunk(n: int) -> int:
     return max(16, min(REDUCTION_CHUNK, CHUNK_BYTES // (8 * max(n, 1))))
 
 
-def _congruence(G: np.ndarray, S: sp.sparray | _Interior, chunk: int) -> np.ndarray:
+def _add_sparse(Y: np.ndarray, S: sp.sparray) -> None:
+    """``Y += S`` in place (no dense copy of S)."""
+    S = sp.coo_array(S)
+    S.sum_duplicates()
+    Y[S.row, S.col] += S.data
+
+
+def _symmetrise(S: np.ndarray, rows: int = 256) -> None:
+    """``S = (S + S^T) / 2`` in place, by blocks of rows (no temporary of S's size)."""
+    for r0 in range(0, S.shape[0], rows):
+        r1 = min(r0 + rows, S.shape[0])
+        S[r0:r1, r0:r1] = 0.5 * (S[r0:r1, r0:r1] + S[r0:r1, r0:r1].T)
+        S[r0:r1, r1:] = 0.5 * (S[r0:r1, r1:] + S[r1:, r0:r1].T)
+        S[r1:, r0:r1] = S[r0:r1, r1:].T
+
+
+def _congruence(G: np.ndarray, S: sp.sparray | InteriorMatrix, chunk: int) -> np.ndarray:
     """``G^T S G``, S G taken ``chunk`` columns at a time (never a second G in memory)."""
     out = np.empty((G.shape[1], G.shape[1]))
     for j0 in range(0, G.shape[1], chunk):
@@ -163,7 +139,7 @@ def _by_columns(S: sp.sparray, G: np.ndarray, chunk: int) -> np.ndarray:
     return np.hstack([S @ G[:, j0 : j0 + chunk] for j0 in range(0, max(G.shape[1], 1), chunk)])
 
 
-def _orthonormal(V: np.ndarray, m: int, L: np.ndarray, M: _Interior | None) -> np.ndarray:
+def _orthonormal(V: np.ndarray, m: int, L: np.ndarray, M: InteriorMatrix | None) -> np.ndarray:
     """``[Phi, L']``: the load modes L made M-orthonormal to Phi and each other, in place.
 
     Phi, V's first m columns, is M-orthonormal already; the load modes are written into
@@ -243,16 +219,15 @@ class ReducedBasis:
         Mp = None if M is None else _pieces(M, self.b, self.i, self.fixed)
         del A, M
         self._A_ib = Ap["ib"]
-        A_ii = _Interior(Ap.pop("ii"))
-        M_ii = None if Mp is None else _Interior(Mp.pop("ii"))
+        Ap["ii"] = A_ii = InteriorMatrix(Ap["ii"])
+        M_ii = None if Mp is None else InteriorMatrix(Mp.pop("ii"))
         release_freed_memory()  # the slicing's temporaries, before the factor's peak
-        self.factor = SparseCholesky(A_ii.mat, log, f"{name} (interior)")
+        self.factor = InteriorCholesky(A_ii, log, f"{name} (interior)")
         P = _pattern_span(patterns, n, self.fixed)
         self.omega2, V = self._modes(A_ii, M_ii, modes, (tolerance, eigensolver), P.shape[1])
         raw = _solve(self.factor, P[self.i], "load modes") if P.shape[1] else P[self.i]
         self.G = _orthonormal(V, self.omega2.size, raw, M_ii)
         self._M_ii = M_ii
-        self._A_ii = A_ii
         self.size = self.b.size + self.G.shape[1]
         #: Its massless coordinates (contact walls; set by :func:`reduce_model`).
         self.massless = np.zeros(0, np.int64)
@@ -292,10 +267,12 @@ class ReducedBasis:
         nb, r = self.b.size, self.size
         A_r = np.zeros((r, r))
         M_r = None if M is None else np.zeros((r, r))
-        A_ii, A_bb, A_bi = self._A_ii, Ap["bb"], Ap["bi"]
+        A_ii, A_bb, A_bi = Ap["ii"], Ap["bb"], Ap["bi"]
         M_ii = self._M_ii
         chunk = _chunk(self.n)
         A_r[nb:, nb:] = _congruence(G, A_ii, chunk)  # (A Psi)_i = 0: no coupling to the modes
+        del A_ii, Ap["ii"]
+        self.factor.drop_matrix()  # A_ii is read no more: gone before the blocks' arrays
         D = self.fixed
         A_Db, A_Di = Ap["Db"], Ap["Di"]
         #: ``A[D, :] T`` and ``M[D, :] T``: the supports' rows, for their reactions.
@@ -310,7 +287,7 @@ class ReducedBasis:
             M_r[nb:, nb:] = _congruence(G, M_ii, chunk)
         for j0 in range(0, nb, chunk):
             j1 = min(nb, j0 + chunk)
-            X = _solve(self.factor, self._A_ib[:, j0:j1].toarray(), "constraint modes")
+            X = _solve(self.factor, self._A_ib[:, j0:j1].toarray(order="F"), "constraint modes")
             A_r[:nb, j0:j1] = A_bb[:, j0:j1].toarray() - A_bi @ X
             self.reaction_rows[:, j0:j1] = A_Db[:, j0:j1].toarray() - A_Di @ X
             if M is None:
@@ -319,16 +296,16 @@ class ReducedBasis:
             Y_b = M_bb[:, j0:j1].toarray() - M_bi @ X  # Y = M Psi, this block of columns
             Y_i = M_ii @ X  # in place: each n x columns array costs (issue 28)
             Y_i *= -1.0
-            Y_i += M_ib[:, j0:j1].toarray()
+            _add_sparse(Y_i, M_ib[:, j0:j1])
             W = _solve(self.factor, Y_i, "constraint modes' mass")
             M_r[:nb, j0:j1] = Y_b - A_bi @ W
             M_r[nb:, j0:j1] = G.T @ Y_i
             M_r[j0:j1, nb:] = M_r[nb:, j0:j1].T
             assert self.reaction_mass is not None  # with M
             self.reaction_mass[:, j0:j1] = M_Db[:, j0:j1].toarray() - M_Di @ X
-        A_r = 0.5 * (A_r + A_r.T)  # symmetric up to round-off; make it exact
+        _symmetrise(A_r)  # symmetric up to round-off; make it exact
         if M_r is not None:
-            M_r = 0.5 * (M_r + M_r.T)
+            _symmetrise(M_r)
         return A_r, M_r
 
     # -- vectors ---------------------------------------------------------------------------
@@ -416,7 +393,6 @@ class ReducedBasis:
 
     def destroy(self) -> None:
         """Free the factorisation."""
-        self.factor.A.destroy()
         self.factor.destroy()
         if self._M_ii is not None:
             self._M_ii.mat.destroy()

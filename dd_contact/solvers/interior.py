@@ -1,0 +1,129 @@
+"""A reduced subdomain's interior block and its factor, held as lightly as they can be.
+
+The reduction (:mod:`dd_contact.solvers.reduced`) factorises the interior block ``A_ii``
+once and reads the factor until the run ends; ``A_ii`` itself only until the reduced
+matrices are formed, ``M_ii`` for the whole run. docs/solvers.md, "Reduced subdomains"
+(memory).
+"""
+
+from __future__ import annotations
+
+import time
+
+from mpi4py import MPI
+from petsc4py import PETSc
+
+import numpy as np
+import scipy.sparse as sp
+
+from dd_contact.solvers.linalg import SparseCholesky
+
+__all__ = ["InteriorCholesky", "InteriorMatrix"]
+
+
+def _dense(X: np.ndarray, comm) -> PETSc.Mat:
+    """A PETSc dense matrix on X's array (Fortran-ordered: shared, not copied)."""
+    return PETSc.Mat().createDense(X.shape, array=X, comm=comm)  # type: ignore[arg-type]  # stub
+
+
+class InteriorMatrix:
+    """A symmetric interior block held once, its upper triangle as a PETSc SBAIJ matrix.
+
+    MUMPS reads an SBAIJ matrix's values in place; of an AIJ one it copies the upper
+    triangle (both triangles and the copy: 2.0 times the upper triangle's values, with
+    their indices). SLEPc and the products with numpy arrays use the same matrix.
+    """
+
+    def __init__(self, A: sp.sparray):
+        U = sp.triu(sp.csr_array(A), format="csr")
+        U.sort_indices()
+        index = PETSc.IntType
+        self.mat = PETSc.Mat().createSBAIJ(
+            A.shape[0],
+            1,
+            csr=(U.indptr.astype(index), U.indices.astype(index), U.data),
+            comm=MPI.COMM_SELF,  # type: ignore[arg-type]  # stub
+        )
+        #: Stored entries of both triangles (as an AIJ matrix's), for the work log.
+        self.nnz = 2 * U.nnz - np.count_nonzero(U.diagonal())
+
+    def __matmul__(self, X: np.ndarray) -> np.ndarray:
+        if np.ndim(X) == 1:
+            return (self @ np.asarray(X)[:, None])[:, 0]
+        B = _dense(np.asfortranarray(X, dtype=PETSc.ScalarType), self.mat.comm)
+        out = np.empty(B.getSize(), order="F")
+        C = _dense(out, self.mat.comm)
+        self.mat.matMult(B, result=C)  # into out: no copy of the product
+        B.destroy(), C.destroy()
+        return out
+
+
+class InteriorCholesky(SparseCholesky):
+    """:class:`SparseCholesky` of an :class:`InteriorMatrix` that can drop the matrix.
+
+    After :meth:`drop_matrix` only the factor is held: solves go to MUMPS directly (the
+    factor matrix's solve, which reads the factor alone), the KSP and ``A`` are freed, and
+    it cannot be re-factorised.
+    """
+
+    def __init__(self, A: InteriorMatrix, log, block: str):
+        super().__init__(A.mat, log, block)
+        self.log.records[-1].nnz = A.nnz  # the SBAIJ stores one triangle: count both
+        self._factor: PETSc.Mat | None = None
+
+    @property
+    def factor_matrix(self) -> PETSc.Mat:
+        """MUMPS's factor (a PETSc factor matrix)."""
+        if self._factor is not None:
+            return self._factor
+        return self.ksp.getPC().getFactorMatrix()
+
+    def drop_matrix(self) -> None:
+        """Free the KSP and the matrix, keeping the factor (MUMPS's solves never read A)."""
+        if self._factor is None:
+            self._factor = self.ksp.getPC().getFactorMatrix()  # a reference: outlives the KSP
+            self.ksp.destroy()
+            self.A.destroy()
+            self.A = self._factor  # its comm and size for solve_array: nothing else reads A
+
+    def refactorise(self) -> None:
+        """Numeric re-factorisation (not once the matrix is dropped)."""
+        if self._factor is not None:
+            raise RuntimeError(f"{self.block!r}: its matrix was dropped; it cannot re-factorise")
+        super().refactorise()
+
+    def solve(self, b: PETSc.Vec, what: str = "") -> PETSc.Vec:
+        """Forward/back substitution for one right-hand side."""
+        if self._factor is None:
+            return super().solve(b, what)
+        x = b.duplicate()
+        start = time.perf_counter()
+        self._factor.solve(b, x)
+        self._log_solve(b.getSize(), 1, time.perf_counter() - start, what)
+        return x
+
+    def destroy(self) -> None:
+        """Free the factorisation (and the matrix)."""
+        if self._factor is None:
+            super().destroy()
+        self.A.destroy()
+
+
+def multi_solve(factor: InteriorCholesky, B: np.ndarray, what: str) -> np.ndarray:
+    """``A^-1 B`` (MUMPS multi-RHS), B's array and the answer's shared with PETSc's matrices.
+
+    ``solve_many`` copies both: four n x columns arrays at its peak, not two.
+    """
+    B = np.asfortranarray(B, dtype=PETSc.ScalarType)
+    X = np.empty_like(B, order="F")
+    comm = factor.factor_matrix.comm
+    Bm, Xm = _dense(B, comm), _dense(X, comm)
+    start = time.perf_counter()
+    factor.factor_matrix.matSolve(Bm, Xm)
+    seconds = time.perf_counter() - start
+    Bm.destroy(), Xm.destroy()
+    flops = 4.0 * factor.entries * B.shape[1]
+    factor.log.add(
+        factor.block, "sparse_solve", B.shape[0], B.shape[1], seconds, flops, what, factor.entries
+    )
+    return X

@@ -1,0 +1,52 @@
+"""A reduced subdomain's interior block and factor (dd_contact/solvers/interior.py)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from dd_contact.solvers.interior import InteriorCholesky, InteriorMatrix, multi_solve
+from dd_contact.solvers.worklog import WorkLog
+
+
+def _spd(n: int = 300, seed: int = 3) -> sp.csr_array:
+    """A sparse SPD matrix with both triangles stored (a stiffness-like pattern)."""
+    rng = np.random.default_rng(seed)
+    R = sp.random_array((n, n), density=0.02, rng=rng)
+    return sp.csr_array(R + R.T + 10.0 * sp.eye_array(n))
+
+
+def test_products_equal_the_whole_matrix():
+    A = _spd()
+    X = np.random.default_rng(1).random((A.shape[0], 5))
+    M = InteriorMatrix(A)
+    assert M.mat.getType() == "seqsbaij"
+    assert M.nnz == A.nnz  # both triangles counted, as the AIJ matrix stores them
+    ref = A @ X
+    assert np.abs(M @ X - ref).max() <= 1e-13 * np.abs(ref).max()
+    assert np.abs(M @ X[:, 0] - ref[:, 0]).max() <= 1e-13 * np.abs(ref).max()
+    M.mat.destroy()
+
+
+def test_solves_after_the_matrix_is_dropped():
+    A = _spd()
+    B = np.random.default_rng(2).random((A.shape[0], 3))
+    ref = spla.spsolve(sp.csc_array(A), B)
+    log = WorkLog()
+    factor = InteriorCholesky(InteriorMatrix(A), log, "interior")
+    assert log.records[-1].nnz == A.nnz
+    before = multi_solve(factor, B, "test")
+    factor.drop_matrix()
+    after = multi_solve(factor, B, "test")
+    single = factor.solve_array(B[:, 0], "test")
+    scale = np.abs(ref).max()
+    assert np.abs(before - ref).max() <= 1e-12 * scale
+    assert np.array_equal(after, before)  # the same factor, read the same way
+    assert np.abs(single - ref[:, 0]).max() <= 1e-12 * scale
+    assert factor.A is factor.factor_matrix  # the matrix and its KSP are gone
+    with pytest.raises(RuntimeError, match="cannot re-factorise"):
+        factor.refactorise()
+    assert log.count("sparse_solve") == 3
+    factor.destroy()
