@@ -405,6 +405,24 @@ class PointwiseSurface(LowRankSurface):
         self._cache.G = self._extend(self._cache, self._dofs(rows), U)
         self._cache.D = np.concatenate([self._cache.D, np.ones(len(ids))])
 
+    def _eliminate(self, grp, R: np.ndarray) -> np.ndarray:
+        """As :class:`LowRankSurface` 's; in the last level from R's first non-zero row on.
+
+        ``L^-1 R`` is zero above it, and a few points' columns often start part-way down.
+        """
+        if not (grp.last or not grp.neighbours):
+            return super()._eliminate(grp, R)
+        factor = self.state[grp.name].factor
+        assert isinstance(factor, DenseCholesky)  # the symmetric changes are corrected
+        start, (n, m) = time.perf_counter(), R.shape
+        lead = int(np.argmax(np.any(R != 0.0, axis=1)))
+        X = np.zeros_like(R)
+        L = factor.factor[0].T[lead:, lead:]  # LAPACK's upper factor, as DenseCholesky's
+        X[lead:] = sla.lapack.dtrtrs(L, R[lead:], lower=0, trans=1)[0]
+        seconds, flops = time.perf_counter() - start, float((n - lead) ** 2 * m)
+        self.log.add(grp.name, "dense_solve", n - lead, m, seconds, flops, "lowrank")
+        return X
+
     def _last_columns(self, where: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]] | None:
         """Per last-level group, which cached columns ``where`` reach it and their ``L^-1 V``.
 
