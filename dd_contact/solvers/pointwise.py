@@ -15,10 +15,15 @@ corrects with Woodbury as :class:`~dd_contact.solvers.lowrank.LowRankSurface` do
   over the points that differ from the reference, plus the elimination of points that
   never differed before; no group is re-factorised, the interface neither.
 
+When the points' columns reach the last level alone (their blocks are eliminated last, as
+a contact interface's in w-u and w-v-u), their kept elimination is ``W = L^-1 V`` and a
+corrected solve is one pass, a plain solve's substitutions with ``W z`` subtracted between
+them (:meth:`PointwiseSurface.solve`), checked by its residual on the points' rows: it costs
+no more than a solve after re-factorising, and the price rule counts no extra pass for it.
 Everything else is :class:`LowRankSurface` 's: the price rule (an update is taken while
-priced below re-factorising the groups it would make stale), each corrected solve refined
-with its true residual and re-factorised if it stays inaccurate, and the corrected solves
-re-factorising once their extra passes cost what the correction saved. A change of a
+priced below re-factorising the groups it would make stale), a two-pass corrected solve
+refined with its true residual and re-factorised if it stays inaccurate, and the corrected
+solves re-factorising once their extra passes cost what the correction saved. A change of a
 region without point rows (an obstacle) on blocks apart from the pairs' joins the points'
 correction as the eigenvectors of its change since the factorisation; one on blocks that a
 region without point rows fills too is corrected from the matrices by
