@@ -181,6 +181,7 @@ def compare(order: str, args) -> dict:
                 command += ["--model", args.model]
                 command += ["--trials", str(args.trials), "--out-array", out]
                 command += [] if lowrank else ["--refactorise"]
+                command += ["--always-correct"] if args.always_correct else []
                 done = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
                 runs[lowrank].append(json.loads(done.stdout.strip().splitlines()[-1]))
                 runs[lowrank][-1]["solution"] = np.load(out)
