@@ -77,7 +77,7 @@ class SurfaceSpy:
         from dd_contact.solvers import lowrank
 
         self.surface, self.errors, self.relative = surface, [], []
-        self._solve, self._norm = surface.solve, lowrank._norm
+        self._solve, self._norm = surface.solve, lowrank.norm_of
         surface.solve = self.solve
 
     def solve(self, g, complete):

@@ -95,3 +95,43 @@ def test_a_wall_change_is_corrected_point_by_point_with_the_refactorised_answer(
     assert work.count("dense_factor") == groups < work_ref.count("dense_factor")
     # a change back to the factorised state needs none: at most one update per change
     assert 0 < work.count("dense_update") <= changes["gamma"]
+
+
+@pytest.mark.parametrize(("kind", "order"), [("single", "w-u"), ("interface", "w-v-u")])
+def test_a_wall_change_on_the_last_level_is_solved_in_one_pass(kind, order, monkeypatch):
+    """The points' columns reach the last level alone: every corrected solve is one pass
+    (W z subtracted between its substitutions), none falls back on two, and the fields
+    agree with re-factorising on every change."""
+    from dd_contact.paper.verify import orders as order_scenes
+
+    monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
+    calls = {"two": 0, "one": 0}
+    two_passes, one_pass = LowRankSurface._corrected, PointwiseSurface._half
+
+    def counted_two(self, c, g):
+        calls["two"] += 1
+        return two_passes(self, c, g)
+
+    def counted_one(self, grp, b, trans):
+        calls["one"] += trans  # one forward substitution per group and solve
+        return one_pass(self, grp, b, trans)
+
+    monkeypatch.setattr(LowRankSurface, "_corrected", counted_two)
+    monkeypatch.setattr(PointwiseSurface, "_half", counted_one)
+
+    def run(enabled):
+        monkeypatch.setattr(LowRankSurface, "enabled", enabled)
+        scene = order_scenes.order_scene(kind, dynamic=True, kappa=KAPPA)
+        with dc.TransientProblem(scene, 0.01, algorithm=order) as problem:
+            fields = []
+            for _ in range(40):
+                problem.advance()
+                fields.append(np.concatenate([s.u.x.array for s in scene.subdomains]))
+            return np.array(fields), problem.solver.surface
+
+    reference, _ = run(False)
+    assert calls == {"two": 0, "one": 0}
+    fields, surface = run(True)
+    assert np.abs(fields - reference).max() <= 1e-10 * np.abs(reference).max()
+    assert calls["two"] == 0 and calls["one"] == len(surface.applications) > 0
+    assert set(surface.applications) == {1}

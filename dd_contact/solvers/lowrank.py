@@ -62,6 +62,7 @@ __all__ = [
     "LowRankSurface",
     "capacitance",
     "low_rank",
+    "norm_of",
 ]
 
 #: The work log's name for the corrections (its row of the work table: their count, size
@@ -219,7 +220,7 @@ def _flops(o: Operation) -> float:
     return float(o.size**2 * o.nrhs)
 
 
-def _norm(blocks: dict[str, np.ndarray]) -> float:
+def norm_of(blocks: dict[str, np.ndarray]) -> float:
     """The 2-norm of vectors by block, as one vector."""
     return float(np.sqrt(sum(float(v @ v) for v in blocks.values())))
 
@@ -536,10 +537,10 @@ class LowRankSurface(Surface):
         if c.capacitance is None:
             return super().solve(g, complete)
         x = self._corrected(c, g)
-        size, before = _norm(g), np.inf
+        size, before = norm_of(g), np.inf
         for refinement in range(REFINEMENTS + 1):
             r = self._residual(g, x)
-            error = _norm(r) / (self._matrix_norm() * _norm(x) + size)
+            error = norm_of(r) / (self._matrix_norm() * norm_of(x) + size)
             if error <= REFINED or error > 0.5 * before or refinement == REFINEMENTS:
                 break
             before = error

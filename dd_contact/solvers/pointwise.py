@@ -15,10 +15,15 @@ corrects with Woodbury as :class:`~dd_contact.solvers.lowrank.LowRankSurface` do
   over the points that differ from the reference, plus the elimination of points that
   never differed before; no group is re-factorised, the interface neither.
 
+When the points' columns reach the last level alone (their blocks are eliminated last, as
+a contact interface's in w-u and w-v-u), their kept elimination is ``W = L^-1 V`` and a
+corrected solve is one pass, a plain solve's substitutions with ``W z`` subtracted between
+them (:meth:`PointwiseSurface.solve`), checked by its residual on the points' rows: it costs
+no more than a solve after re-factorising, and the price rule counts no extra pass for it.
 Everything else is :class:`LowRankSurface` 's: the price rule (an update is taken while
-priced below re-factorising the groups it would make stale), each corrected solve refined
-with its true residual and re-factorised if it stays inaccurate, and the corrected solves
-re-factorising once their extra passes cost what the correction saved. A change of a
+priced below re-factorising the groups it would make stale), a two-pass corrected solve
+refined with its true residual and re-factorised if it stays inaccurate, and the corrected
+solves re-factorising once their extra passes cost what the correction saved. A change of a
 region without point rows (an obstacle) on blocks apart from the pairs' joins the points'
 correction as the eigenvectors of its change since the factorisation; one on blocks that a
 region without point rows fills too is corrected from the matrices by
@@ -37,16 +42,20 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from dd_contact.blocks import Block
+from dd_contact.solvers.linalg import DenseCholesky
 from dd_contact.solvers.lowrank import (
     CAPACITANCE_RCOND,
     UPDATE_MARGIN,
+    UPDATE_TOLERANCE,
     UPDATES,
     Correction,
     LowRankSurface,
     capacitance,
     low_rank,
+    norm_of,
 )
 from dd_contact.solvers.schedule import Operation
+from dd_contact.solvers.surface import Surface
 
 __all__ = [
     "CACHE_BUDGET",
@@ -74,13 +83,20 @@ class PointCorrection(Correction):
     """A Woodbury correction whose columns are contact points' rows (sparse).
 
     Attributes:
-        V: The points' columns over the surface blocks ``at`` holds, one after the other.
-        at: Each of those blocks and its rows in V.
+        rows: The rows where the points' columns are non-zero (over the surface blocks
+            ``at`` holds, one after the other), sorted.
+        values: The columns on those rows (dense: a point's row has a node's few dofs).
+        at: Each of those blocks and its rows.
+        last: Per last-level group, the columns that reach it (a mask) and their forward
+            elimination ``L^-1 V``, when no column reaches an earlier level: a corrected
+            solve is then one pass (:meth:`PointwiseSurface.solve`). None: two passes.
     """
 
-    V: sp.csr_array = field(default_factory=lambda: sp.csr_array((0, 0)))
+    rows: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    values: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     at: list[tuple[Block, slice]] = field(default_factory=list)
     cholesky: tuple[np.ndarray, bool] | None = None
+    last: dict[str, tuple[np.ndarray, np.ndarray]] | None = None
 
     def factorise(self) -> None:
         """Factors of ``I + D G``: Cholesky if every point changed the same way, else LU.
@@ -113,9 +129,13 @@ class PointCorrection(Correction):
             return sla.cho_solve(self.cholesky, y, check_finite=False)
         return super().solve(y)
 
+    def points_of(self, x: dict[str, np.ndarray]) -> np.ndarray:
+        """``V^T x``."""
+        return self.values.T @ np.concatenate([x[b] for b, _ in self.at])[self.rows]
+
     def projected(self, x: dict[str, np.ndarray]) -> np.ndarray:
         """``D V^T x``, then the pieces' ``D U^T x_J`` (other regions' changes) if any."""
-        points = self.V.T @ np.concatenate([x[b] for b, _ in self.at])
+        points = self.points_of(x)
         if not self.pieces:
             return self.D * points
         p = len(points)
@@ -125,8 +145,9 @@ class PointCorrection(Correction):
     def shifted(self, g: dict[str, np.ndarray], z: np.ndarray) -> dict[str, np.ndarray]:
         """``g - V z``, and ``- E U z`` for the pieces if any."""
         out = {b: v.copy() for b, v in g.items()}
-        p = self.V.shape[1]
-        Vz = self.V @ z[:p]
+        p = self.values.shape[1]
+        Vz = np.zeros(self.at[-1][1].stop if self.at else 0)
+        Vz[self.rows] = self.values @ z[:p]
         for b, rows in self.at:
             out[b] -= Vz[rows]
         return Correction(self.pieces).shifted(out, z[p:]) if self.pieces else out
@@ -152,6 +173,8 @@ class PointwiseSurface(LowRankSurface):
         self._cached: dict[int, int] = {}  # a point's column (in P) -> its column in the cache
         self._invested = 0.0  # priced seconds of the eliminations kept with the reference
         self._saved = 0.0  # priced re-factorisations the updates since then saved
+        self._prices: dict[frozenset, float] = {}  # re-factorising blocks' groups, priced
+        self._reach: np.ndarray | None = None  # per group of the chain, the columns reaching it
 
     def add_points(self, name: str, parts: list[tuple[Block, np.ndarray]], rows) -> None:
         """A region's point rows, numbered as its matrix (``parts`` one after the other)."""
@@ -181,8 +204,39 @@ class PointwiseSurface(LowRankSurface):
                 first[name], count = count, count + F.shape[0]
             shape = (int(ends[-1]) if len(ends) else 0, count)
             triplets = (np.concatenate(data), (np.concatenate(rows), np.concatenate(cols)))
-            self._points = (sp.csc_array(triplets, shape=shape), at, first)
+            P = sp.csc_array(triplets, shape=shape)
+            P.sum_duplicates()
+            self._points, self._reach = (P, at, first), None
         return self._points
+
+    def _columns(self, ids: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The rows where P's columns ``ids`` are non-zero (sorted), and those columns there.
+
+        From P's compressed columns directly: a change's few points, not a sparse slice.
+        """
+        P = self.joined()[0]
+        starts, counts = P.indptr[ids], np.diff(P.indptr)[ids]
+        take = np.repeat(starts - np.cumsum(counts) + counts, counts) + np.arange(counts.sum())
+        rows, place = np.unique(P.indices[take], return_inverse=True)
+        values = np.zeros((len(rows), len(ids)))
+        values[place, np.repeat(np.arange(len(ids)), counts)] = P.data[take]
+        return rows, values
+
+    def _dofs(self, rows: np.ndarray) -> dict[Block, np.ndarray]:
+        """Rows of the joined numbering (sorted) as each block's dofs."""
+        at, dofs = self.joined()[1], {}
+        for b, where in at:
+            lo, hi = np.searchsorted(rows, (where.start, where.stop))
+            if hi > lo:
+                dofs[b] = rows[lo:hi] - where.start
+        return dofs
+
+    def refactorise_seconds(self, blocks: set[Block]) -> float:
+        """As :class:`LowRankSurface` 's, kept per set of blocks (the rates do not change)."""
+        key = frozenset(blocks)
+        if key not in self._prices:
+            self._prices[key] = super().refactorise_seconds(blocks)
+        return self._prices[key]
 
     def set_active(self, name: str, active: np.ndarray | None) -> None:
         """A region's present flags (sent with its matrix; ``None``: unknown)."""
@@ -194,28 +248,41 @@ class PointwiseSurface(LowRankSurface):
         self._cache, self._cached = Correction(), {}
         self._invested = self._saved = 0.0
 
-    def elimination_seconds(self, V: sp.csc_array, r0: int) -> float:
-        """Price of eliminating the columns V forward and of their products with ``r0`` kept.
+    def elimination_seconds(self, ids: np.ndarray, r0: int) -> float:
+        """Price of eliminating P's columns ``ids`` forward and their products with ``r0`` kept.
 
         Each group is priced with the columns that reach it: its own blocks' and those its
         earlier groups push into it.
         """
-        _, at, _ = self.joined()
-        V = sp.csr_array(V)
-        reach = {b: np.diff(sp.csc_array(V[rows]).indptr) > 0 for b, rows in at}
+        reach = self._reached_by()[:, ids]
         ops = []
-        for grp in self.schedule.flat:
-            here = [reach.pop(b) for b in grp.blocks if b in reach]
-            if not here or not (count := int(np.count_nonzero(np.any(here, axis=0)))):
+        for grp, here in zip(self.schedule.flat, reach, strict=True):
+            if not (count := int(np.count_nonzero(here))):
                 continue
             n = sum(self.sizes[b] for b in grp.blocks)
             twice = 1 if grp.last or not grp.neighbours else 3  # A^-1 R, then B^T Y
             ops += twice * [Operation(grp.name, "dense_solve", n, count, "lowrank")]
             if r0:
                 ops.append(Operation(grp.name, "dense_solve", n, max(r0 * count // n, 1)))
-            for r in grp.neighbours:
-                reach[r] = reach.get(r, False) | np.any(here, axis=0)
         return self._price(ops)
+
+    def _reached_by(self) -> np.ndarray:
+        """Per group of the chain (flat), which of P's columns its forward elimination reaches."""
+        if self._reach is None:
+            P, at, _ = self.joined()
+            column = np.repeat(np.arange(P.shape[1]), np.diff(P.indptr))
+            reach: dict[Block, np.ndarray] = {}
+            for b, rows in at:
+                inside = (P.indices >= rows.start) & (P.indices < rows.stop)
+                reach[b] = np.bincount(column[inside], minlength=P.shape[1]) > 0
+            out = np.zeros((len(self.schedule.flat), P.shape[1]), bool)
+            for k, grp in enumerate(self.schedule.flat):
+                for b in grp.blocks:
+                    out[k] |= reach.pop(b, False)
+                for r in grp.neighbours:
+                    reach[r] = reach.get(r, False) | out[k]
+            self._reach = out
+        return self._reach
 
     def flags(self) -> tuple[np.ndarray, np.ndarray]:
         """The points' present flags and where they differ from the reference (P's columns)."""
@@ -282,7 +349,7 @@ class PointwiseSurface(LowRankSurface):
         """
         start, first = time.perf_counter(), len(self.log.records)
         refactorise = self.refactorise_seconds({b for pair in self.moved for b in pair})
-        P, at, _ = self.joined()
+        at = self.joined()[1]
         now, changed = self.flags()
         ids = np.flatnonzero(changed)
         dofs: dict[Block, np.ndarray] = {}
@@ -297,19 +364,25 @@ class PointwiseSurface(LowRankSurface):
             return True
         missing = [int(i) for i in ids if int(i) not in self._cached]
         price = self.update_seconds(dofs, len(D), len(ids))  # rest's elimination, the LU
-        solve = self.solve_seconds(None if self.applications else POINT_APPLICATIONS)
+        earlier = [not grp.last for grp in self.schedule.flat]
+        if len(D) or self._reached_by()[earlier][:, ids].any():
+            solve = self.solve_seconds(None if self.applications else POINT_APPLICATIONS)
+        else:  # a corrected solve is one pass, as a plain one (:meth:`solve`)
+            solve = 0.0
         if UPDATE_MARGIN * price + solve >= refactorise:
             return False
         if missing:  # eliminated once, kept with the reference: an investment, budgeted
-            invest = self._invested + self.elimination_seconds(P[:, missing], self._cache.rank)
+            missing_ids = np.array(missing, dtype=int)
+            invest = self._invested + self.elimination_seconds(missing_ids, self._cache.rank)
             if invest > CACHE_BUDGET * refactorise:
                 return False
             self._invested = invest
-            self._keep(P[:, missing], at)
+            self._keep(missing_ids)
             self._cached.update((i, len(self._cached)) for i in missing)
         where = np.array([self._cached[int(i)] for i in ids], dtype=int)
         signs = np.where(now[ids], 1.0, -1.0)
-        c = PointCorrection(D=signs, V=sp.csr_array(P[:, ids]), at=at)
+        rows, values = self._columns(ids)
+        c = PointCorrection(D=signs, rows=rows, values=values, at=at)
         if len(D):  # its columns eliminated beside the kept points' (not kept themselves)
             cache = Correction(G=self._cache.G, kept=dict(self._cache.kept), D=self._cache.D)
             G = self._extend(cache, dofs, U)
@@ -318,6 +391,7 @@ class PointwiseSurface(LowRankSurface):
         else:
             G = self._cache.G
         c.G = G[np.ix_(where, where)]
+        c.last = None if len(D) else self._last_columns(where)
         c.factorise()
         if c.conditioned < CAPACITANCE_RCOND[1]:
             return False
@@ -330,11 +404,99 @@ class PointwiseSurface(LowRankSurface):
         self.log.add(UPDATES, "dense_update", c.rank, len(missing), seconds, 2.0 * c.rank**3 / 3)
         return True
 
-    def _keep(self, V: sp.csc_array, at: list[tuple[Block, slice]]) -> None:
-        """Eliminate the columns V forward and keep them (and their G) with the cache."""
-        dofs, U = point_columns(V, at)
-        self._cache.G = self._extend(self._cache, dofs, U)
-        self._cache.D = np.concatenate([self._cache.D, np.ones(V.shape[1])])
+    def _keep(self, ids: np.ndarray) -> None:
+        """Eliminate P's columns ``ids`` forward and keep them (and their G) with the cache."""
+        rows, U = self._columns(ids)
+        self._cache.G = self._extend(self._cache, self._dofs(rows), U)
+        self._cache.D = np.concatenate([self._cache.D, np.ones(len(ids))])
+
+    def _eliminate(self, grp, R: np.ndarray) -> np.ndarray:
+        """As :class:`LowRankSurface` 's; in the last level from R's first non-zero row on.
+
+        ``L^-1 R`` is zero above it, and a few points' columns often start part-way down.
+        """
+        if not (grp.last or not grp.neighbours):
+            return super()._eliminate(grp, R)
+        factor = self.state[grp.name].factor
+        assert isinstance(factor, DenseCholesky)  # the symmetric changes are corrected
+        start, (n, m) = time.perf_counter(), R.shape
+        lead = int(np.argmax(np.any(R != 0.0, axis=1)))
+        X = np.zeros_like(R)
+        L = factor.factor[0].T[lead:, lead:]  # LAPACK's upper factor, as DenseCholesky's
+        X[lead:] = sla.lapack.dtrtrs(L, R[lead:], lower=0, trans=1)[0]
+        seconds, flops = time.perf_counter() - start, float((n - lead) ** 2 * m)
+        self.log.add(grp.name, "dense_solve", n - lead, m, seconds, flops, "lowrank")
+        return X
+
+    def _last_columns(self, where: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]] | None:
+        """Per last-level group, which cached columns ``where`` reach it and their ``L^-1 V``.
+
+        None if one reaches an earlier level (its kept columns are ``A^-1 R`` there).
+        """
+        last = {grp.name for grp in self.schedule.groups[-1]}
+        if not self._cache.kept.keys() <= last:
+            return None
+        out = {}
+        for name, (columns, X) in self._cache.kept.items():
+            place = np.full(self._cache.rank, -1)
+            place[columns] = np.arange(len(columns))
+            found = place[where]
+            mask = found >= 0
+            if mask.any():
+                out[name] = (mask, X[:, found[mask]])
+        return out
+
+    def solve(self, g: dict[str, np.ndarray], complete: bool) -> dict[str, np.ndarray]:
+        """Solve ``S' x = g``; a point correction on the last level alone in one pass.
+
+        With ``S = L L^T`` there (the earlier levels eliminated as in a plain solve) and
+        ``W = L^-1 V`` kept, ``S'^-1 = L^-T (I - W (I + D G)^-1 D W^T) L^-1``: the forward
+        and back substitutions of a plain solve with ``W z`` subtracted between them. Its
+        residual ``g - S' x`` is ``V (z - D V^T x)`` (the points' rows alone) plus the
+        substitutions' round-off, a plain solve's and ``eps |L| |W z|`` (bounded with
+        ``|L|_F^2 <= sqrt(n) |S'|_F``). That bound reads 2e-16 to 3e-16 where the true
+        backward error is 8e-18 to 4e-17 (the 1/16 bar's releases); above
+        :data:`~dd_contact.solvers.lowrank.UPDATE_TOLERANCE`, the solve is made again as
+        :class:`LowRankSurface` 's (two passes, refined with the true residual, re-factorised
+        if it stays inaccurate). Otherwise as :class:`LowRankSurface`.
+        """
+        c = self.correction
+        if not isinstance(c, PointCorrection) or c.last is None or c.capacitance is None:
+            return super().solve(g, complete)
+        self._solved = None
+        x: dict[str, np.ndarray] = {}
+        h, t, u = self.forward(g), np.zeros(c.rank), {}
+        for grp in self.schedule.groups[-1]:
+            u[grp.name] = self._half(grp, np.concatenate([h[b] for b in grp.blocks]), 1)
+            if grp.name in c.last:
+                mask, X = c.last[grp.name]
+                t[mask] += X.T @ u[grp.name]
+        z, size, lost = c.solve(c.D * t), self._matrix_norm(), 0.0
+        for grp in self.schedule.groups[-1]:
+            if grp.name in c.last:
+                mask, X = c.last[grp.name]
+                Wz = X @ z[mask]
+                u[grp.name] -= Wz
+                n = len(Wz)
+                lost += np.sqrt(np.sqrt(n) * size) * float(np.linalg.norm(Wz))
+            self._split(grp, self._half(grp, u[grp.name], 0), x)
+        x.update(Surface.back_substitute(self, x))
+        e = c.values @ (c.D * c.points_of(x) - z)
+        lost = np.linalg.norm(e) + np.finfo(float).eps * lost
+        if lost > UPDATE_TOLERANCE * (size * norm_of(x) + norm_of(g)):
+            return super().solve(g, complete)
+        self.applications.append(1)
+        self._solved = x
+        return x
+
+    def _half(self, grp, b: np.ndarray, trans: int) -> np.ndarray:
+        """``L^-1 b`` (``trans`` 1) or ``L^-T b`` (0) with the group's Cholesky factor."""
+        factor = self.state[grp.name].factor
+        assert isinstance(factor, DenseCholesky)  # a point correction's groups: symmetric
+        start, n = time.perf_counter(), len(b)
+        out = sla.lapack.dtrtrs(factor.factor[0].T, b, lower=0, trans=trans)[0]
+        self.log.add(grp.name, "dense_solve", n, 1, time.perf_counter() - start, n * n, "x")
+        return out
 
 
 def point_columns(
