@@ -21,14 +21,11 @@ Run: python benchmarks/reduction_memory.py --scale 1/16 --modes 20
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
-import subprocess
-import sys
 from pathlib import Path
 
-from pinned import PINNED
+from reduction_setup import case_parser, run
 from setup_memory import Phases, wrap_after, wrap_before
 
 OUT = Path(__file__).parent / "results" / "reduction_memory_held.json"
@@ -142,29 +139,8 @@ def _schur_factors() -> list[dict]:
     ]
 
 
-def run(args, tree: str) -> dict:
-    """One case in a fresh process on source tree ``tree``, BLAS pinned."""
-    command = [sys.executable, __file__, "--worker", "--scale", args.scale]
-    command += ["--modes", args.modes, "--steps", str(args.steps), "--dt", str(args.dt)]
-    here = str(Path(__file__).parent)
-    env = {**os.environ, **PINNED, "PYTHONPATH": os.pathsep.join([str(Path(tree)), here])}
-    done = subprocess.run(command, env=env, capture_output=True, text=True, check=False)
-    if done.returncode:
-        raise RuntimeError(f"{tree} failed:\n{done.stderr[-3000:]}")
-    return json.loads(done.stdout.strip().splitlines()[-1])
-
-
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--scale", default="1/16", help="paper_scale.py's bar scale")
-    parser.add_argument("--modes", default="20", help="fixed-interface modes, or none")
-    parser.add_argument("--steps", type=int, default=2)
-    parser.add_argument("--dt", type=float, default=1e-6)
-    parser.add_argument("--trees", nargs="+", default=["after=."], help="name=path ...")
-    parser.add_argument("--repeats", type=int, default=1)
-    parser.add_argument("--label", default="", help="prefix of the runs' keys")
-    parser.add_argument("--out", type=Path, default=OUT)
-    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    parser = case_parser(__doc__.split("\n")[0], "20", OUT)
     args = parser.parse_args()
     if args.worker:
         print(json.dumps(worker(args)))
@@ -173,7 +149,7 @@ def main() -> None:
     trees = dict(t.split("=", 1) for t in args.trees)
     for _ in range(args.repeats):
         for name, tree in trees.items():  # interleaved: each tree once per round
-            record = {**run(args, tree), "load_average": round(os.getloadavg()[0], 2)}
+            record = {**run(args, tree, __file__), "load_average": round(os.getloadavg()[0], 2)}
             key = f"{args.label}|{args.scale}|m={args.modes}|{name}"
             results.setdefault(key, []).append(record)
             print(key, json.dumps({k: record[k] for k in ("peak_mb", "kept_end_mb")}))

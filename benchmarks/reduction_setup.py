@@ -108,11 +108,11 @@ def worker(args) -> dict:
     return out
 
 
-def run(args, tree: str) -> dict:
-    """One case in a fresh process on source tree ``tree``, BLAS pinned."""
-    command = [sys.executable, __file__, "--worker", "--scale", args.scale]
+def run(args, tree: str, script: str = __file__) -> dict:
+    """One case of ``script`` in a fresh process on source tree ``tree``, BLAS pinned."""
+    command = [sys.executable, script, "--worker", "--scale", args.scale]
     command += ["--modes", args.modes, "--steps", str(args.steps), "--dt", str(args.dt)]
-    command += ["--eigensolver", args.eigensolver] if args.eigensolver else []
+    command += ["--eigensolver", args.eigensolver] if getattr(args, "eigensolver", "") else []
     here = str(Path(__file__).parent)
     env = {**os.environ, **PINNED, "PYTHONPATH": os.pathsep.join([str(Path(tree)), here])}
     with open(args.out.with_suffix(".log"), "a") as log:  # each phase as it ends
@@ -122,19 +122,25 @@ def run(args, tree: str) -> dict:
     return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def case_parser(description: str, modes: str, out: Path) -> argparse.ArgumentParser:
+    """The options of a reduction's case run per source tree (this script's and others')."""
+    parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--scale", default="1/16", help="paper_scale.py's bar scale")
-    parser.add_argument("--modes", default="320", help="fixed-interface modes, or none")
+    parser.add_argument("--modes", default=modes, help="fixed-interface modes, or none")
     parser.add_argument("--steps", type=int, default=2)
     parser.add_argument("--dt", type=float, default=1e-6)
     parser.add_argument("--trees", nargs="+", default=["after=."], help="name=path ...")
     parser.add_argument("--repeats", type=int, default=1)
     parser.add_argument("--label", default="", help="prefix of the runs' keys")
-    parser.add_argument("--out", type=Path, default=OUT)
+    parser.add_argument("--out", type=Path, default=out)
+    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    return parser
+
+
+def main() -> None:
+    parser = case_parser(__doc__.split("\n")[0], "320", OUT)
     parser.add_argument("--eigensolvers", nargs="+", default=[""], help="block slepc")
     parser.add_argument("--eigensolver", default="", help=argparse.SUPPRESS)
-    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
         print(json.dumps(worker(args)))

@@ -66,28 +66,32 @@ def test_the_capacitance_matrix_is_solved_by_cholesky_when_the_points_changed_al
     assert 0.0 < c.conditioned <= 1.0
 
 
+def _forty_steps(kind, order, corrected, monkeypatch):
+    """40 steps of an order scene, its changes corrected or re-factorised: every step's
+    fields, the changes, the work log and the surface."""
+    from dd_contact.paper.verify import orders as order_scenes
+
+    monkeypatch.setattr(LowRankSurface, "enabled", corrected)
+    scene = order_scenes.order_scene(kind, dynamic=True, kappa=KAPPA)
+    with dc.TransientProblem(scene, 0.01, algorithm=order) as problem:
+        fields = []
+        for _ in range(40):
+            problem.advance()
+            fields.append(np.concatenate([s.u.x.array for s in scene.subdomains]))
+        return np.array(fields), dict(problem.changes), problem.work, problem.solver.surface
+
+
 @pytest.mark.parametrize(("kind", "order"), [("single", "w-u"), ("interface", "w-v-u")])
 def test_a_wall_change_is_corrected_point_by_point_with_the_refactorised_answer(
     kind, order, monkeypatch
 ):
     """A plane's normals never turn: its changes go through its point rows, no group is
     re-factorised, and every step's fields agree with re-factorising on every change."""
-    from dd_contact.paper.verify import orders as order_scenes
 
     monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
 
-    def run(enabled):
-        monkeypatch.setattr(LowRankSurface, "enabled", enabled)
-        scene = order_scenes.order_scene(kind, dynamic=True, kappa=KAPPA)
-        with dc.TransientProblem(scene, 0.01, algorithm=order) as problem:
-            fields = []
-            for _ in range(40):
-                problem.advance()
-                fields.append(np.concatenate([s.u.x.array for s in scene.subdomains]))
-            return np.array(fields), dict(problem.changes), problem.work, problem.solver.surface
-
-    reference, changes, work_ref, _ = run(False)
-    fields, corrected_changes, work, surface = run(True)
+    reference, changes, work_ref, _ = _forty_steps(kind, order, False, monkeypatch)
+    fields, corrected_changes, work, surface = _forty_steps(kind, order, True, monkeypatch)
     assert corrected_changes == changes and changes["gamma"] >= 2
     assert np.abs(fields - reference).max() <= 1e-10 * np.abs(reference).max()
     assert isinstance(surface, PointwiseSurface) and list(surface.regions) == ["end"]
@@ -102,7 +106,6 @@ def test_a_wall_change_on_the_last_level_is_solved_in_one_pass(kind, order, monk
     """The points' columns reach the last level alone: every corrected solve is one pass
     (W z subtracted between its substitutions), none falls back on two, and the fields
     agree with re-factorising on every change."""
-    from dd_contact.paper.verify import orders as order_scenes
 
     monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
     calls = {"two": 0, "one": 0}
@@ -119,19 +122,9 @@ def test_a_wall_change_on_the_last_level_is_solved_in_one_pass(kind, order, monk
     monkeypatch.setattr(LowRankSurface, "_corrected", counted_two)
     monkeypatch.setattr(PointwiseSurface, "_half", counted_one)
 
-    def run(enabled):
-        monkeypatch.setattr(LowRankSurface, "enabled", enabled)
-        scene = order_scenes.order_scene(kind, dynamic=True, kappa=KAPPA)
-        with dc.TransientProblem(scene, 0.01, algorithm=order) as problem:
-            fields = []
-            for _ in range(40):
-                problem.advance()
-                fields.append(np.concatenate([s.u.x.array for s in scene.subdomains]))
-            return np.array(fields), problem.solver.surface
-
-    reference, _ = run(False)
+    reference, *_ = _forty_steps(kind, order, False, monkeypatch)
     assert calls == {"two": 0, "one": 0}
-    fields, surface = run(True)
+    fields, _, _, surface = _forty_steps(kind, order, True, monkeypatch)
     assert np.abs(fields - reference).max() <= 1e-10 * np.abs(reference).max()
     assert calls["two"] == 0 and calls["one"] == len(surface.applications) > 0
     assert set(surface.applications) == {1}
