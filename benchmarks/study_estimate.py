@@ -27,16 +27,11 @@ as ``before``; ``study_cpu_seconds_mean_steps`` counts every step at the run's m
 (the settles of the steps with changes in, and the zone's first settle), not its quiet
 median.
 
-Branch settle cut the release steps' settles (``benchmarks/settle_cost.py``); ``m=320
-(settle, estimated)`` is the direct run with those steps' settles scaled by the
-ratios measured at 1/16 (:func:`_settled`): the mean-step variant is the one it changes.
-
-``m=320 (block eigensolver)``: the same run with its set-up measured again with the block
-eigensolver (``benchmarks/reduction_setup.py`` at 1/4, the phases up to the solver,
-``reduction_setup_eigen_1-4.json``; the steps and changes do not depend on how the modes were
-found), carried to the paper's size as m = 320 is. Without that run, ``m=320 (block
-eigensolver, scaled)``: the set-up with its modes' phase cut by the ratio the two
-eigensolvers measured at 1/16 (``reduction_setup_eigen.json``, :func:`block_setup_scaled`).
+``m=320 (stop 39)`` is the same run on the merged tree of stop 39
+(``paper_scale_reduced320_stop39.json``): the block eigensolver, the interior held lighter,
+the settles corrected for their active points and the changes corrected point by point in
+one pass, all measured together; it replaces the estimates that scaled the stop-38 run by
+each branch's 1/16 ratios. The verdict is this run's.
 
 Writes benchmarks/results/paper_study_estimate.json.
 
@@ -55,9 +50,6 @@ HERE = Path(__file__).parent / "results"
 STEPS, CHANGES = 10_000, 20_000  # Table 3 (dd_contact.paper.flops.paper.PAPER_BAR)
 KEYS = ("setup", "step", "change")
 CELLS = {"1/16": 25_000, "1/4": 100_000, "paper": 400_000}
-#: Branch settle's run at 1/16, m = 320 (benchmarks/settle_cost.py --against, merged): each
-#: settle by the branch and by main on the same arguments; the run's key there.
-SETTLE_RUN, SETTLE_BRANCH = "settle_cost_1-16_m320.json", "branch_16_320"
 
 
 def rates(run: dict) -> dict:
@@ -90,116 +82,6 @@ def run_of(name: str, key: str) -> dict | None:
     if not path.exists():
         return None
     return json.loads(path.read_text())["runs"].get(key)
-
-
-def _build(record: dict) -> float:
-    """A ``reduction_setup.py`` run's build: its phases' CPU seconds up to the steps."""
-    return sum(p["cpu_seconds"] for p in record["phases"] if "steps" not in p["phase"])
-
-
-def _modes_phase(record: dict) -> float:
-    return next(p["cpu_seconds"] for p in record["phases"] if "modes (" in p["phase"])
-
-
-def block_setup_scaled(direct: dict | None) -> dict | None:
-    """The m = 320 run at 1/4, its modes' phase cut as the block eigensolver cut it at 1/16.
-
-    The modes' phase is taken to be the same share of the build at 1/4 as at 1/16 (75 % at
-    1/16 with SLEPc, as estimated at 1/4 from its solves), and cut by the ratio measured at
-    1/16 (medians of the interleaved runs, ``reduction_setup_eigen.json``).
-    """
-    path = HERE / "reduction_setup_eigen.json"
-    if direct is None or not path.exists():
-        return None
-    runs = json.loads(path.read_text())["runs"]
-    slepc, block = (
-        runs.get("blockeig|1/16|m=320|after|slepc"),
-        runs.get("blockeig|1/16|m=320|after|block"),
-    )
-    if not (slepc and block):
-        return None
-    share = statistics.median(_modes_phase(r) / _build(r) for r in slepc)
-    ratio = statistics.median(map(_modes_phase, block)) / statistics.median(
-        map(_modes_phase, slepc)
-    )
-    cut = direct["build_cpu_seconds"] * share * (1.0 - ratio)
-    return {**direct, "setup": direct["setup"] - cut, "modes_share": share, "modes_ratio": ratio}
-
-
-def block_setup(direct: dict | None) -> dict | None:
-    """The m = 320 run at 1/4 with its set-up measured with the block eigensolver."""
-    path = HERE / "reduction_setup_eigen_1-4.json"
-    if direct is None or not path.exists():
-        return None
-    runs = [r for k, v in json.loads(path.read_text())["runs"].items() for r in v if "1/4" in k]
-    if not runs:
-        return None
-    build = [_build(r) for r in runs]
-    first = direct["setup"] - direct["build_cpu_seconds"]  # the first step's solve, as rates()
-    peak = max(r["peak_mb"] for r in runs) * 1e6 / 2**30  # VmHWM's kB as MB
-    return {
-        **direct,
-        "setup": statistics.median(build) + first,
-        "setup_slepc": direct["setup"],
-        "peak_rss_gib": max(direct["peak_rss_gib"], peak),
-    }
-
-
-def _scaled_by_study(measured: dict) -> None:
-    """m = 320 with its step and change scaled as the m = 20 run's were by branch study.
-
-    The m = 320 run at 1/4 did not finish (killed at 14.9 GiB, the machine shared); its
-    set-up is kept as estimated, its step and change taken down by the ratio the same
-    m = 20 run measured before and after (the work cut is per step, not per mode).
-    """
-    before, after = measured.get("m=20, 1/4"), measured.get("m=20 (study), 1/4")
-    if not (before and after):
-        return
-    ratio = {k: after[k] / before[k] for k in ("step", "change")} | {"setup": 1.0}
-    for size in ("1/4 (linear in m)", "paper (extrapolated)"):
-        if f"m=320, {size}" in measured:
-            m320 = measured[f"m=320, {size}"]
-            measured[f"m=320 (study), {size}"] = {k: m320[k] * ratio[k] for k in KEYS}
-
-
-def _settled(measured: dict, run: dict | None) -> None:
-    """m = 320 at 1/4 with its release steps' settles cut as branch settle measured them.
-
-    An estimate: the 1/4 run could not be repeated on the branch (the shared machine's
-    memory slots, load 12). The direct run's steps above three times its quietest (the
-    steps that settled) keep its quiet median, and their excess over it is scaled by the
-    ratio the same settles took at 1/16 with m = 320, each settle by the branch and by
-    main on the same arguments (``settle_cost.py --against``, ``SETTLE_RUN``): the zone's
-    first settle (the first such step) by the first settles' ratio, the others by the
-    later settles' medians'. At the paper's size m = 160's exponents carry it.
-    """
-    path = HERE / SETTLE_RUN
-    direct = measured.get("m=320, 1/4")
-    if not (path.exists() and direct and run):
-        return
-    cut = json.loads(path.read_text())["summary"][SETTLE_BRANCH]
-    first_ratio = cut["first_settle_cpu"] / cut["against_first_settle_cpu"]
-    later_ratio = cut["later_settle_cpu_median"] / cut["against_later_settle_cpu_median"]
-    steps = run["steps"]
-    base = [s["cpu_seconds"] - sum(s["iterations_cpu"][1:]) for s in steps[1:]]
-    quiet = min(base)
-    settled = [b for b in base if b >= 3.0 * quiet]
-    step = direct["step"]
-    scaled = [
-        step + (b - step) * (first_ratio if i == 0 else later_ratio) for i, b in enumerate(settled)
-    ]
-    estimate = direct | {
-        "step_mean": statistics.mean([b for b in base if b < 3.0 * quiet] + scaled),
-        "settle_ratios": {"first": first_ratio, "later": later_ratio},
-    }
-    measured["m=320 (settle, estimated), 1/4"] = estimate
-    paper = measured.get("m=160, paper (extrapolated)")
-    if paper:
-        grow = {k: (CELLS["paper"] / CELLS["1/4"]) ** paper[f"exponent_{k}"] for k in KEYS}
-        grow["step_mean"] = grow["step"]
-        measured["m=320 (settle, estimated), paper (extrapolated)"] = {
-            k: estimate[k] * grow[k] for k in grow
-        }
 
 
 def main() -> None:
@@ -237,6 +119,10 @@ def main() -> None:
             "paper_scale_reduced320.json",
             "parallelepiped|1/4|w-u reduced m=320|run",
         ),
+        ("m=320 (stop 39)", "1/4"): run_of(  # the merged tree of stop 39, measured directly
+            "paper_scale_reduced320_stop39.json",
+            "parallelepiped|1/4|w-u reduced m=320|run",
+        ),
         ("m=20 (study)", "1/4"): run_of(  # branch study's code, the same run as m=20's
             "paper_scale_reduced20_study.json", "parallelepiped|1/4|w-u reduced m=20|run"
         ),
@@ -250,14 +136,6 @@ def main() -> None:
         ("CG+Jacobi", "1/4"): run_of("paper_scale_jacobi.json", "parallelepiped|1/4|CG+Jacobi|run"),
     }
     measured = {f"{a}, {b}": rates(r) for (a, b), r in runs.items() if r and "steps" in r}
-    if "m=320, 1/4" in measured:
-        measured["m=320, 1/4"]["build_cpu_seconds"] = runs[("m=320", "1/4")]["build_cpu_seconds"]
-    block = block_setup(measured.get("m=320, 1/4"))
-    if block is not None:
-        measured["m=320 (block eigensolver), 1/4"] = block
-    scaled = block_setup_scaled(measured.get("m=320, 1/4"))
-    if scaled is not None:
-        measured["m=320 (block eigensolver, scaled), 1/4"] = scaled
     out: dict = {"full": full, "measured": measured, "study_seconds": {}, "verdict": {}}
     small, quarter = measured.get("m=160, 1/16"), measured.get("m=160, 1/4")
     if small and quarter:  # a power law in the cells through 1/16 and 1/4
@@ -268,7 +146,7 @@ def main() -> None:
             paper[f"exponent_{k}"] = float(slope)
         measured["m=160, paper (extrapolated)"] = paper
     low, high = measured.get("m=20, 1/4"), measured.get("m=160, 1/4")
-    for m320 in ("m=320", "m=320 (block eigensolver)", "m=320 (block eigensolver, scaled)"):
+    for m320 in ("m=320", "m=320 (stop 39)"):
         direct = measured.get(f"{m320}, 1/4")
         if direct and "m=160, paper (extrapolated)" in measured:  # m = 160's exponents
             paper = measured["m=160, paper (extrapolated)"]
@@ -284,8 +162,6 @@ def main() -> None:
             measured["m=320, paper (extrapolated)"] = {
                 k: paper[k] * grown[k] / high[k] for k in KEYS
             }
-    _scaled_by_study(measured)
-    _settled(measured, runs[("m=320", "1/4")])
     for label in [k for k in measured if k.startswith("CG+")]:
         peer = measured[label]
         measured[label.replace("1/4", "paper (linear in the cells)")] = {
