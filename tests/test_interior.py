@@ -50,3 +50,27 @@ def test_solves_after_the_matrix_is_dropped():
         factor.refactorise()
     assert log.count("sparse_solve") == 3
     factor.destroy()
+
+
+@pytest.mark.parametrize("icntl", [10, 11])
+def test_the_matrix_is_kept_when_mumps_solves_read_it(icntl):
+    """Iterative refinement and error analysis read A in every solve: it stays."""
+    from petsc4py import PETSc
+
+    from dd_contact.solvers.petsc_options import options_prefix
+
+    A = _spd()
+    B = np.random.default_rng(4).random((A.shape[0], 2))
+    ref = spla.spsolve(sp.csc_array(A), B)
+    option = f"{options_prefix()}mat_mumps_icntl_{icntl}"
+    PETSc.Options()[option] = 1
+    try:
+        factor = InteriorCholesky(InteriorMatrix(A), WorkLog(), "interior")
+    finally:
+        PETSc.Options().delValue(option)
+    assert factor.factor_matrix.getMumpsIcntl(icntl) == 1
+    factor.drop_matrix()
+    assert factor.A is not factor.factor_matrix  # kept, with its KSP
+    assert np.abs(multi_solve(factor, B, "test") - ref).max() <= 1e-12 * np.abs(ref).max()
+    factor.refactorise()  # still possible: nothing was dropped
+    factor.destroy()

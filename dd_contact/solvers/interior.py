@@ -20,6 +20,9 @@ from dd_contact.solvers.linalg import SparseCholesky
 
 __all__ = ["InteriorCholesky", "InteriorMatrix"]
 
+#: MUMPS's controls whose solves read the matrix (iterative refinement, error analysis).
+MATRIX_READERS = (10, 11)
+
 
 def _dense(X: np.ndarray, comm) -> PETSc.Mat:
     """A PETSc dense matrix on X's array (Fortran-ordered: shared, not copied)."""
@@ -79,9 +82,14 @@ class InteriorCholesky(SparseCholesky):
         return self.ksp.getPC().getFactorMatrix()
 
     def drop_matrix(self) -> None:
-        """Free the KSP and the matrix, keeping the factor (MUMPS's solves never read A)."""
-        if self._factor is None:
-            self._factor = self.ksp.getPC().getFactorMatrix()  # a reference: outlives the KSP
+        """Free the KSP and the matrix, keeping the factor (MUMPS's solves never read A).
+
+        Kept when the user's options ask MUMPS for iterative refinement or error analysis
+        (ICNTL(10), ICNTL(11)): then its solves read the matrix's values, held in place.
+        """
+        factor = self.ksp.getPC().getFactorMatrix() if self._factor is None else None
+        if factor is not None and not any(factor.getMumpsIcntl(k) for k in MATRIX_READERS):
+            self._factor = factor  # a reference: outlives the KSP
             self.ksp.destroy()
             self.A.destroy()
             self.A = self._factor  # its comm and size for solve_array: nothing else reads A
