@@ -25,7 +25,7 @@ import json
 import os
 from pathlib import Path
 
-from reduction_setup import case_parser, run
+from reduction_setup import case_parser, run, run_case
 from setup_memory import Phases, wrap_after, wrap_before
 
 OUT = Path(__file__).parent / "results" / "reduction_memory_held.json"
@@ -51,34 +51,18 @@ def _wrap_class(module, name: str, phases: Phases, before: str, after: str) -> N
 
 def worker(args) -> dict:
     """One case in this process: the scene, its reduction by phases, the steps."""
-    from mpi4py import MPI
-
-    import paper_scale
-
-    import dd_contact as dc
     from dd_contact import analysis
-    from dd_contact.paper import examples
     from dd_contact.solvers import reduced
     from dd_contact.solvers.linalg import release_freed_memory
 
     phases = Phases(release_freed_memory)
     factor_class = "InteriorCholesky" if hasattr(reduced, "InteriorCholesky") else "SparseCholesky"
     _wrap_class(reduced, factor_class, phases, "assembly, blocks of A and M", "interior factor")
-    wrap_after(reduced.ReducedBasis, "_modes", phases, "fixed-interface modes (SLEPc)")
+    wrap_after(reduced.ReducedBasis, "_modes", phases, "fixed-interface modes")
     wrap_before(reduced.ReducedBasis, "_reduced", phases, "load modes")
     wrap_after(reduced.ReducedBasis, "_reduced", phases, "A_r, M_r (constraint modes)")
     wrap_after(analysis, "reduce_model", phases, "rest of the reduction")
-    modes = None if args.modes == "none" else int(args.modes)
-    elements = paper_scale._bar_scale(args.scale)
-    scene = examples.parallelepiped("w-u", elements, comm=MPI.COMM_SELF)
-    for sub in scene.subdomains if modes is not None else ():
-        sub.reduce(modes=modes)
-    phases.close("scene")
-    problem = dc.TransientProblem(scene, args.dt, algorithm="w-u", track_energy=False)
-    phases.close("solver")
-    for _ in range(args.steps):
-        problem.advance()
-    phases.close(f"{args.steps} steps")
+    modes, elements, scene, problem = run_case(args, phases)
     out = {
         "modes": modes,
         "elements": list(elements),

@@ -52,15 +52,34 @@ class CpuPhases(Phases):
         self._cpu = time.process_time()
 
 
-def worker(args) -> dict:
-    """One case in this process: the scene, its reduction by phases, the steps."""
+def run_case(args, phases, **options):
+    """The bar at ``args.scale`` reduced (``options``: more of ``reduce``'s), its solver and
+    its steps, each closing a phase: ``(modes, elements, scene, problem)``."""
     from mpi4py import MPI
 
     import paper_scale
 
     import dd_contact as dc
-    from dd_contact import analysis
     from dd_contact.paper import examples
+
+    modes = None if args.modes == "none" else int(args.modes)
+    elements = paper_scale._bar_scale(args.scale)
+    scene = examples.parallelepiped("w-u", elements, comm=MPI.COMM_SELF)
+    for sub in scene.subdomains if modes is not None else ():
+        sub.reduce(modes=modes, **options)
+    phases.close("scene")
+    problem = dc.TransientProblem(scene, args.dt, algorithm="w-u", track_energy=False)
+    phases.close("solver")
+    for _ in range(args.steps):
+        problem.advance()
+    phases.close(f"{args.steps} steps")
+    return modes, elements, scene, problem
+
+
+def worker(args) -> dict:
+    """One case in this process: the scene, its reduction by phases, the steps."""
+
+    from dd_contact import analysis
     from dd_contact.solvers import reduced
     from dd_contact.solvers.linalg import release_freed_memory
 
@@ -71,17 +90,8 @@ def worker(args) -> dict:
     wrap_before(basis, "_reduced", phases, "load modes")
     wrap_after(basis, "_reduced", phases, "A_r, M_r (constraint modes)")
     wrap_after(analysis, "reduce_model", phases, "rest of the reduction")
-    modes = None if args.modes == "none" else int(args.modes)
-    elements = paper_scale._bar_scale(args.scale)
-    scene = examples.parallelepiped("w-u", elements, comm=MPI.COMM_SELF)
-    for sub in scene.subdomains if modes is not None else ():
-        sub.reduce(modes=modes, **({"eigensolver": args.eigensolver} if args.eigensolver else {}))
-    phases.close("scene")
-    problem = dc.TransientProblem(scene, args.dt, algorithm="w-u", track_energy=False)
-    phases.close("solver")
-    for _ in range(args.steps):
-        problem.advance()
-    phases.close(f"{args.steps} steps")
+    options = {"eigensolver": args.eigensolver} if args.eigensolver else {}
+    modes, elements, scene, problem = run_case(args, phases, **options)
     by_what: dict[str, float] = {}
     modes_solves = {"solves": 0, "columns": 0}
     for r in problem.work.records:

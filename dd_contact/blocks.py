@@ -24,6 +24,7 @@ __all__ = [
     "ContactRegion",
     "StiffTie",
     "refuse_unsolvable",
+    "same_csr",
     "split_by_blocks",
 ]
 
@@ -165,6 +166,14 @@ def _csr_arrays(matrix: sp.sparray) -> tuple[np.ndarray, ...] | None:
 
 def _same_array(a: np.ndarray, b: np.ndarray) -> bool:
     return a.shape == b.shape and bool(np.array_equal(a, b))
+
+
+def same_csr(A: sp.sparray, B: sp.sparray) -> bool:
+    """Whether two CSR matrices are one, or hold the same shape, pattern and values."""
+    if A is B:
+        return True
+    a, b = _csr_arrays(A), _csr_arrays(B)
+    return a is not None and b is not None and all(map(_same_array, a, b))
 
 
 def split_by_blocks(

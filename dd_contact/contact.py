@@ -44,7 +44,7 @@ import numpy as np
 import numpy.typing as npt
 import scipy.sparse as sp
 
-from dd_contact.blocks import Block, ContactRegion
+from dd_contact.blocks import Block, ContactRegion, same_csr
 from dd_contact.coupling import newell_normal
 from dd_contact.errors import InputError
 from dd_contact.friction import TANGENTIAL_PENALTY, Friction
@@ -224,7 +224,7 @@ class ContactOperator:
         """
         key, G = (active.tobytes(), self.epsilon), self.G
         kept = getattr(self, "_kept", None)
-        if not (self.reuse and kept is not None and kept[0] == key and _same(kept[1], G)):
+        if not (self.reuse and kept is not None and kept[0] == key and same_csr(kept[1], G)):
             scale = np.where(active, self.points.weight / self.epsilon, 0.0)
             self._kept = kept = (key, G, sp.csr_array(G.T @ (scale[:, None] * G)))
         return kept[2]
@@ -306,13 +306,6 @@ class ContactOperator:
         g = np.maximum(self.penetration(w), 0.0)
         normal = 0.5 * float(np.dot(self.points.weight, g * g)) / self.epsilon
         return normal if self.friction is None else normal + self.friction.energy(w)
-
-
-def _same(A: sp.csr_array, B: sp.csr_array) -> bool:
-    """Whether two G hold the same entries (a moving obstacle's are rebuilt at each time)."""
-    if A is B:
-        return True
-    return bool(np.array_equal(A.indices, B.indices) and np.array_equal(A.data, B.data))
 
 
 def contact_operator(contact, epsilon: float) -> ContactOperator:

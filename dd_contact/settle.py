@@ -28,7 +28,7 @@ import scipy.sparse as sp
 from scipy.sparse.linalg import SuperLU, splu, spsolve
 
 from dd_contact.assembly import ContactZone
-from dd_contact.blocks import Block, BlockSystem, split_by_blocks
+from dd_contact.blocks import Block, BlockSystem, same_csr, split_by_blocks
 
 __all__ = [
     "DENSE_FILL",
@@ -168,15 +168,6 @@ class Points:
     W: np.ndarray
     _capacitance: tuple[bytes, np.ndarray] | None = None  # the last active set's Cholesky
 
-    def same(self, F: sp.csr_array) -> bool:
-        """Whether ``F`` is the one this was made for."""
-        return F is self.F or (
-            F.shape == self.F.shape
-            and np.array_equal(F.indptr, self.F.indptr)
-            and np.array_equal(F.indices, self.F.indices)
-            and np.array_equal(F.data, self.F.data)
-        )
-
     def solve(self, L: np.ndarray, active: np.ndarray, r: np.ndarray) -> np.ndarray:
         """``(S + F_a^T F_a)^-1 r`` with ``L`` S's Cholesky factor."""
         d = _cho_solve(L, r)
@@ -253,7 +244,7 @@ class Kept:
         """The :class:`Points` of ``F`` (made when F is new), if the others' part is factorised."""
         if self._schur_factor is None:
             return None
-        if self.points is None or not self.points.same(F):
+        if self.points is None or not same_csr(self.points.F, F):
             Y = _cho_solve(self._schur_factor, F.T.toarray())
             self.points = Points(F, Y, np.asarray(F @ Y))
         return self.points
