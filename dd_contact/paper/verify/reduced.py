@@ -10,7 +10,6 @@ SLEPc's on its full matrices.
 from __future__ import annotations
 
 from mpi4py import MPI
-from petsc4py import PETSc
 
 import numpy as np
 import scipy.linalg as sla
@@ -21,8 +20,8 @@ from dd_contact import meshes
 from dd_contact.assembly import assemble
 from dd_contact.paper.verify.models import Record, locator, record
 from dd_contact.parallel import sum_over_ranks
-from dd_contact.solvers.linalg import SparseCholesky, coo_of, petsc_matrix
-from dd_contact.solvers.reduced import ReducedBasis, fixed_interface_modes
+from dd_contact.solvers.linalg import SparseCholesky
+from dd_contact.solvers.reduced import ReducedBasis, _petsc, fixed_interface_modes
 from dd_contact.solvers.reduced_model import tied_dofs
 from dd_contact.solvers.subdomains import coupling_layout
 from dd_contact.solvers.worklog import WorkLog
@@ -68,11 +67,6 @@ def cantilever_basis(scene: dd.Scene, modes: int, sub: int = 0, patterns=()) -> 
     tied = tied_dofs(C)
     basis = ReducedBasis(A, M, tied, dofs, patterns, modes, WorkLog(), "cantilever")
     return basis, A, M, dofs
-
-
-def _petsc(A) -> PETSc.Mat:
-    rows, cols, values = coo_of(sp.csr_array(A))
-    return petsc_matrix(MPI.COMM_SELF, A.shape[0], A.shape[0], rows, cols, values)
 
 
 def full_frequencies_ratio(modes: int, count: int = 20, nx: int = 10) -> np.ndarray:
