@@ -45,6 +45,21 @@ def test_static_response_is_exact_with_load_modes():
     basis.destroy()
 
 
+def test_the_walls_directions_taken_from_the_reduced_mass_equal_the_solved_ones():
+    """``wall_directions`` reads M_r's modes rows; the interior solve gives the same."""
+    scene = _cantilever(nx=8)
+    pattern = np.random.default_rng(2).standard_normal(scene.subdomains[0].num_dofs)
+    basis = _basis(scene, 6, patterns=[pattern])[0]
+    wall = basis.b[::3]
+    at, read = basis.wall_directions(wall)
+    basis._constraints_in_modes = None  # the solve each wall column took before
+    at_solved, solved = basis.wall_directions(wall)
+    np.testing.assert_array_equal(at, at_solved)
+    assert solved[basis.b.size :].any()
+    assert np.abs(read - solved).max() <= 1e-12 * np.abs(solved).max()
+    basis.destroy()
+
+
 def test_a_load_in_the_patterns_span_up_to_its_assemblys_round_off_needs_no_substitution():
     """A re-assembled load differs from its patterns' combination by round-off that grows
     with the mesh (above 1e-12 of it at 342k dofs, where each step then paid a substitution

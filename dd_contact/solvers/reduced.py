@@ -228,6 +228,8 @@ class ReducedBasis:
         raw = _solve(self.factor, P[self.i], "load modes") if P.shape[1] else P[self.i]
         self.G = _orthonormal(V, self.omega2.size, raw, M_ii)
         self._M_ii = M_ii
+        #: ``G^T M_ii A_ii^-1 A_ib`` (with mass; :meth:`wall_directions`)
+        self._constraints_in_modes: np.ndarray | None = None
         self.size = self.b.size + self.G.shape[1]
         #: Its massless coordinates (contact walls; set by :func:`reduce_model`).
         self.massless = np.zeros(0, np.int64)
@@ -303,6 +305,10 @@ class ReducedBasis:
             M_r[j0:j1, nb:] = M_r[nb:, j0:j1].T
             assert self.reaction_mass is not None  # with M
             self.reaction_mass[:, j0:j1] = M_Db[:, j0:j1].toarray() - M_Di @ X
+        if M_r is not None:
+            # G^T M_ii A_ii^-1 A_ib, for the walls' directions without a solve: M_r's modes
+            # rows hold G^T Y_i = G^T (M_ib - M_ii A_ii^-1 A_ib), column by column
+            self._constraints_in_modes = (M_ib.T @ G).T - M_r[nb:, :nb]
         _symmetrise(A_r)  # symmetric up to round-off; make it exact
         if M_r is not None:
             _symmetrise(M_r)
@@ -383,6 +389,9 @@ class ReducedBasis:
             raise ValueError(f"subdomain {self.name!r}: a wall dof is not a boundary dof")
         P = np.zeros((self.size, at.size))
         P[at, np.arange(at.size)] = 1.0
+        if self._constraints_in_modes is not None:  # formed with M_r: no solve
+            P[self.b.size :] = self._constraints_in_modes[:, at]
+            return at, P
         chunk = _chunk(self.n)  # a wall may hold most of b: its columns a block at a time
         for j0 in range(0, at.size if self.G.shape[1] else 0, chunk):
             B = self._A_ib[:, at[j0 : j0 + chunk]].toarray()
