@@ -308,7 +308,8 @@ class ReducedBasis:
         if M_r is not None:
             # G^T M_ii A_ii^-1 A_ib, for the walls' directions without a solve: M_r's modes
             # rows hold G^T Y_i = G^T (M_ib - M_ii A_ii^-1 A_ib), column by column
-            self._constraints_in_modes = (M_ib.T @ G).T - M_r[nb:, :nb]
+            # (by columns of G: scipy's sparse product would copy G whole, 0.9 GB at 1/4)
+            self._constraints_in_modes = _by_columns(M_ib.T, G, chunk).T - M_r[nb:, :nb]
         _symmetrise(A_r)  # symmetric up to round-off; make it exact
         if M_r is not None:
             _symmetrise(M_r)
