@@ -7,10 +7,13 @@ and the capacitance matrix solved by Cholesky when every point changed the same 
 
 import numpy as np
 import pytest
+import scipy.linalg as sla
 from test_pairs import _tilted_scene
 
 import dd_contact as dc
+from dd_contact.solvers import pointwise
 from dd_contact.solvers.lowrank import LowRankSurface
+from dd_contact.solvers.pointkernels import forward_columns
 from dd_contact.solvers.pointwise import PointCorrection, PointwiseSurface
 
 KAPPA = 1e4  # as tests/test_lowrank.py: exact solvers of these scenes agree to 1e-12 there
@@ -119,8 +122,14 @@ def test_a_wall_change_on_the_last_level_is_solved_in_one_pass(kind, order, monk
         calls["one"] += trans  # one forward substitution per group and solve
         return one_pass(self, grp, b, trans)
 
+    def counted_blocked(self, grp, B):  # a first flip's points beside the forward one
+        calls["one"] += 1
+        return blocked(self, grp, B)
+
+    blocked = PointwiseSurface._blocked
     monkeypatch.setattr(LowRankSurface, "_corrected", counted_two)
     monkeypatch.setattr(PointwiseSurface, "_half", counted_one)
+    monkeypatch.setattr(PointwiseSurface, "_blocked", counted_blocked)
 
     reference, *_ = _forty_steps(kind, order, False, monkeypatch)
     assert calls == {"two": 0, "one": 0}
@@ -128,3 +137,55 @@ def test_a_wall_change_on_the_last_level_is_solved_in_one_pass(kind, order, monk
     assert np.abs(fields - reference).max() <= 1e-10 * np.abs(reference).max()
     assert calls["two"] == 0 and calls["one"] == len(surface.applications) > 0
     assert set(surface.applications) == {1}
+
+
+@pytest.mark.parametrize(("kind", "order"), [("single", "w-u"), ("interface", "w-v-u")])
+@pytest.mark.parametrize("blocked_from", [1, 10**9])
+def test_a_first_flip_s_points_are_eliminated_by_the_solve_s_own_substitution(
+    kind, order, blocked_from, monkeypatch
+):
+    """On the last level, points eliminated for the first time ride along the corrected
+    solve's forward substitution (one reading of the factor): none is eliminated apart, each
+    one new column of a substitution, and the fields agree with re-factorising, whether the
+    substitution is blocked (:func:`forward_columns`) or one ``trtrs``."""
+
+    monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
+    monkeypatch.setattr(pointwise, "BLOCKED_FROM", blocked_from)
+    reference, *_ = _forty_steps(kind, order, False, monkeypatch)
+    fields, _, work, surface = _forty_steps(kind, order, True, monkeypatch)
+    assert np.abs(fields - reference).max() <= 1e-10 * np.abs(reference).max()
+    assert not [r for r in work.records if r.what == "lowrank"]  # no elimination apart
+    new = sum(r.nrhs for r in work.records if r.kind == "dense_update")  # points first seen
+    riding = sum(r.nrhs - 1 for r in work.records if r.kind == "dense_solve" and r.what == "x")
+    assert riding == new > 0
+    assert not len(surface._pending) and surface._cache.rank == len(surface._cached)
+
+
+def test_a_first_flip_with_an_ill_conditioned_capacitance_matrix_is_re_factorised(monkeypatch):
+    """Its capacitance matrix is made by the solve that eliminates the new points: when that
+    is ill-conditioned the solve re-factorises, as a change checked at once would."""
+
+    monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
+    reference, _, work_ref, _ = _forty_steps("single", "w-u", False, monkeypatch)
+    monkeypatch.setattr(pointwise, "CAPACITANCE_RCOND", (1e-10, 2.0))  # none well enough
+    fields, _, work, _ = _forty_steps("single", "w-u", True, monkeypatch)
+    assert np.abs(fields - reference).max() <= 1e-10 * np.abs(reference).max()
+    assert work.count("dense_factor") == work_ref.count("dense_factor")
+    assert work.count("dense_update") > 0  # corrections made, then found ill-conditioned
+
+
+@pytest.mark.parametrize("n", [1, 127, 128, 300])
+def test_forward_columns_solves_each_column_from_its_first_row(n):
+    """Columns starting at any row (a dense one, zero ones) against a triangular solve."""
+    rng = np.random.default_rng(n)
+    A = rng.standard_normal((n, n))
+    A = A @ A.T + n * np.eye(n)
+    L = sla.cho_factor(A, lower=True)[0]  # its upper triangle holds A's: never read
+    B = np.zeros((n, 9), order="F")
+    B[:, 0] = rng.standard_normal(n)
+    for j, first in enumerate(rng.integers(0, n, 7), start=1):
+        B[first : first + 5, j] = rng.standard_normal(len(B[first : first + 5, j]))
+    expected = sla.solve_triangular(np.tril(L), B, lower=True)
+    flops = forward_columns(L, B)
+    assert np.abs(B - expected).max() <= 1e-13 * np.abs(expected).max()
+    assert 0 < flops <= 9 * n * n

@@ -24,7 +24,7 @@ from dd_contact.solvers.schedule import (
 from dd_contact.solvers.unsymmetric import DenseLU, lu_groups
 from dd_contact.solvers.worklog import WorkLog
 
-__all__ = ["Surface"]
+__all__ = ["Surface", "kept_into"]
 
 
 @dataclass
@@ -303,3 +303,22 @@ class Surface:
         for b in grp.blocks:
             out[b] = values[start : start + self.sizes[b]]
             start += self.sizes[b]
+
+
+def kept_into(kept: dict, G: np.ndarray, name: str, new, X: np.ndarray, Y: np.ndarray) -> None:
+    """A correction's columns ``new``, eliminated in group ``name``, into G and ``kept``.
+
+    ``kept`` holds per group the columns eliminated there and what it keeps of them (X
+    here); Y is what that meets: X itself in the last level (``L^-1 R``, G ``+= X^T X``),
+    else the columns' rows R (``A^-1 R``, G ``+= R^T A^-1 R``). Used by
+    :mod:`~dd_contact.solvers.lowrank` and :mod:`~dd_contact.solvers.pointwise`.
+    """
+    G[np.ix_(new, new)] += Y.T @ X
+    if name in kept:
+        old, X_old = kept[name]
+        cross = X_old.T @ Y
+        G[np.ix_(old, new)] += cross
+        G[np.ix_(new, old)] += cross.T
+        kept[name] = (np.concatenate([old, new]), np.hstack([X_old, X]))
+    else:
+        kept[name] = (new, X)
