@@ -54,7 +54,7 @@ from dd_contact.solvers.lowrank import (
     low_rank,
     norm_of,
 )
-from dd_contact.solvers.pointkernels import BLOCKED_FROM, equilibrated, forward_columns
+from dd_contact.solvers.pointkernels import equilibrated, forward_columns
 from dd_contact.solvers.schedule import Operation
 from dd_contact.solvers.surface import Surface, kept_into
 
@@ -171,6 +171,7 @@ class PointwiseSurface(LowRankSurface):
         self._cache = Correction()  # the points eliminated so far: their G and kept columns
         self._cached: dict[int, int] = {}  # a point's column (in P) -> its column in the cache
         self._pending = np.zeros(0, int)  # P's columns given a cache column, not eliminated yet
+        self._scratches: dict[str, np.ndarray] = {}  # per group, for their elimination
         self._invested = 0.0  # priced seconds of the eliminations kept with the reference
         self._saved = 0.0  # priced re-factorisations the updates since then saved
         self._prices: dict[tuple, float] = {}  # lists of operations, priced
@@ -538,18 +539,27 @@ class PointwiseSurface(LowRankSurface):
             if local is None or not (inside := local >= 0).any():
                 u[grp.name] = self._half(grp, b, 1)
                 continue
-            cols = np.flatnonzero(np.any(values[inside] != 0.0, axis=0))
-            B = np.zeros((len(b), 1 + len(cols)), order="F")
+            here = values[inside]
+            cols = np.flatnonzero(np.any(here != 0.0, axis=0))
+            B = self._scratch(grp.name, len(b), 1 + len(cols))
             B[:, 0] = b
-            B[local[inside][:, None], 1 + cols] = values[np.ix_(inside, cols)]
-            X = self._half(grp, B, 1) if len(cols) < BLOCKED_FROM else self._blocked(grp, B)
-            u[grp.name] = X[:, 0]
-            kept_into(self._cache.kept, G, grp.name, r0 + cols, X[:, 1:], X[:, 1:])
+            B[local[inside][:, None], 1 + np.arange(len(cols))] = here[:, cols]
+            X = self._columns_forward(grp, B)
+            u[grp.name] = X[:, 0].copy()  # the scratch is written again by the next one
+            kept_into(self._cache.kept, G, grp.name, r0 + cols, X[:, 1:], X[:, 1:], spare=True)
         if len(pending):
             self._cache.G = 0.5 * (G + G.T)
             self._cache.D = np.concatenate([self._cache.D, np.ones(len(pending))])
             self._pending = np.zeros(0, int)
         return u
+
+    def _scratch(self, name: str, n: int, m: int) -> np.ndarray:
+        """A zero n x m Fortran-ordered array kept per group (a fresh one costs page faults)."""
+        if name not in self._scratches or self._scratches[name].shape[1] < m:
+            self._scratches[name] = np.zeros((n, max(m, 64)), order="F")
+        B = self._scratches[name][:, :m]
+        B[:] = 0.0
+        return B
 
     def _local(self, grp, rows: np.ndarray, at: dict) -> np.ndarray:
         """Joined rows (sorted) as the group's (its blocks one after the other); -1: not in it."""
@@ -561,8 +571,8 @@ class PointwiseSurface(LowRankSurface):
             offset += self.sizes[block]
         return local
 
-    def _blocked(self, grp, B: np.ndarray) -> np.ndarray:
-        """``L^-1 B`` block by block, each column from its first non-zero row (B overwritten)."""
+    def _columns_forward(self, grp, B: np.ndarray) -> np.ndarray:
+        """``L^-1 B``, each column from its first non-zero row (B overwritten)."""
         factor = self.state[grp.name].factor
         assert isinstance(factor, DenseCholesky)  # a point correction's groups: symmetric
         start, (n, m) = time.perf_counter(), B.shape

@@ -305,20 +305,28 @@ class Surface:
             start += self.sizes[b]
 
 
-def kept_into(kept: dict, G: np.ndarray, name: str, new, X: np.ndarray, Y: np.ndarray) -> None:
+def kept_into(kept: dict, G, name: str, new, X, Y, spare: bool = False) -> None:
     """A correction's columns ``new``, eliminated in group ``name``, into G and ``kept``.
 
     ``kept`` holds per group the columns eliminated there and what it keeps of them (X
     here); Y is what that meets: X itself in the last level (``L^-1 R``, G ``+= X^T X``),
     else the columns' rows R (``A^-1 R``, G ``+= R^T A^-1 R``). Used by
-    :mod:`~dd_contact.solvers.lowrank` and :mod:`~dd_contact.solvers.pointwise`.
+    :mod:`~dd_contact.solvers.lowrank` and :mod:`~dd_contact.solvers.pointwise`. ``spare``:
+    the kept columns are the first of a larger array, the next ones written in place (no
+    copy of the earlier ones); only where nothing else extends the same ``kept``.
     """
     G[np.ix_(new, new)] += Y.T @ X
-    if name in kept:
-        old, X_old = kept[name]
+    old, X_old = kept.get(name, (np.zeros(0, int), X[:, :0]))
+    if len(old):
         cross = X_old.T @ Y
         G[np.ix_(old, new)] += cross
         G[np.ix_(new, old)] += cross.T
-        kept[name] = (np.concatenate([old, new]), np.hstack([X_old, X]))
-    else:
-        kept[name] = (new, X)
+    if not spare:
+        kept[name] = (np.concatenate([old, new]), np.hstack([X_old, X]) if len(old) else X)
+        return
+    r, k, base = len(old), X.shape[1], X_old.base if len(old) else None
+    if not (base is not None and base.flags.f_contiguous and base.shape[1] >= r + k):
+        base = np.zeros((len(X), max(2 * (r + k), 64)), order="F")
+        base[:, :r] = X_old
+    base[:, r : r + k] = X
+    kept[name] = (np.concatenate([old, new]), base[:, : r + k])
