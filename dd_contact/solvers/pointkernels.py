@@ -11,9 +11,12 @@ import ctypes
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 from scipy.linalg import cython_blas
 
-__all__ = ["equilibrated", "forward_columns"]
+from dd_contact.blocks import Block
+
+__all__ = ["equilibrated", "forward_columns", "local_rows", "point_columns"]
 
 
 def _cython_blas(name: str, *argtypes):
@@ -86,3 +89,31 @@ def equilibrated(C: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], float, t
 def _powers(largest: np.ndarray) -> np.ndarray:
     """Powers of two that bring ``largest`` into [0.5, 1)."""
     return np.ldexp(1.0, -np.frexp(largest)[1])
+
+
+def local_rows(blocks, sizes: dict, rows: np.ndarray, at: dict) -> np.ndarray:
+    """Rows of the joined numbering (sorted; ``at``: each block's slice of it) as a group's.
+
+    The group's rows are its ``blocks`` one after the other; -1: a row not in them.
+    """
+    local, offset = np.full(len(rows), -1), 0
+    for block in blocks:
+        if block in at:
+            lo, hi = np.searchsorted(rows, (at[block].start, at[block].stop))
+            local[lo:hi] = rows[lo:hi] - at[block].start + offset
+        offset += sizes[block]
+    return local
+
+
+def point_columns(
+    V: sp.csc_array, at: list[tuple[Block, slice]]
+) -> tuple[dict[Block, np.ndarray], np.ndarray]:
+    """Points' columns V as a correction's piece: the dofs they touch per block, and U."""
+    V = sp.csr_array(V)
+    nonzero = np.unique(sp.coo_array(V).row)
+    dofs = {}
+    for b, rows in at:
+        J = nonzero[(nonzero >= rows.start) & (nonzero < rows.stop)] - rows.start
+        if len(J):
+            dofs[b] = J
+    return dofs, V[nonzero].toarray()

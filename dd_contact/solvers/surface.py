@@ -312,11 +312,12 @@ def kept_into(kept: dict, G, name: str, new, X, Y, spare: bool = False) -> None:
     here); Y is what that meets: X itself in the last level (``L^-1 R``, G ``+= X^T X``),
     else the columns' rows R (``A^-1 R``, G ``+= R^T A^-1 R``). Used by
     :mod:`~dd_contact.solvers.lowrank` and :mod:`~dd_contact.solvers.pointwise`. ``spare``:
-    the kept columns are the first of a larger array, the next ones written in place (no
-    copy of the earlier ones); only where nothing else extends the same ``kept``.
+    the kept columns (none, or a view of zero columns) are the first of a larger array, the
+    next ones written after them (no copy of the earlier ones; a larger array when full);
+    only where nothing else extends the same ``kept``.
     """
     G[np.ix_(new, new)] += Y.T @ X
-    old, X_old = kept.get(name, (np.zeros(0, int), X[:, :0]))
+    old, X_old = kept.get(name, (np.zeros(0, int), np.zeros((len(X), 0))))
     if len(old):
         cross = X_old.T @ Y
         G[np.ix_(old, new)] += cross
@@ -324,7 +325,7 @@ def kept_into(kept: dict, G, name: str, new, X, Y, spare: bool = False) -> None:
     if not spare:
         kept[name] = (np.concatenate([old, new]), np.hstack([X_old, X]) if len(old) else X)
         return
-    r, k, base = len(old), X.shape[1], X_old.base if len(old) else None
+    r, k, base = len(old), X.shape[1], X_old.base
     if not (base is not None and base.flags.f_contiguous and base.shape[1] >= r + k):
         base = np.zeros((len(X), max(2 * (r + k), 64)), order="F")
         base[:, :r] = X_old
