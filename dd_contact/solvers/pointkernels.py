@@ -40,7 +40,14 @@ _DTRSV = _cython_blas(
 )
 
 
-def forward_columns(L: np.ndarray, B: np.ndarray) -> float:
+#: Rows up to which :func:`forward_columns` solves column by column (its factor's triangle
+#: stays in the cache between columns: 4.9 MB at 1,107 rows); beyond, block by block, the
+#: triangle read once for all the columns (7,200 rows, the pin joint's all-walls group: 207
+#: MB a reading), in blocks of :data:`BLOCK` rows.
+PER_COLUMN_ROWS, BLOCK = 1500, 256
+
+
+def forward_columns(L: np.ndarray, B: np.ndarray, per_column_rows: int = PER_COLUMN_ROWS) -> float:
     """``B <- L^-1 B``, each column from its first non-zero row on; returns the flops.
 
     L: a Cholesky factor's lower triangle, row-major (``cho_factor`` 's, lower; its upper
@@ -58,6 +65,8 @@ def forward_columns(L: np.ndarray, B: np.ndarray) -> float:
             "forward_columns takes a row-major n x n factor, B Fortran-ordered (float64)"
         )
     lead = np.argmax(B != 0.0, axis=0)
+    if n > per_column_rows:
+        return _blocked(L, B, lead)
     lda, one, flops = ctypes.c_int(n), ctypes.c_int(1), 0.0
     for j, first in enumerate(lead.tolist()):
         if B[first, j] == 0.0:
@@ -89,6 +98,28 @@ def equilibrated(C: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], float, t
 def _powers(largest: np.ndarray) -> np.ndarray:
     """Powers of two that bring ``largest`` into [0.5, 1)."""
     return np.ldexp(1.0, -np.frexp(largest)[1])
+
+
+def _blocked(L: np.ndarray, B: np.ndarray, lead: np.ndarray) -> float:
+    """:func:`forward_columns` block by block, the triangle read once for every column.
+
+    The columns in order of their first row: a block's rows are solved for the columns
+    started by then and subtracted from the rows below (one product), ``(n - first row)^2``
+    flops a column.
+    """
+    n = len(B)
+    order = np.argsort(lead, kind="stable")
+    X, started, flops = np.asfortranarray(B[:, order]), lead[order] // BLOCK, 0.0
+    for k, top in enumerate(range(0, n, BLOCK)):
+        end, a = min(top + BLOCK, n), int(np.searchsorted(started, k, "right"))
+        if not a:
+            continue
+        diagonal = L[top:end, top:end].T  # its upper factor's block (copied: small)
+        X[top:end, :a] = sla.lapack.dtrtrs(diagonal, X[top:end, :a], lower=0, trans=1)[0]
+        X[end:, :a] -= L[end:, top:end] @ X[top:end, :a]
+        flops += float((n - top) * (end - top) * a)
+    B[:, order] = X
+    return flops
 
 
 def local_rows(blocks, sizes: dict, rows: np.ndarray, at: dict) -> np.ndarray:
