@@ -13,9 +13,14 @@ group, eliminated into the interface's.
 
 Per change: the seconds of its change work in the work log (``problem.work``:
 factorisations, or the update's forward elimination and ``dense_update``) and the solve's
-wall time. The same in a process with the correction off (``LowRankSurface.enabled =
-False``: the group re-factorised), the two interleaved (A, B, A, B), each with BLAS on one
-thread; medians over the trials and processes, peak memory of each process. The solutions
+wall time; in CPU seconds the surface's change work (its ``factorise``) and its solve. A
+first flip's points may be eliminated by that solve, beside its own substitution: its
+whole cost is the change's work plus its surface solve less a plain one (the corrected
+run's solves back at the factorised state), ``flip_and_solve_cpu_seconds``. The same in a
+process with the correction off (``LowRankSurface.enabled = False``: the group
+re-factorised), and with ``--before DIR`` in one running another checkout's
+``dd_contact`` (DIR holds it), all interleaved, each with BLAS on one thread; medians over
+the trials and processes, peak memory of each process. The solutions
 of the first trial are compared (w, relative to the largest entry), and each one's normwise
 backward error on the whole system (14) with the flipped contact terms is measured. Their
 difference alone says little: at penalty 1e6 this joint's scaled condition number is
