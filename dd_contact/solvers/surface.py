@@ -326,7 +326,8 @@ def kept_into(kept: dict, G, name: str, new, X, Y, spare: bool = False) -> None:
         kept[name] = (np.concatenate([old, new]), np.hstack([X_old, X]) if len(old) else X)
         return
     r, k, base = len(old), X.shape[1], X_old.base
-    if not (base is not None and base.flags.f_contiguous and base.shape[1] >= r + k):
+    prefix = base is not None and X_old.ctypes.data == base.ctypes.data  # base[:, :r]
+    if not (prefix and base.flags.f_contiguous and base.shape[1] >= r + k):
         base = np.zeros((len(X), max(2 * (r + k), 64)), order="F")
         base[:, :r] = X_old
     base[:, r : r + k] = X
