@@ -13,9 +13,14 @@ group, eliminated into the interface's.
 
 Per change: the seconds of its change work in the work log (``problem.work``:
 factorisations, or the update's forward elimination and ``dense_update``) and the solve's
-wall time. The same in a process with the correction off (``LowRankSurface.enabled =
-False``: the group re-factorised), the two interleaved (A, B, A, B), each with BLAS on one
-thread; medians over the trials and processes, peak memory of each process. The solutions
+wall time; in CPU seconds the surface's change work (its ``factorise``) and its solve. A
+first flip's points may be eliminated by that solve, beside its own substitution: its
+whole cost is the change's work plus its surface solve less a plain one (the corrected
+run's solves back at the factorised state), ``flip_and_solve_cpu_seconds``. The same in a
+process with the correction off (``LowRankSurface.enabled = False``: the group
+re-factorised), and with ``--before DIR`` in one running another checkout's
+``dd_contact`` (DIR holds it), all interleaved, each with BLAS on one thread; medians over
+the trials and processes, peak memory of each process. The solutions
 of the first trial are compared (w, relative to the largest entry), and each one's normwise
 backward error on the whole system (14) with the flipped contact terms is measured. Their
 difference alone says little: at penalty 1e6 this joint's scaled condition number is
@@ -116,6 +121,15 @@ def one(order: str, lowrank: bool, args, out: str) -> dict:
             spent[0] += time.process_time() - start
 
         surface.factorise = timed
+        solve_surface, solved = surface.solve, [0.0]
+
+        def timed_solve(g, complete):  # its solve after the change, CPU: a first flip's points
+            start = time.process_time()  # may be eliminated there, beside the solve's own
+            out = solve_surface(g, complete)
+            solved[0] += time.process_time() - start
+            return out
+
+        surface.solve = timed_solve
         settled = {k: a.copy() for k, a in it.active.items()}
         rhs = {k: v.copy() for k, v in it.last_solve[0].items()}  # any right-hand side will do
         points = sum(len(a) for a in settled.values())
@@ -134,7 +148,7 @@ def one(order: str, lowrank: bool, args, out: str) -> dict:
                 for what in ("flip", "back", "again", "back"):
                     it.active = {k: a.copy() for k, a in states[what].items()}
                     first = len(problem.work.records)
-                    tic, cpu, spent[0] = time.perf_counter(), time.process_time(), 0.0
+                    tic, cpu, spent[0], solved[0] = time.perf_counter(), time.process_time(), 0, 0
                     x = it._solve_once(solver, rhs, "benchmark")
                     seconds, cpu = time.perf_counter() - tic, time.process_time() - cpu
                     records = problem.work.records[first:]
@@ -146,6 +160,7 @@ def one(order: str, lowrank: bool, args, out: str) -> dict:
                             "seconds": seconds,
                             "cpu_seconds": cpu,  # the whole solve's, this process's own
                             "change_cpu_seconds": spent[0],  # the surface's factorise
+                            "surface_solve_cpu_seconds": solved[0],  # and its solve
                             "change_seconds": change_seconds(records),
                             "updates": sum(r.kind == "dense_update" for r in records),
                             "factorisations": sum(r.kind == "dense_factor" for r in records),
@@ -169,77 +184,108 @@ def one(order: str, lowrank: bool, args, out: str) -> dict:
     }
 
 
-def compare(order: str, args) -> dict:
-    """The correction and re-factorising, interleaved, each in processes of their own."""
+#: The variants a comparison runs, each in processes of its own, interleaved: the correction,
+#: the same with another checkout's ``dd_contact`` (``--before``), re-factorising.
+VARIANTS = ("corrected", "before", "refactorised")
+
+
+def _worker(order: str, label: str, args, out: str) -> dict:
+    """One worker process of a variant; its record with its first flip's solution."""
     env = {**os.environ, **PINNED}
-    runs: dict[bool, list] = {True: [], False: []}
+    if label == "before":  # the same benchmark on the other checkout's package
+        env["PYTHONPATH"] = os.pathsep.join([args.before, env.get("PYTHONPATH", "")])
+    command = [sys.executable, __file__, "--one", order, "--scale", args.scale]
+    command += ["--model", args.model, "--trials", str(args.trials), "--out-array", out]
+    command += ["--refactorise"] if label == "refactorised" else []
+    command += ["--always-correct"] if args.always_correct else []
+    done = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
+    record = json.loads(done.stdout.strip().splitlines()[-1])
+    record["solution"] = np.load(out)
+    return record
+
+
+def _by_what(rows: list[dict]) -> dict:
+    """Medians per kind of change: a first flip, a flip back, the same points again."""
+    keys = ("change_seconds", "seconds", "change_cpu_seconds", "surface_solve_cpu_seconds")
+    return {
+        what: {key: float(np.median([c[key] for c in rows if c["what"] == what])) for key in keys}
+        for what in ("flip", "back", "again")
+    }
+
+
+def _summary(rows: list[dict], plain: float) -> dict:
+    """A variant's changes of one fraction; ``plain``: a solve without a change (CPU)."""
+    cpu = [c["change_cpu_seconds"] for c in rows]
+    # the change's whole cost: its own work and what its solve cost beyond a plain one
+    whole = [c["change_cpu_seconds"] + c["surface_solve_cpu_seconds"] - plain for c in rows]
+    return {
+        "change_seconds_median": float(np.median([c["change_seconds"] for c in rows])),
+        "change_cpu_seconds_median": float(np.median(cpu)),
+        "change_and_solve_cpu_seconds_median": float(np.median(whole)),
+        "solve_seconds_median": float(np.median([c["seconds"] for c in rows])),
+        "updates": sum(c["updates"] for c in rows),
+        "factorisations": sum(c["factorisations"] for c in rows),
+        "changes": len(rows),
+        "by_what": _by_what(rows),
+        "flip_and_solve_cpu_seconds": float(
+            np.median([w for w, c in zip(whole, rows, strict=True) if c["what"] == "flip"])
+        ),
+    }
+
+
+def compare(order: str, args) -> dict:
+    """The variants, interleaved, each in processes of its own."""
+    labels = [v for v in VARIANTS if v != "before" or args.before]
+    runs: dict[str, list] = {label: [] for label in labels}
     with tempfile.TemporaryDirectory() as tmp:
         for repeat in range(args.repeats):
-            for lowrank in (True, False):
-                out = str(Path(tmp) / f"{lowrank}_{repeat}.npy")
-                command = [sys.executable, __file__, "--one", order, "--scale", args.scale]
-                command += ["--model", args.model]
-                command += ["--trials", str(args.trials), "--out-array", out]
-                command += [] if lowrank else ["--refactorise"]
-                command += ["--always-correct"] if args.always_correct else []
-                done = subprocess.run(command, env=env, capture_output=True, text=True, check=True)
-                runs[lowrank].append(json.loads(done.stdout.strip().splitlines()[-1]))
-                runs[lowrank][-1]["solution"] = np.load(out)
-    reference = runs[False][0]["solution"]
+            for label in labels:
+                out = str(Path(tmp) / f"{label}_{repeat}.npy")
+                runs[label].append(_worker(order, label, args, out))
+    reference = runs["refactorised"][0]["solution"]
     args.refactorised[order] = reference
     scale = np.abs(reference).max()
-    difference = max(np.abs(r.pop("solution") - reference).max() / scale for r in runs[True])
-    for r in runs[False]:
-        r.pop("solution")
-    out = {
-        "difference": float(difference),
+    out: dict = {"difference": {}, "backward_error": {}, "fractions": {}}
+    for label in labels:
+        solutions = [r.pop("solution") for r in runs[label]]
+        out["difference"][label] = max(
+            float(np.abs(x - reference).max() / scale) for x in solutions
+        )
         # normwise, on the whole system (14) with the flipped contact terms: a backward-stable
         # solve leaves about 1e-16, whatever its forward error
-        "backward_error": {
-            "corrected": max(r["backward_error"] for r in runs[True]),
-            "refactorised": max(r["backward_error"] for r in runs[False]),
-        },
-        "fractions": {},
-    }
+        out["backward_error"][label] = max(r["backward_error"] for r in runs[label])
+    # a solve without a change: the corrected runs' solves back at the factorised state
+    plain = float(
+        np.median(
+            [
+                c["surface_solve_cpu_seconds"]
+                for c in runs["corrected"][0]["changes"]
+                if c["what"] == "back"
+            ]
+        )
+    )
+    out["plain_surface_solve_cpu_seconds"] = plain
     for fraction in FRACTIONS:
-        per = {}
-        for lowrank, label in ((True, "corrected"), (False, "refactorised")):
-            rows = [c for r in runs[lowrank] for c in r["changes"] if c["fraction"] == fraction]
-            per[label] = {
-                "change_seconds_median": float(np.median([c["change_seconds"] for c in rows])),
-                "solve_seconds_median": float(np.median([c["seconds"] for c in rows])),
-                "updates": sum(c["updates"] for c in rows),
-                "factorisations": sum(c["factorisations"] for c in rows),
-                "changes": len(rows),
-                # a first flip (its points eliminated), a flip back, the same points again
-                "by_what": {
-                    what: {
-                        key: float(np.median([c[key] for c in rows if c["what"] == what]))
-                        for key in ("change_seconds", "seconds")
-                    }
-                    for what in ("flip", "back", "again")
-                },
-            }
+        per: dict = {}
+        for label in labels:
+            rows = [c for r in runs[label] for c in r["changes"] if c["fraction"] == fraction]
+            per[label] = _summary(rows, plain)
         per["points_changed"] = rows[0]["points_changed"]
-        per["ratio"] = (
-            per["refactorised"]["change_seconds_median"] / per["corrected"]["change_seconds_median"]
-        )
-        for what in ("flip", "again"):  # against re-factorising on any change
-            corrected = per["corrected"]["by_what"][what]["change_seconds"]
-            per[f"ratio_{what}"] = per["refactorised"]["change_seconds_median"] / max(
-                corrected, 1e-9
-            )
-        per["solve_ratio"] = (
-            per["refactorised"]["solve_seconds_median"] / per["corrected"]["solve_seconds_median"]
-        )
+        refactorise = per["refactorised"]["change_cpu_seconds_median"]
+        for label in labels[:-1]:  # CPU, against re-factorising's change work
+            f = per[label]
+            for what in ("flip", "again"):
+                f[f"ratio_{what}"] = refactorise / max(
+                    f["by_what"][what]["change_cpu_seconds"], 1e-9
+                )
+            f["ratio_flip_and_solve"] = refactorise / max(f["flip_and_solve_cpu_seconds"], 1e-9)
         out["fractions"][str(fraction)] = per
-    out["points"] = runs[True][0]["points"]
-    out["dofs"] = runs[True][0]["dofs"]
+    first = runs["corrected"][0]
+    out["points"], out["dofs"] = first["points"], first["dofs"]
     out["peak_memory_mib"] = {
-        "corrected": max(r["peak_memory_mib"] for r in runs[True]),
-        "refactorised": max(r["peak_memory_mib"] for r in runs[False]),
+        label: max(r["peak_memory_mib"] for r in runs[label]) for label in labels
     }
-    out["runs"] = {"corrected": runs[True], "refactorised": runs[False]}
+    out["runs"] = runs
     return out
 
 
@@ -258,6 +304,10 @@ def main():
     parser.add_argument(
         "--always-correct", action="store_true", help="a worker correcting every change"
     )
+    parser.add_argument(
+        "--before", help="another checkout's directory: its dd_contact run as a variant too"
+    )
+    parser.add_argument("--name", help="the results file's name (default from the scale)")
     parser.add_argument("--out", default=str(Path(__file__).parent / "results"))
     args = parser.parse_args()
     args.scale = args.scale or (DEFAULT_SCALE if args.model == "joint" else "1/4")
@@ -286,22 +336,31 @@ def main():
     suffix = f"_bar{suffix}" if args.model == "bar" else suffix
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / f"lowrank_change{suffix}.json").write_text(json.dumps(report, indent=1))
+    name = args.name or f"lowrank_change{suffix}.json"
+    (out / name).write_text(json.dumps(report, indent=1))
     for order, r in report["orders"].items():
-        head = f"{order}: {r['dofs']:,} dofs, {r['points']} contact points"
-        backward = r["backward_error"]
-        print(
-            f"{head}, |x - x_refactorised| {r['difference']:.1e}; backward error "
-            f"{backward['corrected']:.1e} corrected, {backward['refactorised']:.1e} re-factorised"
-        )
+        print(f"{order}: {r['dofs']:,} dofs, {r['points']} contact points")
+        print(f"  |x - x_refactorised| {r['difference']}; backward error {r['backward_error']}")
         for fraction, f in r["fractions"].items():
+            refactorise = 1e3 * f["refactorised"]["change_cpu_seconds_median"]
             print(
-                f"  {float(fraction):.0%} ({f['points_changed']} points): change "
-                f"{1e3 * f['corrected']['change_seconds_median']:.1f} ms corrected, "
-                f"{1e3 * f['refactorised']['change_seconds_median']:.1f} ms re-factorised: "
-                f"{f['ratio']:.1f}x (first flip {f['ratio_flip']:.1f}x, again "
-                f"{f['ratio_again']:.1f}x); solve {f['solve_ratio']:.1f}x"
+                f"  {float(fraction):.0%} ({f['points_changed']} points): "
+                f"re-factorise {refactorise:.2f} ms CPU"
             )
+            for label in ("corrected", "before"):
+                if label in f:
+                    g, by = f[label], f[label]["by_what"]
+                    flip, again = (
+                        by["flip"]["change_cpu_seconds"],
+                        by["again"]["change_cpu_seconds"],
+                    )
+                    whole = g["flip_and_solve_cpu_seconds"]
+                    print(
+                        f"    {label}: first flip {1e3 * flip:.2f} ms ({g['ratio_flip']:.1f}x), "
+                        f"with its solve's extra {1e3 * whole:.2f} ms "
+                        f"({g['ratio_flip_and_solve']:.1f}x); again {1e3 * again:.2f} ms "
+                        f"({g['ratio_again']:.1f}x)"
+                    )
     if "orders_spread" in report:
         print(f"w-v-u against v-w-u, both re-factorised: {report['orders_spread']:.1e}")
 

@@ -7,11 +7,15 @@ and the capacitance matrix solved by Cholesky when every point changed the same 
 
 import numpy as np
 import pytest
+import scipy.linalg as sla
 from test_pairs import _tilted_scene
 
 import dd_contact as dc
+from dd_contact.solvers import pointwise
 from dd_contact.solvers.lowrank import LowRankSurface
+from dd_contact.solvers.pointkernels import forward_columns
 from dd_contact.solvers.pointwise import PointCorrection, PointwiseSurface
+from dd_contact.solvers.surface import kept_into
 
 KAPPA = 1e4  # as tests/test_lowrank.py: exact solvers of these scenes agree to 1e-12 there
 
@@ -119,8 +123,14 @@ def test_a_wall_change_on_the_last_level_is_solved_in_one_pass(kind, order, monk
         calls["one"] += trans  # one forward substitution per group and solve
         return one_pass(self, grp, b, trans)
 
+    def counted_columns(self, grp, B):  # a first flip's points beside the forward one
+        calls["one"] += 1
+        return columns(self, grp, B)
+
+    columns = PointwiseSurface._columns_forward
     monkeypatch.setattr(LowRankSurface, "_corrected", counted_two)
     monkeypatch.setattr(PointwiseSurface, "_half", counted_one)
+    monkeypatch.setattr(PointwiseSurface, "_columns_forward", counted_columns)
 
     reference, *_ = _forty_steps(kind, order, False, monkeypatch)
     assert calls == {"two": 0, "one": 0}
@@ -128,3 +138,82 @@ def test_a_wall_change_on_the_last_level_is_solved_in_one_pass(kind, order, monk
     assert np.abs(fields - reference).max() <= 1e-10 * np.abs(reference).max()
     assert calls["two"] == 0 and calls["one"] == len(surface.applications) > 0
     assert set(surface.applications) == {1}
+
+
+@pytest.mark.parametrize(("kind", "order"), [("single", "w-u"), ("interface", "w-v-u")])
+def test_a_first_flip_s_points_are_eliminated_by_the_solve_s_own_substitution(
+    kind, order, monkeypatch
+):
+    """On the last level, points eliminated for the first time ride along the corrected
+    solve's forward substitution (one reading of the factor): none is eliminated apart, each
+    one new column of a substitution (:func:`forward_columns`), and the fields agree with
+    re-factorising."""
+
+    monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
+    two_passes = []  # a corrected solve found inaccurate is made again in two passes
+    original = LowRankSurface._corrected
+    monkeypatch.setattr(
+        LowRankSurface, "_corrected", lambda s, c, g: two_passes.append(1) or original(s, c, g)
+    )
+    reference, *_ = _forty_steps(kind, order, False, monkeypatch)
+    fields, _, work, surface = _forty_steps(kind, order, True, monkeypatch)
+    assert np.abs(fields - reference).max() <= 1e-10 * np.abs(reference).max()
+    assert not [r for r in work.records if r.what == "lowrank"]  # no elimination apart
+    new = sum(r.nrhs for r in work.records if r.kind == "dense_update")  # points first seen
+    riding = sum(r.nrhs - 1 for r in work.records if r.kind == "dense_solve" and r.what == "x")
+    assert riding == new > 0 and not two_passes
+    assert not len(surface._pending) and surface._cache.rank == len(surface._cached)
+
+
+def test_a_first_flip_with_an_ill_conditioned_capacitance_matrix_is_re_factorised(monkeypatch):
+    """Its capacitance matrix is made by the solve that eliminates the new points: when that
+    is ill-conditioned the solve re-factorises, as a change checked at once would."""
+
+    monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
+    reference, _, work_ref, _ = _forty_steps("single", "w-u", False, monkeypatch)
+    monkeypatch.setattr(pointwise, "CAPACITANCE_RCOND", (1e-10, 2.0))  # none well enough
+    fields, _, work, _ = _forty_steps("single", "w-u", True, monkeypatch)
+    assert np.abs(fields - reference).max() <= 1e-10 * np.abs(reference).max()
+    assert work.count("dense_factor") == work_ref.count("dense_factor")
+    assert work.count("dense_update") > 0  # corrections made, then found ill-conditioned
+
+
+@pytest.mark.parametrize("n", [1, 255, 256, 600])
+@pytest.mark.parametrize("per_column_rows", [0, 10**6])  # block by block, column by column
+def test_forward_columns_solves_each_column_from_its_first_row(n, per_column_rows):
+    """Columns starting at any row (a dense one, zero ones) against a triangular solve."""
+    rng = np.random.default_rng(n)
+    A = rng.standard_normal((n, n))
+    A = A @ A.T + n * np.eye(n)
+    L = sla.cho_factor(A, lower=True)[0]  # its upper triangle holds A's: never read
+    B = np.zeros((n, 9), order="F")  # its last column zero
+    B[:, 0] = rng.standard_normal(n)
+    for j, first in enumerate(rng.integers(0, n, 7), start=1):
+        B[first : first + 5, j] = rng.standard_normal(len(B[first : first + 5, j]))
+    expected = sla.solve_triangular(np.tril(L), B, lower=True)
+    flops = forward_columns(L, B, per_column_rows)
+    assert np.abs(B - expected).max() <= 1e-13 * np.abs(expected).max()
+    assert n * n <= flops <= 9 * n * n
+    with pytest.raises(ValueError, match="Fortran-ordered"):
+        forward_columns(L, B.astype(np.float32, order="F"))  # raw BLAS: checked first
+
+
+def test_kept_columns_added_in_place_keep_their_values_when_the_scratch_is_reused():
+    """``kept_into(spare=True)`` writes new columns after the kept ones: never into the
+    array they were eliminated in (a scratch the next elimination overwrites)."""
+    rng = np.random.default_rng(5)
+    kept: dict = {}
+    G, scratch = np.zeros((5, 5)), np.zeros((6, 64), order="F")
+    first = scratch[:, 1:3]
+    first[:] = rng.standard_normal((6, 2))
+    kept_into(kept, G, "g", np.arange(2), first, first, spare=True)
+    expected = first.copy()
+    scratch[:] = 0.0
+    second = scratch[:, 1:4]
+    second[:] = rng.standard_normal((6, 3))
+    kept_into(kept, G, "g", np.arange(2, 5), second, second, spare=True)
+    expected = np.hstack([expected, second])
+    scratch[:] = 0.0
+    assert np.array_equal(kept["g"][0], np.arange(5))
+    assert np.array_equal(kept["g"][1], expected)
+    assert np.abs(G - expected.T @ expected).max() <= 1e-14 * np.abs(G).max()

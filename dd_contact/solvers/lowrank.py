@@ -45,7 +45,7 @@ from dd_contact.blocks import Block
 from dd_contact.calibration import cached_rates
 from dd_contact.solvers.linalg import DenseCholesky
 from dd_contact.solvers.schedule import Operation, Schedule
-from dd_contact.solvers.surface import Surface
+from dd_contact.solvers.surface import Surface, kept_into
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
@@ -411,16 +411,9 @@ class LowRankSurface(Surface):
             if not len(nz):
                 continue
             X = self._eliminate(grp, R[:, nz])
-            new = r0 + nz
-            G[np.ix_(new, new)] += X.T @ X if grp.last or not grp.neighbours else R[:, nz].T @ X
-            if grp.name in c.kept:
-                old, X_old = c.kept[grp.name]
-                cross = X_old.T @ (X if grp.last or not grp.neighbours else R[:, nz])
-                G[np.ix_(old, new)] += cross
-                G[np.ix_(new, old)] += cross.T
-                c.kept[grp.name] = (np.concatenate([old, new]), np.hstack([X_old, X]))
-            else:
-                c.kept[grp.name] = (new, X)
+            kept_into(
+                c.kept, G, grp.name, r0 + nz, X, X if grp.last or not grp.neighbours else R[:, nz]
+            )
             if grp.last or not grp.neighbours:
                 continue
             state = self.state[grp.name]

@@ -54,16 +54,15 @@ from dd_contact.solvers.lowrank import (
     low_rank,
     norm_of,
 )
+from dd_contact.solvers.pointkernels import equilibrated, forward_columns, local_rows
 from dd_contact.solvers.schedule import Operation
-from dd_contact.solvers.surface import Surface
+from dd_contact.solvers.surface import Surface, kept_into
 
 __all__ = [
     "CACHE_BUDGET",
     "POINT_APPLICATIONS",
     "PointCorrection",
     "PointwiseSurface",
-    "equilibrated",
-    "point_columns",
 ]
 
 #: The eliminations of the points kept with a factorisation (each point's once, reused by
@@ -97,6 +96,7 @@ class PointCorrection(Correction):
     at: list[tuple[Block, slice]] = field(default_factory=list)
     cholesky: tuple[np.ndarray, bool] | None = None
     last: dict[str, tuple[np.ndarray, np.ndarray]] | None = None
+    slots: np.ndarray | None = None  # its columns in the cache, G made at the first solve
 
     def factorise(self) -> None:
         """Factors of ``I + D G``: Cholesky if every point changed the same way, else LU.
@@ -107,14 +107,12 @@ class PointCorrection(Correction):
         """
         if len(self.D) and np.all(self.D == self.D[0]):
             C = np.eye(self.rank) + self.D[0] * self.G
-            try:
-                self.cholesky = sla.cho_factor(C, lower=True, check_finite=False)
-            except np.linalg.LinAlgError:  # not positive definite in round-off: LU
-                self.cholesky = None
-            else:
+            factor, info = sla.lapack.dpotrf(C, lower=1, clean=0)  # no wrapper's copies
+            if info == 0:  # else not positive definite in round-off: LU
                 norm = np.abs(C).sum(axis=0).max()
-                rcond, _ = sla.lapack.dpocon(self.cholesky[0], norm, uplo="L")
-                self.capacitance = (self.cholesky[0], np.zeros(0))  # marks it factorised
+                rcond, _ = sla.lapack.dpocon(factor, norm, uplo="L")
+                self.cholesky = (factor, True)
+                self.capacitance = (factor, np.zeros(0))  # marks it factorised
                 self.conditioned = float(rcond)
                 return
         if not self.pieces:
@@ -126,7 +124,7 @@ class PointCorrection(Correction):
     def solve(self, y: np.ndarray) -> np.ndarray:
         """``(I + D G)^-1 y``."""
         if self.cholesky is not None:
-            return sla.cho_solve(self.cholesky, y, check_finite=False)
+            return sla.lapack.dpotrs(self.cholesky[0], y, lower=1)[0]
         return super().solve(y)
 
     def points_of(self, x: dict[str, np.ndarray]) -> np.ndarray:
@@ -171,9 +169,12 @@ class PointwiseSurface(LowRankSurface):
         self._points: tuple[sp.csc_array, list, dict[str, int]] | None = None  # all, joined
         self._cache = Correction()  # the points eliminated so far: their G and kept columns
         self._cached: dict[int, int] = {}  # a point's column (in P) -> its column in the cache
+        self._pending = np.zeros(0, int)  # P's columns given a cache column, not eliminated yet
+        self._scratches: dict[str, np.ndarray] = {}  # per group, for their elimination
+        self._spaces: dict[str, np.ndarray] = {}  # per group, for their kept columns
         self._invested = 0.0  # priced seconds of the eliminations kept with the reference
         self._saved = 0.0  # priced re-factorisations the updates since then saved
-        self._prices: dict[frozenset, float] = {}  # re-factorising blocks' groups, priced
+        self._prices: dict[tuple, float] = {}  # lists of operations, priced
         self._reach: np.ndarray | None = None  # per group of the chain, the columns reaching it
 
     def add_points(self, name: str, parts: list[tuple[Block, np.ndarray]], rows) -> None:
@@ -231,11 +232,11 @@ class PointwiseSurface(LowRankSurface):
                 dofs[b] = rows[lo:hi] - where.start
         return dofs
 
-    def refactorise_seconds(self, blocks: set[Block]) -> float:
-        """As :class:`LowRankSurface` 's, kept per set of blocks (the rates do not change)."""
-        key = frozenset(blocks)
+    def _price(self, ops: list[Operation]) -> float:
+        """As :class:`LowRankSurface` 's, kept per list of operations (the rates do not change)."""
+        key = tuple(ops)
         if key not in self._prices:
-            self._prices[key] = super().refactorise_seconds(blocks)
+            self._prices[key] = super()._price(ops)
         return self._prices[key]
 
     def set_active(self, name: str, active: np.ndarray | None) -> None:
@@ -245,7 +246,7 @@ class PointwiseSurface(LowRankSurface):
     def _refactorise(self) -> None:
         super()._refactorise()
         self.reference = {n: a.copy() for n, a in self.active.items() if a is not None}
-        self._cache, self._cached = Correction(), {}
+        self._cache, self._cached, self._pending = Correction(), {}, np.zeros(0, int)
         self._invested = self._saved = 0.0
 
     def elimination_seconds(self, ids: np.ndarray, r0: int) -> float:
@@ -346,10 +347,11 @@ class PointwiseSurface(LowRankSurface):
         """The correction of the points that differ from the reference; False: re-factorise.
 
         With it, ``rest`` 's change since the factorisation (pairs without point rows).
+        Points eliminated for the first time are given their cache columns here and, where
+        the corrected solve is one pass, eliminated by it (:meth:`_forward_last`).
         """
         start, first = time.perf_counter(), len(self.log.records)
         refactorise = self.refactorise_seconds({b for pair in self.moved for b in pair})
-        at = self.joined()[1]
         now, changed = self.flags()
         ids = np.flatnonzero(changed)
         dofs: dict[Block, np.ndarray] = {}
@@ -362,38 +364,34 @@ class PointwiseSurface(LowRankSurface):
         if not len(ids) + len(D):  # back to the factorised state
             self.correction, self.corrected = Correction(), dict(self.contact)
             return True
-        missing = [int(i) for i in ids if int(i) not in self._cached]
+        missing = np.array([i for i in ids.tolist() if i not in self._cached], dtype=int)
         price = self.update_seconds(dofs, len(D), len(ids))  # rest's elimination, the LU
         earlier = [not grp.last for grp in self.schedule.flat]
-        if len(D) or self._reached_by()[earlier][:, ids].any():
-            solve = self.solve_seconds(None if self.applications else POINT_APPLICATIONS)
-        else:  # a corrected solve is one pass, as a plain one (:meth:`solve`)
-            solve = 0.0
+        one_pass = not len(D) and not self._reached_by()[earlier][:, ids].any()
+        # a corrected solve of one pass costs a plain one's (:meth:`solve`)
+        solve = (
+            0.0
+            if one_pass
+            else self.solve_seconds(None if self.applications else POINT_APPLICATIONS)
+        )
         if UPDATE_MARGIN * price + solve >= refactorise:
             return False
-        if missing:  # eliminated once, kept with the reference: an investment, budgeted
-            missing_ids = np.array(missing, dtype=int)
-            invest = self._invested + self.elimination_seconds(missing_ids, self._cache.rank)
+        if len(missing):  # eliminated once, kept with the reference: an investment, budgeted
+            invest = self._invested + self.elimination_seconds(missing, self._cache.rank)
             if invest > CACHE_BUDGET * refactorise:
                 return False
             self._invested = invest
-            self._keep(missing_ids)
-            self._cached.update((i, len(self._cached)) for i in missing)
-        where = np.array([self._cached[int(i)] for i in ids], dtype=int)
-        signs = np.where(now[ids], 1.0, -1.0)
+            self._cached.update((i, len(self._cached)) for i in missing.tolist())
+            self._pending = np.concatenate([self._pending, missing])
+        if not (one_pass and self._cache.kept.keys() <= {g.name for g in self.schedule.groups[-1]}):
+            self._flush()  # the solve does not eliminate them: now
+        where = np.array([self._cached[i] for i in ids.tolist()], dtype=int)
         rows, values = self._columns(ids)
-        c = PointCorrection(D=signs, rows=rows, values=values, at=at)
-        if len(D):  # its columns eliminated beside the kept points' (not kept themselves)
-            cache = Correction(G=self._cache.G, kept=dict(self._cache.kept), D=self._cache.D)
-            G = self._extend(cache, dofs, U)
-            where = np.concatenate([where, self._cache.rank + np.arange(len(D))])
-            c.pieces, c.D = [(dofs, U)], np.concatenate([signs, D])
-        else:
-            G = self._cache.G
-        c.G = G[np.ix_(where, where)]
-        c.last = None if len(D) else self._last_columns(where)
-        c.factorise()
-        if c.conditioned < CAPACITANCE_RCOND[1]:
+        c = PointCorrection(D=np.where(now[ids], 1.0, -1.0), rows=rows, values=values)
+        c.at = self.joined()[1]
+        if len(self._pending):  # made by the first solve, which eliminates the new points
+            c.slots = where
+        elif not self._completed(c, where, dofs, U, D):
             return False
         self.correction, self.corrected = c, dict(self.contact)
         # every update saved a re-factorisation: the corrected solves may cost them all
@@ -403,6 +401,30 @@ class PointwiseSurface(LowRankSurface):
         seconds = time.perf_counter() - start - logged
         self.log.add(UPDATES, "dense_update", c.rank, len(missing), seconds, 2.0 * c.rank**3 / 3)
         return True
+
+    def _completed(self, c: PointCorrection, where, dofs, U: np.ndarray, D: np.ndarray) -> bool:
+        """``c`` 's G (its points' cache columns ``where``), its factors; False: ill-conditioned.
+
+        With ``rest`` 's columns ``(dofs, U, D)`` eliminated beside the kept points' (not kept).
+        """
+        if len(D):
+            cache = Correction(G=self._cache.G, kept=dict(self._cache.kept), D=self._cache.D)
+            G = self._extend(cache, dofs, U)
+            where = np.concatenate([where, self._cache.rank + np.arange(len(D))])
+            c.pieces, c.D = [(dofs, U)], np.concatenate([c.D, D])
+        else:
+            G = self._cache.G
+        c.G = G[np.ix_(where, where)]
+        c.last = None if len(D) else self._last_columns(where)
+        c.slots = None
+        c.factorise()
+        return c.conditioned >= CAPACITANCE_RCOND[1]
+
+    def _flush(self) -> None:
+        """Eliminate the points given cache columns and not eliminated yet."""
+        if len(self._pending):
+            self._keep(self._pending)
+            self._pending = np.zeros(0, int)
 
     def _keep(self, ids: np.ndarray) -> None:
         """Eliminate P's columns ``ids`` forward and keep them (and their G) with the cache."""
@@ -442,8 +464,11 @@ class PointwiseSurface(LowRankSurface):
             place[columns] = np.arange(len(columns))
             found = place[where]
             mask = found >= 0
-            if mask.any():
-                out[name] = (mask, X[:, found[mask]])
+            if not mask.any():
+                continue
+            here = found[mask]  # a run of kept columns (a first flip's): a view, no copy
+            run = here[-1] - here[0] + 1 == len(here) and np.all(np.diff(here) == 1)
+            out[name] = (mask, X[:, here[0] : here[-1] + 1] if run else X[:, here])
         return out
 
     def solve(self, g: dict[str, np.ndarray], complete: bool) -> dict[str, np.ndarray]:
@@ -461,13 +486,21 @@ class PointwiseSurface(LowRankSurface):
         if it stays inaccurate). Otherwise as :class:`LowRankSurface`.
         """
         c = self.correction
-        if not isinstance(c, PointCorrection) or c.last is None or c.capacitance is None:
+        lazy = isinstance(c, PointCorrection) and c.slots is not None
+        if not lazy and (
+            not isinstance(c, PointCorrection) or c.last is None or c.capacitance is None
+        ):
             return super().solve(g, complete)
+        assert isinstance(c, PointCorrection)
         self._solved = None
         x: dict[str, np.ndarray] = {}
-        h, t, u = self.forward(g), np.zeros(c.rank), {}
+        u, t = self._forward_last(self.forward(g)), np.zeros(c.rank)
+        if lazy and not self._completed(c, c.slots, {}, np.zeros((0, 0)), np.zeros(0)):
+            self._refactorise()  # its capacitance matrix is ill-conditioned
+            return super().solve(g, complete)
+        if c.last is None:
+            return super().solve(g, complete)
         for grp in self.schedule.groups[-1]:
-            u[grp.name] = self._half(grp, np.concatenate([h[b] for b in grp.blocks]), 1)
             if grp.name in c.last:
                 mask, X = c.last[grp.name]
                 t[mask] += X.T @ u[grp.name]
@@ -489,46 +522,77 @@ class PointwiseSurface(LowRankSurface):
         self._solved = x
         return x
 
+    def _forward_last(self, h: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+        """``L^-1 h`` per last-level group, the points not eliminated yet beside it.
+
+        A substitution through a large dense factor costs its reading from memory more than
+        its flops: the new points' columns ride along the solve's own, one reading for both
+        (on the 306k bar's 1,107-row group, read apart they cost 0.2-1.5 ms). They join the
+        cache as :meth:`_keep` would add them.
+        """
+        u, pending = {}, self._pending
+        if len(pending):
+            rows, values = self._columns(pending)
+            at, r0 = dict(self.joined()[1]), self._cache.rank
+            G = np.zeros((r0 + len(pending), r0 + len(pending)))
+            G[:r0, :r0] = self._cache.G
+        for grp in self.schedule.groups[-1]:
+            b = np.concatenate([h[block] for block in grp.blocks])
+            local = local_rows(grp.blocks, self.sizes, rows, at) if len(pending) else None
+            if local is None or not (inside := local >= 0).any():
+                u[grp.name] = self._half(grp, b, 1)
+                continue
+            here = values[inside]
+            cols = np.flatnonzero(np.any(here != 0.0, axis=0))
+            B = self._scratch(grp.name, len(b), 1 + len(cols))
+            B[:, 0] = b
+            B[local[inside][:, None], 1 + np.arange(len(cols))] = here[:, cols]
+            X = self._columns_forward(grp, B)
+            u[grp.name] = X[:, 0].copy()  # the scratch is written again by the next one
+            if grp.name not in self._cache.kept:  # its kept columns: in the group's space
+                self._cache.kept[grp.name] = (np.zeros(0, int), self._space(grp)[:, :0])
+            kept_into(self._cache.kept, G, grp.name, r0 + cols, X[:, 1:], X[:, 1:], spare=True)
+        if len(pending):
+            self._cache.G = 0.5 * (G + G.T)
+            self._cache.D = np.concatenate([self._cache.D, np.ones(len(pending))])
+            self._pending = np.zeros(0, int)
+        return u
+
+    def _space(self, grp) -> np.ndarray:
+        """Room for the group's kept columns: every point that reaches it.
+
+        Kept across factorisations: a new array's pages fault in at first write (0.1-0.2 ms
+        a first flip at 1/4).
+        """
+        if grp.name not in self._spaces:
+            k = self.schedule.flat.index(grp)
+            count = int(np.count_nonzero(self._reached_by()[k]))
+            n = sum(self.sizes[b] for b in grp.blocks)
+            self._spaces[grp.name] = np.zeros((n, count), order="F")
+        return self._spaces[grp.name]
+
+    def _scratch(self, name: str, n: int, m: int) -> np.ndarray:
+        """A zero n x m Fortran-ordered array kept per group (a fresh one costs page faults)."""
+        if name not in self._scratches or self._scratches[name].shape[1] < m:
+            self._scratches[name] = np.zeros((n, max(m, 64)), order="F")
+        B = self._scratches[name][:, :m]
+        B[:] = 0.0
+        return B
+
+    def _columns_forward(self, grp, B: np.ndarray) -> np.ndarray:
+        """``L^-1 B``, each column from its first non-zero row (B overwritten)."""
+        factor = self.state[grp.name].factor
+        assert isinstance(factor, DenseCholesky)  # a point correction's groups: symmetric
+        start, (n, m) = time.perf_counter(), B.shape
+        flops = forward_columns(factor.factor[0], B)
+        self.log.add(grp.name, "dense_solve", n, m, time.perf_counter() - start, flops, "x")
+        return B
+
     def _half(self, grp, b: np.ndarray, trans: int) -> np.ndarray:
         """``L^-1 b`` (``trans`` 1) or ``L^-T b`` (0) with the group's Cholesky factor."""
         factor = self.state[grp.name].factor
         assert isinstance(factor, DenseCholesky)  # a point correction's groups: symmetric
-        start, n = time.perf_counter(), len(b)
-        out = sla.lapack.dtrtrs(factor.factor[0].T, b, lower=0, trans=trans)[0]
-        self.log.add(grp.name, "dense_solve", n, 1, time.perf_counter() - start, n * n, "x")
+        start, n, m = time.perf_counter(), len(b), 1 if b.ndim == 1 else b.shape[1]
+        out = sla.lapack.dtrtrs(factor.factor[0].T, b, lower=0, trans=trans, overwrite_b=m > 1)[0]
+        self.log.add(grp.name, "dense_solve", n, m, time.perf_counter() - start, n * n * m, "x")
         return out
-
-
-def point_columns(
-    V: sp.csc_array, at: list[tuple[Block, slice]]
-) -> tuple[dict[Block, np.ndarray], np.ndarray]:
-    """Points' columns V as a correction's piece: the dofs they touch per block, and U."""
-    V = sp.csr_array(V)
-    nonzero = np.unique(sp.coo_array(V).row)
-    dofs = {}
-    for b, rows in at:
-        J = nonzero[(nonzero >= rows.start) & (nonzero < rows.stop)] - rows.start
-        if len(J):
-            dofs[b] = J
-    return dofs, V[nonzero].toarray()
-
-
-def equilibrated(C: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], float, tuple]:
-    """LU factors of ``C`` equilibrated, their reciprocal condition number, the scaling.
-
-    Rows then columns scaled by powers of two (exact; :attr:`Correction.scale`). A
-    correction of points (coupled by +-1) beside other columns (coupled by about the
-    penalty) has rows and columns of scales 1e9 apart: unscaled, the LU and its condition
-    estimate read their ratio (1e17 where the scaled matrix has 1e9).
-    """
-    rows = _powers(np.abs(C).max(axis=1))
-    cols = _powers(np.abs(rows[:, None] * C).max(axis=0))
-    C = rows[:, None] * C * cols
-    factors = sla.lu_factor(C, check_finite=False)
-    rcond, _ = sla.lapack.dgecon(factors[0], np.abs(C).sum(axis=0).max(), norm="1")
-    return factors, float(rcond), (rows, cols)
-
-
-def _powers(largest: np.ndarray) -> np.ndarray:
-    """Powers of two that bring ``largest`` into [0.5, 1)."""
-    return np.ldexp(1.0, -np.frexp(largest)[1])

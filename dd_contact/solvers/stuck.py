@@ -35,7 +35,8 @@ import scipy.sparse as sp
 
 from dd_contact.blocks import Block
 from dd_contact.solvers.lowrank import CAPACITANCE_RCOND, UPDATES, Correction
-from dd_contact.solvers.pointwise import PointwiseSurface, equilibrated, point_columns
+from dd_contact.solvers.pointkernels import equilibrated, point_columns
+from dd_contact.solvers.pointwise import PointwiseSurface
 from dd_contact.solvers.surface import Surface
 
 __all__ = ["StuckSurface"]

@@ -24,7 +24,7 @@ from dd_contact.solvers.schedule import (
 from dd_contact.solvers.unsymmetric import DenseLU, lu_groups
 from dd_contact.solvers.worklog import WorkLog
 
-__all__ = ["Surface"]
+__all__ = ["Surface", "kept_into"]
 
 
 @dataclass
@@ -303,3 +303,32 @@ class Surface:
         for b in grp.blocks:
             out[b] = values[start : start + self.sizes[b]]
             start += self.sizes[b]
+
+
+def kept_into(kept: dict, G, name: str, new, X, Y, spare: bool = False) -> None:
+    """A correction's columns ``new``, eliminated in group ``name``, into G and ``kept``.
+
+    ``kept`` holds per group the columns eliminated there and what it keeps of them (X
+    here); Y is what that meets: X itself in the last level (``L^-1 R``, G ``+= X^T X``),
+    else the columns' rows R (``A^-1 R``, G ``+= R^T A^-1 R``). Used by
+    :mod:`~dd_contact.solvers.lowrank` and :mod:`~dd_contact.solvers.pointwise`. ``spare``:
+    the kept columns (none, or a view of zero columns) are the first of a larger array, the
+    next ones written after them (no copy of the earlier ones; a larger array when full);
+    only where nothing else extends the same ``kept``.
+    """
+    G[np.ix_(new, new)] += Y.T @ X
+    old, X_old = kept.get(name, (np.zeros(0, int), np.zeros((len(X), 0))))
+    if len(old):
+        cross = X_old.T @ Y
+        G[np.ix_(old, new)] += cross
+        G[np.ix_(new, old)] += cross.T
+    if not spare:
+        kept[name] = (np.concatenate([old, new]), np.hstack([X_old, X]) if len(old) else X)
+        return
+    r, k, base = len(old), X.shape[1], X_old.base
+    prefix = base is not None and X_old.ctypes.data == base.ctypes.data  # base[:, :r]
+    if not (prefix and base.flags.f_contiguous and base.shape[1] >= r + k):
+        base = np.zeros((len(X), max(2 * (r + k), 64)), order="F")
+        base[:, :r] = X_old
+    base[:, r : r + k] = X
+    kept[name] = (np.concatenate([old, new]), base[:, : r + k])
