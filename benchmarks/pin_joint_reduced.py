@@ -115,6 +115,7 @@ def worker(args) -> dict:
 
     case = args.worker
     algorithm = _case(case)[0]
+    eigen = _eigen_recorder()
     start, cpu_start = time.perf_counter(), time.process_time()
     scene = _scene(args.cells, case)
     problem = dd.TransientProblem(
@@ -155,10 +156,31 @@ def worker(args) -> dict:
             for kind, w in problem.work.summary().items()
         },
     }
+    if eigen:
+        out["eigensolver"] = eigen
     if profile is not None:
         out["profile_cpu_per_step"] = _parts(profile, args.steps)
     problem.close()
     return out
+
+
+def _eigen_recorder() -> dict:
+    """Each block eigensolve's statistics, by subdomain (the set-up's modes phase)."""
+    from dd_contact.solvers import eigen, reduced
+
+    record: dict = {}
+
+    def recorded(*args, **kwargs):
+        stats = eigen.EigenStatistics()
+        start = time.perf_counter()
+        out = eigen.lowest_modes(*args, **kwargs, stats=stats)
+        name = args[5] if len(args) > 5 else kwargs["name"]
+        record[name] = {"seconds": time.perf_counter() - start, "cpu": stats.cpu}
+        record[name] |= {k: getattr(stats, k) for k in ("columns", "solves", "restarts")}
+        return out
+
+    reduced.lowest_modes = recorded  # type: ignore[assignment]
+    return record
 
 
 def _parts(profile: cProfile.Profile, steps: int) -> dict[str, float]:
