@@ -115,7 +115,7 @@ def worker(args) -> dict:
 
     case = args.worker
     algorithm = _case(case)[0]
-    eigen = _eigen_recorder()
+    eigen = eigen_recorder()
     start, cpu_start = time.perf_counter(), time.process_time()
     scene = _scene(args.cells, case)
     problem = dd.TransientProblem(
@@ -164,7 +164,7 @@ def worker(args) -> dict:
     return out
 
 
-def _eigen_recorder() -> dict:
+def eigen_recorder() -> dict:
     """Each block eigensolve's statistics, by subdomain (the set-up's modes phase)."""
     from dd_contact.solvers import eigen, reduced
 
@@ -177,6 +177,7 @@ def _eigen_recorder() -> dict:
         name = args[5] if len(args) > 5 else kwargs["name"]
         record[name] = {"seconds": time.perf_counter() - start, "cpu": stats.cpu}
         record[name] |= {k: getattr(stats, k) for k in ("columns", "solves", "restarts")}
+        record[name]["residuals"] = [f"{r:.2e}" for r in getattr(stats, "residuals", ())]
         return out
 
     reduced.lowest_modes = recorded  # type: ignore[assignment]

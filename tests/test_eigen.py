@@ -124,13 +124,13 @@ def test_a_block_that_lost_rank_gets_random_columns():
     rng = np.random.default_rng(3)
     n = 200
     M = sp.diags_array(rng.uniform(1.0, 2.0, n))
-    basis = eigen._Basis(n, 20, lambda X: M @ X, rng)
+    basis = eigen._Basis(n, 20, lambda X: M @ X, rng, EigenStatistics())
     Q0, _, _ = basis.normalise(rng.standard_normal((n, 4)), 0)
     basis.V[:, :4] = Q0
     W = rng.standard_normal((n, 4))
     W[:, 2] = W[:, 0] + basis.V[:, 1]  # in the span of V and the block
     W0 = W.copy()
-    h = basis.orthogonalise(W, 4)
+    h, _ = basis.orthogonalise(W, 4)
     Q, R, MQ = basis.normalise(W, 4)
     V = np.hstack([basis.V[:, :4], Q])
     assert np.abs(V.T @ (M @ V) - np.eye(8)).max() < 1e-12

@@ -64,6 +64,10 @@ RANK_FLOOR = 1e-10
 #: 712 / 1,064 with 0.8 / 0.85 (but more restarts, each rotating V: more CPU).
 RESTART_KEPT = 0.7
 
+#: A block one Gram-Schmidt pass left with less than this fraction of a column's M-norm
+#: gets a second pass (the classical 1/sqrt(2)).
+REORTHOGONALISE = 2**-0.5
+
 #: Restarts at most before the solver gives up.
 MAX_RESTARTS = 1000
 
@@ -79,8 +83,10 @@ class EigenStatistics:
     columns: int = 0
     solves: int = 0
     restarts: int = 0
+    second_passes: int = 0
+    residuals: list = field(default_factory=list)
     cpu: dict = field(
-        default_factory=lambda: dict.fromkeys(("solve", "mass", "rotate", "all"), 0.0)
+        default_factory=lambda: dict.fromkeys(("solve", "mass", "project", "rotate", "all"), 0.0)
     )
 
     def timed(self, part: str, apply: Callable) -> Callable:
@@ -101,29 +107,52 @@ Apply = Callable[[np.ndarray], np.ndarray]
 class _Basis:
     """The M-orthonormal basis V, in a buffer that can be shrunk to the modes in place."""
 
-    def __init__(self, n: int, columns: int, mass: Apply, rng: np.random.Generator):
-        self.n, self.mass, self.rng = n, mass, rng
+    def __init__(
+        self, n: int, columns: int, mass: Apply, rng: np.random.Generator, stats: EigenStatistics
+    ):
+        self.n, self.mass, self.rng, self.stats = n, mass, rng, stats
         self.buffer = np.empty(n * columns)
         self.V = self.buffer.reshape(columns, n).T  # column-ordered: each column contiguous
 
-    def orthogonalise(self, W: np.ndarray, filled: int) -> np.ndarray:
-        """W M-orthogonal to V's first ``filled`` columns (twice, in place); the coefficients."""
-        h = np.zeros((filled, W.shape[1]))
-        V = self.V[:, :filled]
-        for _ in range(2):  # twice is enough (Kahan, Parlett)
-            c = V.T @ self.mass(W)
-            W -= V @ c
-            h += c
-        return h
+    def orthogonalise(self, W: np.ndarray, filled: int) -> tuple[np.ndarray, np.ndarray]:
+        """W M-orthogonal to V's first ``filled`` columns, in place: the coefficients and M W.
 
-    def normalise(self, W: np.ndarray, filled: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``W = Q R`` with Q M-orthonormal (Cholesky QR twice): Q, R and M Q.
-
-        A column lost to round-off (W of lower rank) is replaced by a random one made
-        M-orthogonal to V and Q; its row of R is zero there.
+        Classical Gram-Schmidt, a second pass only for a block whose M-norm one pass cut
+        below ``REORTHOGONALISE`` of what it was (Daniel-Gragg-Kaufman-Stewart: round-off
+        left in W is then at most 1/``REORTHOGONALISE`` times that of one pass).
         """
         MW = self.mass(W)
-        before = np.sqrt(np.maximum(np.einsum("ij,ij->j", W, MW), 0.0))
+        before = _norms(W, MW)
+        h = self._against(W, MW, filled)
+        MW = self.mass(W)
+        if filled and (_norms(W, MW) < REORTHOGONALISE * before).any():
+            h += self._against(W, MW, filled)
+            MW = self.mass(W)
+            self.stats.second_passes += 1
+        return h, MW
+
+    def _against(self, W: np.ndarray, MW: np.ndarray, filled: int) -> np.ndarray:
+        """One pass: ``W -= V c`` with ``c = V^T M W`` (two gemms, W updated in place)."""
+        start = time.process_time()
+        V = self.V[:, :filled]
+        c = V.T @ MW
+        if W.flags.f_contiguous:  # W - V c in place: no n x b temporary
+            scipy.linalg.blas.dgemm(-1.0, V, c, 1.0, W, overwrite_c=True)
+        else:  # (the random columns of a block that lost rank)
+            W -= V @ c
+        self.stats.cpu["project"] += time.process_time() - start
+        return c
+
+    def normalise(
+        self, W: np.ndarray, filled: int, MW: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``W = Q R`` with Q M-orthonormal (Cholesky QR twice): Q, R and M Q.
+
+        ``MW``: M W if known. A column lost to round-off (W of lower rank) is replaced by a
+        random one made M-orthogonal to V and Q; its row of R is zero there.
+        """
+        MW = self.mass(W) if MW is None else MW
+        before = _norms(W, MW)
         R = np.eye(W.shape[1])
         for _ in range(2):
             G = W.T @ MW
@@ -133,8 +162,7 @@ class _Basis:
                 return self._by_columns(W, MW, R, filled, before)
             if np.diag(U).min() <= RANK_FLOOR * max(before.max(), 1e-300):
                 return self._by_columns(W, MW, R, filled, before)
-            W = scipy.linalg.solve_triangular(U, W.T, trans="T", lower=False).T
-            MW = scipy.linalg.solve_triangular(U, MW.T, trans="T", lower=False).T
+            W, MW = _right_solve(W, U), _right_solve(MW, U)
             R = U @ R
         return W, R, MW
 
@@ -151,7 +179,7 @@ class _Basis:
                 U[:j, j] += c
             size = np.sqrt(max(w @ mw, 0.0))
             if size <= RANK_FLOOR * max(before.max(), 1e-300):
-                w = self.rng.standard_normal(self.n)[:, None]
+                w = np.asfortranarray(self.rng.standard_normal((self.n, 1)))
                 self.orthogonalise(w, filled)
                 w = w[:, 0]
                 for _ in range(2):
@@ -222,10 +250,10 @@ def lowest_modes(
         return _dense(solve, mass, n, count, block, extra, stats)
     columns = min(n, count + max(workspace, 2 * block))
     rng = np.random.default_rng(20260528)
-    basis = _Basis(n, columns, mass, rng)
+    basis = _Basis(n, columns, mass, rng, stats)
     rotate = stats.timed("rotate", basis.rotate)
     H = np.zeros((columns, columns))
-    Q, _, MQ = basis.normalise(rng.standard_normal((n, block)), 0)
+    Q, _, MQ = basis.normalise(np.asfortranarray(rng.standard_normal((n, block))), 0)
     basis.V[:, :block] = Q
     filled = block
     for restart in range(MAX_RESTARTS + 1):
@@ -233,8 +261,8 @@ def lowest_modes(
             j0 = filled - block
             W = solve(MQ)
             stats.columns, stats.solves = stats.columns + block, stats.solves + 1
-            H[:filled, j0:filled] = basis.orthogonalise(W, filled)
-            Q, H[filled : filled + block, j0:filled], MQ = basis.normalise(W, filled)
+            H[:filled, j0:filled], MW = basis.orthogonalise(W, filled)
+            Q, H[filled : filled + block, j0:filled], MQ = basis.normalise(W, filled, MW)
             basis.V[:, filled : filled + block] = Q
             filled += block
         k = filled - block
@@ -243,6 +271,7 @@ def lowest_modes(
         coupling = H[k:filled, :k] @ S
         residual = np.linalg.norm(coupling, axis=0)
         done = residual[:count] <= tolerance * np.abs(theta[:count])
+        stats.residuals.append(float(np.max(residual[:count] / np.abs(theta[:count]))))
         if done.all() or restart == MAX_RESTARTS:
             break
         kept = _kept(int(done.sum()), count, k, columns, block)
@@ -264,6 +293,18 @@ def lowest_modes(
     del Q, MQ, W
     stats.cpu["all"] += time.process_time() - start
     return 1.0 / theta[:count], basis.modes(count, extra)
+
+
+def _right_solve(W: np.ndarray, U: np.ndarray) -> np.ndarray:
+    """``W U^-1`` (U upper triangular): in place for a column-ordered W."""
+    if W.flags.f_contiguous:
+        return scipy.linalg.blas.dtrsm(1.0, U, W, side=1, lower=0, overwrite_b=True)
+    return scipy.linalg.solve_triangular(U, W.T, trans="T", lower=False).T
+
+
+def _norms(W: np.ndarray, MW: np.ndarray) -> np.ndarray:
+    """The M-norms of W's columns."""
+    return np.sqrt(np.maximum(np.einsum("ij,ij->j", W, MW), 0.0))
 
 
 def _kept(done: int, count: int, k: int, columns: int, block: int) -> int:
