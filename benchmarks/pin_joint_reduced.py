@@ -14,7 +14,9 @@ periods), each case in its own process with every BLAS pinned to one thread:
 * a reduced case followed by ``@ORDER`` (``cheaper:300@v-w-u``) runs in that order instead.
 
 Reported per case: set-up and step-loop wall and CPU seconds (the whole run is their sum),
-the peak resident memory (``ru_maxrss``), contact state changes, and the force history's
+the peak resident memory (``ru_maxrss``), each block eigensolve's statistics by
+subdomain (``eigensolver``: wall, CPU by part, columns, solves, restarts, residuals),
+contact state changes, and the force history's
 error against the unreduced w-v-u run: the largest over steps and hole walls of the force
 along y, relative to the largest such force (``force_error``), and the same for the sum
 over each plate's walls (``plate_force_error``). ``FULL`` against w-v-u is the round-off

@@ -10,7 +10,9 @@ constraint modes), the rest of the model's reduction, the solver, the steps. Als
 the seconds the reduction's solves took by what they were for (the work log), and how
 many columns the modes' solves took in how many solves. ``--modes`` ``none`` runs the
 unreduced w-u, whose peak is the target. ``--eigensolvers`` runs each case with each of
-``Subdomain.reduce``'s eigensolvers (``block``, ``slepc``), interleaved.
+``Subdomain.reduce``'s eigensolvers (``block``, ``slepc``), interleaved; ``--tolerance``
+sets ``reduce(tolerance=...)``. Each block eigensolve's statistics (CPU by part, columns,
+solves, restarts, each restart's largest residual) are recorded too.
 
 ``--trees`` runs each case once per source tree (``PYTHONPATH``), the trees interleaved and
 the whole ``--repeats`` times: e.g. a checkout of main against this branch. Writes
