@@ -86,7 +86,8 @@ def test_block_modes_equal_slepcs_on_a_beam_with_repeated_eigenvalues(beam):
     assert X.base is not None and X.base.size == X.size  # the basis shrunk, not copied
     X = X[:, :count]
     np.testing.assert_allclose(mine, values[:count], rtol=1e-10, atol=0)
-    assert np.abs(X.T @ (beam.M @ X) - np.eye(count)).max() < 1e-10
+    assert np.abs(X.T @ (beam.M @ X) - np.eye(count)).max() < 1e-12
+    assert stats.second_passes < stats.solves / 2  # one pass against V for most blocks
     assert _same_span(beam, X, modes[:, :count]) > 1 - 1e-9
     residual = beam.A @ X - (beam.M @ X) * mine
     assert np.linalg.norm(residual) <= 1e-8 * np.linalg.norm((beam.M @ X) * mine)
@@ -156,7 +157,7 @@ def test_a_tolerance_below_round_off_is_refused_once_progress_stops(beam):
         r"restarts: .* got down to \d\.\de-1[2-5]; .*above ~1e-13.*eigensolver='slepc'",
     ):
         beam.block(30, 8, 64, stats=stats, tolerance=1e-16)
-    assert eigen.STALL_RESTARTS < stats.restarts <= eigen.STALL_RESTARTS + 20  # not 1,000
+    assert eigen.STALL_RESTARTS < stats.restarts <= 2 * eigen.STALL_RESTARTS  # not 1,000
     best = min(stats.residuals)
     assert min(stats.residuals[-eigen.STALL_RESTARTS :]) * eigen.STALL_FACTOR > best
 
