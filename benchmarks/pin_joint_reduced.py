@@ -14,7 +14,9 @@ periods), each case in its own process with every BLAS pinned to one thread:
 * a reduced case followed by ``@ORDER`` (``cheaper:300@v-w-u``) runs in that order instead.
 
 Reported per case: set-up and step-loop wall and CPU seconds (the whole run is their sum),
-the peak resident memory (``ru_maxrss``), contact state changes, and the force history's
+the peak resident memory (``ru_maxrss``), each block eigensolve's statistics by
+subdomain (``eigensolver``: wall, CPU by part, columns, solves, restarts, residuals),
+contact state changes, and the force history's
 error against the unreduced w-v-u run: the largest over steps and hole walls of the force
 along y, relative to the largest such force (``force_error``), and the same for the sum
 over each plate's walls (``plate_force_error``). ``FULL`` against w-v-u is the round-off
@@ -115,6 +117,7 @@ def worker(args) -> dict:
 
     case = args.worker
     algorithm = _case(case)[0]
+    eigen = eigen_recorder()
     start, cpu_start = time.perf_counter(), time.process_time()
     scene = _scene(args.cells, case)
     problem = dd.TransientProblem(
@@ -155,10 +158,32 @@ def worker(args) -> dict:
             for kind, w in problem.work.summary().items()
         },
     }
+    if eigen:
+        out["eigensolver"] = eigen
     if profile is not None:
         out["profile_cpu_per_step"] = _parts(profile, args.steps)
     problem.close()
     return out
+
+
+def eigen_recorder() -> dict:
+    """Each block eigensolve's statistics, by subdomain (the set-up's modes phase)."""
+    from dd_contact.solvers import eigen, reduced
+
+    record: dict = {}
+
+    def recorded(*args, **kwargs):
+        stats = eigen.EigenStatistics()
+        start = time.perf_counter()
+        out = eigen.lowest_modes(*args, **kwargs, stats=stats)
+        name = args[5] if len(args) > 5 else kwargs["name"]
+        record[name] = {"seconds": time.perf_counter() - start, "cpu": stats.cpu}
+        record[name] |= {k: getattr(stats, k) for k in ("columns", "solves", "restarts")}
+        record[name]["residuals"] = [f"{r:.2e}" for r in getattr(stats, "residuals", ())]
+        return out
+
+    reduced.lowest_modes = recorded  # type: ignore[assignment]
+    return record
 
 
 def _parts(profile: cProfile.Profile, steps: int) -> dict[str, float]:

@@ -10,7 +10,9 @@ constraint modes), the rest of the model's reduction, the solver, the steps. Als
 the seconds the reduction's solves took by what they were for (the work log), and how
 many columns the modes' solves took in how many solves. ``--modes`` ``none`` runs the
 unreduced w-u, whose peak is the target. ``--eigensolvers`` runs each case with each of
-``Subdomain.reduce``'s eigensolvers (``block``, ``slepc``), interleaved.
+``Subdomain.reduce``'s eigensolvers (``block``, ``slepc``), interleaved; ``--tolerance``
+sets ``reduce(tolerance=...)``. Each block eigensolve's statistics (CPU by part, columns,
+solves, restarts, each restart's largest residual) are recorded too.
 
 ``--trees`` runs each case once per source tree (``PYTHONPATH``), the trees interleaved and
 the whole ``--repeats`` times: e.g. a checkout of main against this branch. Writes
@@ -31,6 +33,7 @@ import sys
 import time
 from pathlib import Path
 
+from pin_joint_reduced import eigen_recorder
 from pinned import PINNED
 from setup_memory import Phases, wrap_after, wrap_before
 
@@ -91,6 +94,9 @@ def worker(args) -> dict:
     wrap_after(basis, "_reduced", phases, "A_r, M_r (constraint modes)")
     wrap_after(analysis, "reduce_model", phases, "rest of the reduction")
     options = {"eigensolver": args.eigensolver} if args.eigensolver else {}
+    if args.tolerance:
+        options["tolerance"] = args.tolerance
+    eigen = eigen_recorder()
     modes, elements, scene, problem = run_case(args, phases, **options)
     by_what: dict[str, float] = {}
     modes_solves = {"solves": 0, "columns": 0}
@@ -113,6 +119,7 @@ def worker(args) -> dict:
         "modes_solves": modes_solves,
         "omega2": {b: problem.model.reduced[b].omega2.tolist() for b in problem.model.reduced},
         "eigensolver": args.eigensolver,
+        "block_eigensolver": eigen,
     }
     problem.close()
     return out
@@ -123,6 +130,7 @@ def run(args, tree: str, script: str = __file__) -> dict:
     command = [sys.executable, script, "--worker", "--scale", args.scale]
     command += ["--modes", args.modes, "--steps", str(args.steps), "--dt", str(args.dt)]
     command += ["--eigensolver", args.eigensolver] if getattr(args, "eigensolver", "") else []
+    command += ["--tolerance", str(args.tolerance)] if getattr(args, "tolerance", None) else []
     here = str(Path(__file__).parent)
     env = {**os.environ, **PINNED, "PYTHONPATH": os.pathsep.join([str(Path(tree)), here])}
     with open(args.out.with_suffix(".log"), "a") as log:  # each phase as it ends
@@ -151,6 +159,7 @@ def main() -> None:
     parser = case_parser(__doc__.split("\n")[0], "320", OUT)
     parser.add_argument("--eigensolvers", nargs="+", default=[""], help="block slepc")
     parser.add_argument("--eigensolver", default="", help=argparse.SUPPRESS)
+    parser.add_argument("--tolerance", type=float, help="reduce(tolerance=...)")
     args = parser.parse_args()
     if args.worker:
         print(json.dumps(worker(args)))

@@ -36,13 +36,13 @@ class Pencil:
         self.mass = InteriorMatrix(self.M)
         self.factor = InteriorCholesky(InteriorMatrix(self.A), self.log, "beam")
 
-    def block(self, count, block=16, workspace=64, stats=None, extra=0):
+    def block(self, count, block=16, workspace=64, stats=None, extra=0, tolerance=1e-12):
         return lowest_modes(
             lambda X: _solve(self.factor, X, "modes"),
             self.mass.__matmul__,
             self.n,
             count,
-            1e-12,
+            tolerance,
             "beam",
             block,
             workspace,
@@ -86,7 +86,8 @@ def test_block_modes_equal_slepcs_on_a_beam_with_repeated_eigenvalues(beam):
     assert X.base is not None and X.base.size == X.size  # the basis shrunk, not copied
     X = X[:, :count]
     np.testing.assert_allclose(mine, values[:count], rtol=1e-10, atol=0)
-    assert np.abs(X.T @ (beam.M @ X) - np.eye(count)).max() < 1e-10
+    assert np.abs(X.T @ (beam.M @ X) - np.eye(count)).max() < 1e-12
+    assert stats.second_passes < stats.solves / 2  # one pass against V for most blocks
     assert _same_span(beam, X, modes[:, :count]) > 1 - 1e-9
     residual = beam.A @ X - (beam.M @ X) * mine
     assert np.linalg.norm(residual) <= 1e-8 * np.linalg.norm((beam.M @ X) * mine)
@@ -124,13 +125,13 @@ def test_a_block_that_lost_rank_gets_random_columns():
     rng = np.random.default_rng(3)
     n = 200
     M = sp.diags_array(rng.uniform(1.0, 2.0, n))
-    basis = eigen._Basis(n, 20, lambda X: M @ X, rng)
+    basis = eigen._Basis(n, 20, lambda X: M @ X, rng, EigenStatistics())
     Q0, _, _ = basis.normalise(rng.standard_normal((n, 4)), 0)
     basis.V[:, :4] = Q0
     W = rng.standard_normal((n, 4))
     W[:, 2] = W[:, 0] + basis.V[:, 1]  # in the span of V and the block
     W0 = W.copy()
-    h = basis.orthogonalise(W, 4)
+    h, _ = basis.orthogonalise(W, 4)
     Q, R, MQ = basis.normalise(W, 4)
     V = np.hstack([basis.V[:, :4], Q])
     assert np.abs(V.T @ (M @ V) - np.eye(8)).max() < 1e-12
@@ -145,6 +146,45 @@ def test_no_convergence_in_the_budget_is_refused(beam, monkeypatch):
         SingularMatrixError, match=r"'beam'.*found .* of the 30.*eigensolver='slepc'"
     ):
         beam.block(30, 16, 32)
+
+
+def test_a_tolerance_below_round_off_is_refused_once_progress_stops(beam):
+    """1e-16: the residuals stop at round-off (about 1e-13) within a few restarts."""
+    stats = EigenStatistics()
+    with pytest.raises(
+        SingularMatrixError,
+        match=r"'beam'.* of the 30 .* tolerance of 1\.0e-16, no progress in its last 40 "
+        r"restarts: .* got down to \d\.\de-1[2-5]; .*above ~1e-13.*eigensolver='slepc'",
+    ):
+        beam.block(30, 8, 64, stats=stats, tolerance=1e-16)
+    assert eigen.STALL_RESTARTS < stats.restarts <= 2 * eigen.STALL_RESTARTS  # not 1,000
+    best = min(stats.residuals)
+    assert min(stats.residuals[-eigen.STALL_RESTARTS :]) * eigen.STALL_FACTOR > best
+
+
+@pytest.mark.parametrize("tolerance", [1e-8, 1e-13])
+def test_a_reachable_tolerance_converges(beam, tolerance):
+    values, _ = beam.slepc(31)
+    stats = EigenStatistics()
+    mine, _ = beam.block(30, 8, 64, stats=stats, tolerance=tolerance)
+    assert stats.residuals[-1] <= tolerance < stats.residuals[0]
+    np.testing.assert_allclose(mine, values[:30], rtol=max(tolerance, 1e-10) * 10, atol=0)
+
+
+@pytest.mark.parametrize("rate, stalled", [(0.98, False), (0.99, True), (1.0, True), (1e-3, False)])
+def test_a_slow_but_steady_fall_is_not_taken_for_a_stall(rate, stalled):
+    """40 restarts must bring the residual below half its lowest before: a rate of 0.98 a
+    restart does (0.45), 0.99 does not (0.67)."""
+    history = [1e-2 * rate**k for k in range(eigen.STALL_RESTARTS + 1)]
+    assert eigen._stalled(history) is stalled
+    assert eigen._stalled(history[:-1]) is False  # too few restarts to tell
+
+
+@pytest.mark.parametrize("bad", [0.0, -1e-12, 1.0, 2.0, float("nan"), float("inf"), "1e-12"])
+def test_reduce_refuses_a_tolerance_outside_zero_one(bad):
+    sub = cantilever(8).subdomains[0]
+    with pytest.raises(InputError, match=r"subdomain 'part0'.*reduce\(tolerance"):
+        sub.reduce(modes=4, tolerance=bad)
 
 
 def test_reduce_takes_either_eigensolver_and_refuses_others():
