@@ -36,7 +36,10 @@ each branch's 1/16 ratios.
 
 ``m=320 (stop 40)`` (``paper_scale_reduced320_walls.json``) is main of stop 39 with the
 reduced wall's directions read off M_r instead of solved column by column (1,683 fewer
-substitutions of the interior factor). The verdict is this run's.
+substitutions of the interior factor); ``m=320 (stop 40, merged)``
+(``paper_scale_reduced320_merge40.json``) the merged tree of stop 40 (the eigensolver's
+one-pass orthogonalisation and first flips eliminated in the solve too). The verdict is
+this run's.
 
 Writes benchmarks/results/paper_study_estimate.json.
 
@@ -137,6 +140,11 @@ def main() -> None:
             "paper_scale_reduced320_walls.json",
             "parallelepiped|1/4|w-u reduced m=320|run",
         ),
+        ("m=320 (stop 40, merged)", "1/4"): run_of(  # with the eigensolver's one-pass
+            # orthogonalisation and the first flips eliminated in the solve
+            "paper_scale_reduced320_merge40.json",
+            "parallelepiped|1/4|w-u reduced m=320|run",
+        ),
         ("m=20 (study)", "1/4"): run_of(  # branch study's code, the same run as m=20's
             "paper_scale_reduced20_study.json", "parallelepiped|1/4|w-u reduced m=20|run"
         ),
@@ -160,7 +168,7 @@ def main() -> None:
             paper[f"exponent_{k}"] = float(slope)
         measured["m=160, paper (extrapolated)"] = paper
     low, high = measured.get("m=20, 1/4"), measured.get("m=160, 1/4")
-    for m320 in ("m=320", "m=320 (stop 39)", "m=320 (stop 40)"):
+    for m320 in ("m=320", "m=320 (stop 39)", "m=320 (stop 40)", "m=320 (stop 40, merged)"):
         direct = measured.get(f"{m320}, 1/4")
         if direct and "m=160, paper (extrapolated)" in measured:  # m = 160's exponents
             paper = measured["m=160, paper (extrapolated)"]
