@@ -592,7 +592,7 @@ class PointwiseSurface(LowRankSurface):
         """``L^-1 b`` (``trans`` 1) or ``L^-T b`` (0) with the group's Cholesky factor."""
         factor = self.state[grp.name].factor
         assert isinstance(factor, DenseCholesky)  # a point correction's groups: symmetric
-        start, n, m = time.perf_counter(), len(b), 1 if b.ndim == 1 else b.shape[1]
-        out = sla.lapack.dtrtrs(factor.factor[0].T, b, lower=0, trans=trans, overwrite_b=m > 1)[0]
-        self.log.add(grp.name, "dense_solve", n, m, time.perf_counter() - start, n * n * m, "x")
+        start, n = time.perf_counter(), len(b)
+        out = sla.lapack.dtrtrs(factor.factor[0].T, b, lower=0, trans=trans)[0]
+        self.log.add(grp.name, "dense_solve", n, 1, time.perf_counter() - start, n * n, "x")
         return out
