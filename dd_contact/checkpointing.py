@@ -76,6 +76,8 @@ class RunState:
             if k is not None and sub.block in k.reduced:
                 for name, values in zip(KINEMATICS, k.reduced[sub.block], strict=True):
                     out[f"reduced/{name}/{sub.name}"] = values
+                if sub.block in k.ends:
+                    out[f"reduced/end_acceleration/{sub.name}"] = k.ends[sub.block]
                 if sub.block in k.walls:
                     wv, wa = k.walls[sub.block][1]
                     out |= {f"walls/velocity/{sub.name}": wv, f"walls/acceleration/{sub.name}": wa}

@@ -67,6 +67,13 @@ class Kinematics:
             for b, at in (walls or {}).items()
         }
         self.owned = [s for s in subdomains if self.owners[s.block] == comm.rank]
+        #: Block -> the scheme's end acceleration of an owned reduced one's coordinates
+        #: (``scheme.end_acceleration``): the inertia a release's settle of its walls balances.
+        self.ends = {
+            s.block: np.zeros(len(self.reduced[s.block][2]))
+            for s in self.owned
+            if s.block in self.reduced
+        }
         #: The subdomains other ranks own, updated here from their published displacement.
         self.others = [s for s in subdomains if self.owners[s.block] != comm.rank]
         #: Block -> its massless dofs (zero mass: the rate is the step's mean), every rank.
@@ -94,6 +101,9 @@ class Kinematics:
     def _update(self, sub, u_new: np.ndarray, u: np.ndarray) -> None:
         _, velocity, acceleration = self.now(sub)
         v, a = self.scheme.update(u_new, u, velocity, acceleration)
+        if sub.block in self.ends:  # before velocity is overwritten: it reads u'_n
+            end = self.ends[sub.block]
+            end[:] = self.scheme.end_acceleration(u_new, u, velocity, end)
         massless = self.massless.get(sub.block)
         if massless is not None and massless.any():
             dt = self.scheme.dt
@@ -108,7 +118,12 @@ class Kinematics:
             wv[:] = mean
 
     def start_walls(self) -> None:
-        """The reduced subdomains' walls start at their coordinates' velocity, at rest."""
+        """The reduced subdomains' walls start at their coordinates' velocity, at rest.
+
+        Their end accelerations start at the initial acceleration (equilibrium at t0).
+        """
+        for block, end in self.ends.items():
+            end[:] = self.reduced[block][2]
         for block, (at, (wv, wa)) in self.walls.items():
             wv[:] = self.reduced[block][1][at]
             wa[:] = 0.0

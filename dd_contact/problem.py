@@ -576,8 +576,8 @@ class TransientProblem(AnalysisReadout):
         if self.comm.rank == 0:
             print("\n".join(report))
 
-    # -- checkpoints ----------------------------------------------------------------------
-    def _state(self) -> dict[str, np.ndarray]:
+    def _state(self) -> dict[str, np.ndarray]:  # a checkpoint's
+        self.analysis.solver.rebase()  # a resumed run continues from the same factors
         return self._run_state.arrays(self.step, self.t, self.dt, self._integration())
 
     def _integration(self) -> str:

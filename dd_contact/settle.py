@@ -21,6 +21,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
@@ -43,6 +44,22 @@ __all__ = [
 ]
 
 Rows = list[tuple[Block, np.ndarray]]
+
+
+class WallInertia(NamedTuple):
+    """A reduced block's inertia at a release's settle (``reduced_model.wall_inertia``).
+
+    ``acceleration(q)``: the scheme's end acceleration, ``slope`` its derivative;
+    ``velocity(q)``: the end velocity, ``velocity_slope`` its derivative.
+    """
+
+    mass: sp.sparray
+    slope: float
+    acceleration: Callable[[np.ndarray], np.ndarray]
+    velocity_slope: float
+    velocity: Callable[[np.ndarray], np.ndarray]
+
+
 type Matrix = np.ndarray | sp.csr_array
 
 #: A Woodbury settle (:class:`Points`) is refined with its true residual when that is above
@@ -272,12 +289,11 @@ class Kept:
         if held:
             PtK, PtM = self.projected[b]
             out = self.moves[b].project(r) - PtK @ x[b]
-            if moving is not None and PtM is not None:  # -dv/dq M v(q): kinetic energy's gradient
-                out -= moving[1] * (PtM @ moving[2](x[b]))
+            if moving is not None and PtM is not None:  # the end's inertia, -M a(q)
+                out -= PtM @ moving.acceleration(x[b])
             return out
         if moving is not None:
-            mass, slope, velocity = moving
-            r -= slope * (mass @ velocity(x[b]))
+            r -= moving.mass @ moving.acceleration(x[b])
         return self.moves[b].project(r) if b in self.moves else r[i]
 
     def solve(
@@ -414,7 +430,7 @@ class Settles:
 
     def of(self, system: BlockSystem, z: ContactZone, rows: Rows, inertia) -> Kept:
         """The zone's :class:`Kept` for these rows (made again when the rows or slopes change)."""
-        slopes = tuple(sorted((str(b), s) for b, (_, s, _) in (inertia or {}).items()))
+        slopes = tuple(sorted((str(b), w.slope) for b, w in (inertia or {}).items()))
         ties = tuple(t.sigma for t in system.stiff_ties)
         key = (tuple((b, i.tobytes()) for b, i in rows), slopes, ties)
         kept = self.kept.get(z.contact.name)
@@ -439,8 +455,8 @@ def _kept(system: BlockSystem, z: ContactZone, rows: Rows, inertia, key: tuple) 
                 continue
             A = _stiffness(system, b, c)
             if inertia and b == c and b in inertia:
-                mass, slope, _ = inertia[b]
-                A = sp.csr_array(slope**2 * mass) if A is None else A + slope**2 * mass
+                mass, slope = inertia[b].mass, inertia[b].slope
+                A = sp.csr_array(slope * mass) if A is None else A + slope * mass
             if A is not None:
                 kept.fixed[(b, c)] = _part(A, b, i, c, j, moves)
     if kept.held:
@@ -449,15 +465,15 @@ def _kept(system: BlockSystem, z: ContactZone, rows: Rows, inertia, key: tuple) 
 
 
 def _moved_part(system: BlockSystem, kept: Kept, b: Block, inertia) -> np.ndarray:
-    """A reduced wall's ``P^T (K + s^2 M) P``, its ``P^T K`` and ``P^T M`` kept for its residual."""
+    """A reduced wall's ``P^T (K + s M) P``, its ``P^T K`` and ``P^T M`` kept for its residual."""
     P = kept.moves[b]
     K = system.block(b, b)
     PtK = P.transposed_times(K) if K is not None else np.zeros(P.shape[::-1])
-    PtM = P.transposed_times(inertia[b][0]) if inertia and b in inertia else None
+    PtM = P.transposed_times(inertia[b].mass) if inertia and b in inertia else None
     kept.projected[b] = (PtK, PtM)
     out = P.times(PtK)
     if PtM is not None:
-        out += inertia[b][1] ** 2 * P.times(PtM)
+        out += inertia[b].slope * P.times(PtM)
     tie = _tie_part(system, b, b)
     if tie is not None:
         out += P.times(P.transposed_times(tie))
@@ -508,7 +524,7 @@ def in_equilibrium(
     """The blocks of ``z``'s massless dofs with those in equilibrium, the rest of x held.
 
     A block in ``inertia`` (reduced: its walls' moves carry some mass) minimises its
-    kinetic energy with the potential (:func:`dd_contact.solvers.reduced_model.wall_inertia`).
+    end's inertia with the potential (:func:`dd_contact.solvers.reduced_model.wall_inertia`).
     ``settles``: where the zone's fixed part is kept from one settle to the next (without:
     made for this one).
     """
@@ -534,11 +550,45 @@ def in_equilibrium(
         return None if F is None else (F, active)
 
     delta = kept.solve(contact, residual, point_rows)
+    share = _adding_no_energy(kept, delta, residual, x, index, inertia) if inertia else 1.0
     out = {}
     for b, _ in rows:
         out[b] = np.array(x[b], dtype=float)
         if b in kept.moves:
-            out[b] += kept.moves[b].move(delta[b])
+            out[b] += kept.moves[b].move(share * delta[b])
         else:
-            out[b][index[b]] += delta[b]
+            out[b][index[b]] += share * delta[b]
     return out
+
+
+def _adding_no_energy(kept: Kept, delta: dict, r: dict, x, index: dict, inertia) -> float:
+    """The share of the settle's move that adds no energy: 1, unless the whole move would.
+
+    The move balances the end's inertia (exact as the step is); where a reduced wall's
+    move carries mass, that need not lower the energy E = kinetic + potential. Along the
+    move E changes by ``t g + t^2 h / 2``, with ``h = delta . r`` (the settle's matrix, as
+    solved) plus the kinetic part's ``(s_v^2 - s_a) |P delta|_M^2``, and ``g = -delta . r``
+    plus the inertia the balance held, ``delta . P^T M (s_v v - a)``. Above zero at t = 1,
+    the share is where it is zero again (none if E grows at once).
+    """
+    dr = sum(float(delta[b] @ r[b]) for b in delta)
+    g, h = -dr, dr
+    for b, wall in inertia.items():
+        if b not in delta:
+            continue
+        q = x[b]
+        if b in kept.projected:  # P^T M kept: nothing of the block's size multiplied
+            PtM = kept.projected[b][1]
+            move = PtM @ kept.moves[b].move(delta[b])
+            pull = PtM @ (wall.velocity_slope * wall.velocity(q) - wall.acceleration(q))
+        else:
+            step = np.zeros(len(q))
+            step[index[b]] = delta[b]
+            move = (wall.mass @ step)[index[b]]
+            pull = wall.mass @ (wall.velocity_slope * wall.velocity(q) - wall.acceleration(q))
+            pull = pull[index[b]]
+        g += float(delta[b] @ pull)
+        h += (wall.velocity_slope**2 - wall.slope) * float(delta[b] @ move)
+    if g + h / 2.0 <= 0.0:
+        return 1.0
+    return 0.0 if g >= 0.0 or h <= 0.0 else min(1.0, -2.0 * g / h)

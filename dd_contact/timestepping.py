@@ -68,6 +68,26 @@ class Newmark:
         """a0 = 4 / dt^2, the mass factor of the effective matrix (A10)."""
         return 4.0 / self.dt**2
 
+    @property
+    def end_slope(self) -> float:
+        """The derivative of :meth:`end_acceleration` in ``u_new``: 4 / dt^2."""
+        return self.mass_coefficient
+
+    def end_acceleration(
+        self, u_new: np.ndarray, u: np.ndarray, velocity: np.ndarray, end: np.ndarray
+    ) -> np.ndarray:
+        """The rule's acceleration at t + dt, ``4 (u_new - u) / dt^2 - 4 u' / dt - u''_n``.
+
+        Not the reported one (:meth:`update`'s mean): the trapezoidal rule holds
+        ``M u''_n+1 = r_n+1 - K u_n+1`` at each step's end when it held at the start, so a
+        reduced wall's settle balances this inertia (``end``: its value at t_n, carried).
+        """
+        out = np.subtract(u_new, u)
+        out *= self.mass_coefficient
+        out -= (4.0 / self.dt) * velocity
+        out -= end
+        return out
+
     def history(self, u: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         """The vector that multiplies M on the right-hand side: a0 u + a1 u'."""
         history = np.multiply(u, self.mass_coefficient)  # in place from here: no temporaries
@@ -132,6 +152,17 @@ class GeneralizedAlpha:
     def mass_coefficient(self) -> float:
         """(1 - alpha_m) / (beta dt^2 (1 - alpha_f)): effective matrix c M + K."""
         return (1.0 - self.alpha_m) / (self.beta * self.dt**2 * (1.0 - self.alpha_f))
+
+    @property
+    def end_slope(self) -> float:
+        """The derivative of :meth:`end_acceleration` in ``u_new``: 1 / (beta dt^2)."""
+        return 1.0 / (self.beta * self.dt**2)
+
+    def end_acceleration(
+        self, u_new: np.ndarray, u: np.ndarray, velocity: np.ndarray, end: np.ndarray
+    ) -> np.ndarray:
+        """Newmark's acceleration at t + dt (the scheme's own state: :meth:`update`'s)."""
+        return self.update(u_new, u, velocity, end)[1]
 
     def history(self, u: np.ndarray, velocity: np.ndarray, acceleration: np.ndarray) -> np.ndarray:
         """The vector that multiplies M on the right-hand side.

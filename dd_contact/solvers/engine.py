@@ -341,6 +341,11 @@ class BlockEliminationSolver:
         """Nothing is subtracted from the right-hand side."""
         return {}
 
+    def rebase(self) -> None:
+        """A checkpoint: the next solve starts from factors a resumed run would make."""
+        if self.surface is not None:  # the root's
+            self.surface.rebase()
+
     def destroy(self) -> None:
         """Free the PETSc objects."""
         for sub in self.subdomains.values():

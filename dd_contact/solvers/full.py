@@ -145,6 +145,9 @@ class MonolithicSolver:
         assert self.matrix.A is not None  # a PETSc matrix: not upper_coo
         return sparse_statistics(self.matrix.A)
 
+    def rebase(self) -> None:
+        """A checkpoint: nothing to drop (each change re-factorises the whole matrix)."""
+
     def destroy(self) -> None:
         """Free PETSc objects."""
         if self._factor is not None:

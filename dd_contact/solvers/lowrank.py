@@ -294,6 +294,14 @@ class LowRankSurface(Surface):
             return
         self._refactorise()
 
+    def rebase(self) -> None:
+        """A checkpoint: re-factorise at the next solve, as a run resumed from it does.
+
+        Both then step the same numbers bit for bit (a correction differs by round-off).
+        """
+        if self.moved or self.correction.capacitance is not None:
+            self._refactorise()
+
     def _refactorise(self) -> None:
         self.changed |= {b for pair in self.moved for b in pair}
         self.moved, self.fresh, self.correction = set(), set(), Correction()

@@ -20,6 +20,7 @@ import scipy.sparse as sp
 from dd_contact import forms
 from dd_contact.blocks import Block
 from dd_contact.parallel import allgathered, collective
+from dd_contact.settle import WallInertia
 from dd_contact.solvers.linalg import sparse_statistics
 from dd_contact.solvers.reduced import ReducedBasis, _pattern_span, _petsc
 from dd_contact.solvers.subdomains import coupling_layout
@@ -295,20 +296,28 @@ def defer_fields(subdomains: Sequence, bases: dict[Block, ReducedBasis], kinemat
 def wall_inertia(model, bases: dict[Block, ReducedBasis], owned: Sequence, kinematics, scheme):
     """What a release's settle of reduced walls needs of their inertia, this step.
 
-    Per owned reduced block: ``(M_r, s, v)`` with ``v(q)`` the end velocity the scheme
-    gives q (from the state at t_n, copied now) and ``s = dv/dq``. With fewer modes than
-    the interior's, a wall's move P carries a little mass (what the modes cannot take back):
-    the settle then minimises the kinetic energy with the potential, so it still never adds
-    energy (:func:`dd_contact.impact.StartForces.at_end`); with every mode ``M_r P = 0``.
+    Per owned reduced block, a :class:`~dd_contact.settle.WallInertia`: the end
+    acceleration (``scheme.end_acceleration``) and velocity the scheme gives q, from the
+    state at t_n (copied now). With fewer modes than the interior's, a wall's move P carries
+    a little mass (what the modes cannot take back), and the step's end balances it with its
+    inertia, ``P^T (r - K q - M_r a(q)) = 0``: the settle keeps that balance
+    (:func:`dd_contact.impact.StartForces.at_end`), as far as it adds no energy. With every
+    mode ``M_r P = 0``.
     """
-    slope = float(scheme.update(np.ones(1), np.zeros(1), np.zeros(1), np.zeros(1))[0][0])
+    velocity_slope = float(scheme.update(np.ones(1), np.zeros(1), np.zeros(1), np.zeros(1))[0][0])
     out = {}
     for sub in owned:
         if sub.block in bases:
-            start = tuple(a.copy() for a in kinematics.now(sub))
+            q, v, a = (array.copy() for array in kinematics.now(sub))
+            end = kinematics.ends[sub.block].copy()
 
-            def velocity(q, start=start):
-                return scheme.update(q, *start)[0]
+            def acceleration(x, q=q, v=v, end=end):
+                return scheme.end_acceleration(x, q, v, end)
 
-            out[sub.block] = (model.mass[sub.block], slope, velocity)
+            def velocity(x, q=q, v=v, a=a):
+                return scheme.update(x, q, v, a)[0]
+
+            out[sub.block] = WallInertia(
+                model.mass[sub.block], scheme.end_slope, acceleration, velocity_slope, velocity
+            )
     return out

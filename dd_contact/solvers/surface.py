@@ -139,6 +139,9 @@ class Surface:
     def restart(self) -> None:
         """A step ended: nothing to make again here."""
 
+    def rebase(self) -> None:
+        """A checkpoint: nothing to drop (the factors follow from the matrices alone)."""
+
     def _schur_pair(self, pair) -> np.ndarray | None:
         """The pair's matrix in S (its base matrix if no subdomain touches it), or None."""
         return self.schur_pairs[pair] if pair in self.schur_pairs else self.base.get(pair)
