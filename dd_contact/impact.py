@@ -59,6 +59,7 @@ import scipy.sparse as sp
 from dd_contact.assembly import ContactZone
 from dd_contact.blocks import Block, BlockKeyed, BlockSystem, split_by_blocks
 from dd_contact.settle import Settles, in_equilibrium
+from dd_contact.solvers.reduced_model import WallInertia
 
 __all__ = [
     "GEOMETRIC_STEPS",
@@ -143,7 +144,7 @@ class StartForces:
         end_offset: The stiff ties' forces of the last solve (for :meth:`at_end`).
         time: ``t_n``. A moving obstacle's operator is put at ``t_n`` for the start forces
             and their penetrations are kept: the contact iteration moves it to ``t_n+1``.
-        inertia: Reduced blocks' ``(M, dv/dq, v(q))``: their walls' moves carry mass
+        inertia: Reduced blocks' inertia: their walls' moves carry mass
             (:func:`dd_contact.solvers.reduced_model.wall_inertia`).
         settles: What the zones' settles keep from step to step (the problem's; by default
             this step's own: each settle's fixed part is then made again).
@@ -163,7 +164,7 @@ class StartForces:
         end_loads: Mapping[Block, np.ndarray] | None = None,
         end_offset: Callable[[], Mapping[Block, np.ndarray]] | None = None,
         time: float | None = None,
-        inertia: Mapping[Block, tuple] | None = None,
+        inertia: Mapping[Block, WallInertia] | None = None,
         settles: Settles | None = None,
     ):
         self.system, self.zones, self.x, self.free = system, zones, x, free

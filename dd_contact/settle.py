@@ -21,7 +21,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import NamedTuple
 
 import numpy as np
 import scipy.linalg as sla
@@ -30,6 +29,7 @@ from scipy.sparse.linalg import SuperLU, splu, spsolve
 
 from dd_contact.assembly import ContactZone
 from dd_contact.blocks import Block, BlockSystem, same_csr, split_by_blocks
+from dd_contact.solvers.reduced_model import WallInertia
 
 __all__ = [
     "DENSE_FILL",
@@ -44,20 +44,6 @@ __all__ = [
 ]
 
 Rows = list[tuple[Block, np.ndarray]]
-
-
-class WallInertia(NamedTuple):
-    """A reduced block's inertia at a release's settle (``reduced_model.wall_inertia``).
-
-    ``acceleration(q)``: the scheme's end acceleration, ``slope`` its derivative;
-    ``velocity(q)``: the end velocity, ``velocity_slope`` its derivative.
-    """
-
-    mass: sp.sparray
-    slope: float
-    acceleration: Callable[[np.ndarray], np.ndarray]
-    velocity_slope: float
-    velocity: Callable[[np.ndarray], np.ndarray]
 
 
 type Matrix = np.ndarray | sp.csr_array
@@ -518,13 +504,14 @@ def in_equilibrium(
     loads: Mapping[Block, np.ndarray],
     offset: Mapping[Block, np.ndarray],
     free: Callable[[Block], np.ndarray],
-    inertia: Mapping[Block, tuple] | None = None,
+    inertia: Mapping[Block, WallInertia] | None = None,
     settles: Settles | None = None,
 ) -> dict[Block, np.ndarray]:
     """The blocks of ``z``'s massless dofs with those in equilibrium, the rest of x held.
 
-    A block in ``inertia`` (reduced: its walls' moves carry some mass) minimises its
-    end's inertia with the potential (:func:`dd_contact.solvers.reduced_model.wall_inertia`).
+    A block in ``inertia`` (reduced: its walls' moves carry some mass) balances its end's
+    inertia too (:func:`dd_contact.solvers.reduced_model.wall_inertia`), as far as that
+    adds no energy.
     ``settles``: where the zone's fixed part is kept from one settle to the next (without:
     made for this one).
     """

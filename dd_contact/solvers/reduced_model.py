@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 from mpi4py import MPI
 
@@ -20,7 +21,6 @@ import scipy.sparse as sp
 from dd_contact import forms
 from dd_contact.blocks import Block
 from dd_contact.parallel import allgathered, collective
-from dd_contact.settle import WallInertia
 from dd_contact.solvers.linalg import sparse_statistics
 from dd_contact.solvers.reduced import ReducedBasis, _pattern_span, _petsc
 from dd_contact.solvers.subdomains import coupling_layout
@@ -28,6 +28,7 @@ from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
     "REDUCED_ORDERS",
+    "WallInertia",
     "defer_fields",
     "defer_rates",
     "expansion",
@@ -293,10 +294,25 @@ def defer_fields(subdomains: Sequence, bases: dict[Block, ReducedBasis], kinemat
     defer_rates(subdomains, bases, kinematics)
 
 
+@dataclass(frozen=True)
+class WallInertia:
+    """A reduced block's inertia at a release's settle (:func:`wall_inertia`).
+
+    ``acceleration(q)``: the scheme's end acceleration, ``slope`` its derivative;
+    ``velocity(q)``: the end velocity, ``velocity_slope`` its derivative.
+    """
+
+    mass: sp.sparray
+    slope: float
+    acceleration: Callable[[np.ndarray], np.ndarray]
+    velocity_slope: float
+    velocity: Callable[[np.ndarray], np.ndarray]
+
+
 def wall_inertia(model, bases: dict[Block, ReducedBasis], owned: Sequence, kinematics, scheme):
     """What a release's settle of reduced walls needs of their inertia, this step.
 
-    Per owned reduced block, a :class:`~dd_contact.settle.WallInertia`: the end
+    Per owned reduced block, a :class:`WallInertia`: the end
     acceleration (``scheme.end_acceleration``) and velocity the scheme gives q, from the
     state at t_n (copied now). With fewer modes than the interior's, a wall's move P carries
     a little mass (what the modes cannot take back), and the step's end balances it with its
