@@ -290,7 +290,7 @@ def main() -> None:
     parser.add_argument("--rtol", type=float, default=0.0, help="the peers' (0: their RTOL)")
     parser.add_argument("--part", nargs="+", default=["speed", "trade"])
     parser.add_argument("--cases", nargs="+", default=[c[0] for c in CASES])
-    parser.add_argument("--out", help="the speed part's JSON (default by the cells)")
+    parser.add_argument("--out", help="the speed or paper-trade part's JSON (default by the cells)")
     parser.add_argument("--trade-elements", type=int, nargs=3, default=[40, 8, 4])
     parser.add_argument("--trade-modes", type=int, nargs="+", default=[5, 10, 20, 40, 80, 160])
     parser.add_argument("--trade-steps", type=int, default=60)
@@ -307,7 +307,8 @@ def main() -> None:
     if "paper-trade" in args.part:
         data = paper_trade(args.trade_elements, args.trade_modes, args.trade_steps)
         nx, ny, nz = args.trade_elements
-        (HERE / f"reduced_paper_trade_{nx}x{ny}x{nz}.json").write_text(json.dumps(data, indent=1))
+        out = Path(args.out) if args.out else HERE / f"reduced_paper_trade_{nx}x{ny}x{nz}.json"
+        out.write_text(json.dumps(data, indent=1))
     if "trade" in args.part:
         data = trade(tuple(args.trade_elements), args.trade_modes, args.trade_steps, 2e-7)
         (HERE / "reduced_trade.json").write_text(json.dumps(data, indent=1))

@@ -166,7 +166,7 @@ class RunState:
             state,
             lambda key: (
                 f"the checkpoint does not match subdomain {key.split('/')[-1]!r} "
-                "(different scene or mesh, or reduced otherwise)"
+                "(different scene or mesh, reduced otherwise, or an earlier version's)"
             ),
         )
         _copy_into(
