@@ -117,6 +117,9 @@ class StuckSurface(PointwiseSurface):
         """
         self._restart = not self.exact
 
+    def rebase(self) -> None:
+        """A checkpoint: nothing more to drop (:meth:`restart` did at the step's end)."""
+
     def _restarted(self) -> bool:
         """What a resumed run would hold: the stuck matrices factorised, the correction.
 
