@@ -1,7 +1,7 @@
 """The state of a transient run as arrays: what a checkpoint holds and how a run resumes.
 
 A run's state is the owned subdomains' displacement, velocity and acceleration (a reduced
-subdomain's: its coordinates and its walls' rates), the
+subdomain's: its coordinates, their end acceleration and its walls' rates), the
 interface's and the owned contact surfaces' displacement (massless, but the next step's
 start forces read their tie forces at t_n), the contact iteration's active sets and counts,
 each friction's history (:meth:`dd_contact.friction.Friction.arrays`), and the step, time
@@ -64,7 +64,7 @@ class RunState:
         self.kinematics: Any = None
 
     def _reduced(self) -> dict[str, np.ndarray]:
-        """The owned reduced subdomains' coordinates and wall rates by key (in place).
+        """The owned reduced subdomains' coordinates, end accelerations, wall rates (in place).
 
         Their coordinates, not their expanded fields: a resumed run steps the same numbers
         (an expansion and its projection back would be a round-off away) and nothing is

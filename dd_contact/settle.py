@@ -44,8 +44,6 @@ __all__ = [
 ]
 
 Rows = list[tuple[Block, np.ndarray]]
-
-
 type Matrix = np.ndarray | sp.csr_array
 
 #: A Woodbury settle (:class:`Points`) is refined with its true residual when that is above
