@@ -561,19 +561,15 @@ def _adding_no_energy(kept: Kept, delta: dict, r: dict, x, index: dict, inertia)
     for b, wall in inertia.items():
         if b not in delta:
             continue
-        q = x[b]
+        q, d = x[b], delta[b]
         if b in kept.projected:  # P^T M kept: nothing of the block's size multiplied
-            PtM = kept.projected[b][1]
-            move = PtM @ kept.moves[b].move(delta[b])
-            pull = PtM @ (wall.velocity_slope * wall.velocity(q) - wall.acceleration(q))
-        else:
-            step = np.zeros(len(q))
-            step[index[b]] = delta[b]
-            move = (wall.mass @ step)[index[b]]
-            pull = wall.mass @ (wall.velocity_slope * wall.velocity(q) - wall.acceleration(q))
-            pull = pull[index[b]]
-        g += float(delta[b] @ pull)
-        h += (wall.velocity_slope**2 - wall.slope) * float(delta[b] @ move)
+            PtM, moved = kept.projected[b][1], kept.moves[b].move(d)
+        else:  # the mass's rows of the settled dofs
+            PtM, moved = sp.csr_array(wall.mass)[index[b]], np.zeros(len(q))
+            moved[index[b]] = d
+        g += float(d @ (PtM @ (wall.velocity_slope * wall.velocity(q) - wall.acceleration(q))))
+        if curvature := wall.velocity_slope**2 - wall.slope:  # 0 in the trapezoidal rule
+            h += curvature * float(d @ (PtM @ moved))
     if g + h / 2.0 <= 0.0:
         return 1.0
     return 0.0 if g >= 0.0 or h <= 0.0 else min(1.0, -2.0 * g / h)
