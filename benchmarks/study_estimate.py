@@ -38,10 +38,8 @@ each branch's 1/16 ratios.
 reduced wall's directions read off M_r instead of solved column by column (1,683 fewer
 substitutions of the interior factor); ``m=320 (stop 40, merged)``
 (``paper_scale_reduced320_merge40.json``) the merged tree of stop 40 (the eigensolver's
-one-pass orthogonalisation and first flips eliminated in the solve too). ``m=320 (stop
-41)`` (``paper_scale_reduced320_stop41.json``) is main of stop 41: the reduced walls'
-release settle balancing their inertia, with which m = 320 keeps the bar's contact-force
-history within 1 % (0.26 % at 1/4). The verdict is this run's.
+one-pass orthogonalisation and first flips eliminated in the solve too). The verdict is
+this run's.
 
 Writes benchmarks/results/paper_study_estimate.json.
 
@@ -147,10 +145,6 @@ def main() -> None:
             "paper_scale_reduced320_merge40.json",
             "parallelepiped|1/4|w-u reduced m=320|run",
         ),
-        ("m=320 (stop 41)", "1/4"): run_of(  # the release settle fixed (the modes' 1 %)
-            "paper_scale_reduced320_stop41.json",
-            "parallelepiped|1/4|w-u reduced m=320|run",
-        ),
         ("m=20 (study)", "1/4"): run_of(  # branch study's code, the same run as m=20's
             "paper_scale_reduced20_study.json", "parallelepiped|1/4|w-u reduced m=20|run"
         ),
@@ -174,8 +168,7 @@ def main() -> None:
             paper[f"exponent_{k}"] = float(slope)
         measured["m=160, paper (extrapolated)"] = paper
     low, high = measured.get("m=20, 1/4"), measured.get("m=160, 1/4")
-    merged = ("m=320 (stop 40, merged)", "m=320 (stop 41)")
-    for m320 in ("m=320", "m=320 (stop 39)", "m=320 (stop 40)", *merged):
+    for m320 in ("m=320", "m=320 (stop 39)", "m=320 (stop 40)", "m=320 (stop 40, merged)"):
         direct = measured.get(f"{m320}, 1/4")
         if direct and "m=160, paper (extrapolated)" in measured:  # m = 160's exponents
             paper = measured["m=160, paper (extrapolated)"]
