@@ -59,6 +59,33 @@ def test_generalized_alpha_with_rho_1_is_the_trapezoidal_rule():
     assert np.linalg.norm(v_ga - v_trap) <= 1e-12 * np.linalg.norm(v_trap)
 
 
+def test_the_end_acceleration_keeps_the_equation_of_motion_at_each_step_end():
+    """``end_acceleration`` (what a reduced wall's settle balances): on a two-dof oscillator
+    stepped by the trapezoidal rule, ``M a_n+1 = f_n+1 - K u_n+1`` holds at every step's
+    end when it held at the start, and generalized-alpha at rho = 1 gives the same."""
+    from dd_contact.timestepping import Newmark
+
+    M, K = np.diag([2.0, 1.0]), np.array([[3.0, -1.0], [-1.0, 2.0]])
+    dt, scheme, alpha = 0.1, Newmark(0.1), GeneralizedAlpha(0.1, 1.0)
+
+    def force(t):
+        return np.array([np.sin(3.0 * t), 1.0])
+
+    u, v = np.array([0.01, -0.02]), np.array([0.3, 0.0])
+    end = np.linalg.solve(M, force(0.0) - K @ u)
+    for n in range(20):
+        t = (n + 1) * dt
+        # the step: (4/dt^2 M + K) u_n+1 = f_n+1 + f_n - K u_n + M (4/dt^2 u_n + 4/dt v_n)
+        rhs = force(t) + force(t - dt) - K @ u + M @ (4.0 / dt**2 * u + 4.0 / dt * v)
+        u_new = np.linalg.solve(4.0 / dt**2 * M + K, rhs)
+        new_end = scheme.end_acceleration(u_new, u, v, end)
+        assert np.allclose(M @ new_end, force(t) - K @ u_new, rtol=0, atol=1e-12)
+        assert np.allclose(alpha.end_acceleration(u_new, u, v, end), new_end, rtol=1e-12, atol=0)
+        assert scheme.end_slope == alpha.end_slope == pytest.approx(4.0 / dt**2)
+        v = scheme.update(u_new, u, v, end)[0]
+        u, end = u_new, new_end
+
+
 def _spectral_radius(scheme: GeneralizedAlpha, omega_dt: float) -> float:
     """The largest eigenvalue modulus of the scheme's amplification matrix for one mode.
 
