@@ -16,6 +16,7 @@ import dd_contact as dc
 from dd_contact.paper.verify import orders as order_scenes
 from dd_contact.solvers import lowrank
 from dd_contact.solvers.lowrank import LowRankSurface, low_rank
+from dd_contact.solvers.pointwise import PointwiseSurface
 
 #: Tie (and pair) penalty of the scenes: at the default 1e6 any two exact solves of them
 #: differ by a few 1e-10 (tests/test_orders.py; the pair's contact forces: v-w-u against
@@ -163,6 +164,9 @@ def _priced(monkeypatch, solve_price):
     monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: 1.0)
     monkeypatch.setattr(LowRankSurface, "solve_seconds", solve_price)
     monkeypatch.setattr(LowRankSurface, "eigen_seconds", lambda self, M: 0.0)
+    # the points' first eliminations too: else priced by this machine's cached rates, or
+    # without them by their flops against the 1 s re-factorisation
+    monkeypatch.setattr(PointwiseSurface, "elimination_seconds", lambda self, ids, r0: 0.0)
 
 
 def test_a_change_is_re_factorised_when_its_corrected_solve_is_priced_above_that(monkeypatch):

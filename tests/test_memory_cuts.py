@@ -14,7 +14,7 @@ import pytest
 import dd_contact as dc
 from dd_contact.paper import examples, models
 from dd_contact.solvers import mumps_schur
-from dd_contact.solvers.linalg import DenseCholesky
+from dd_contact.solvers.dense import DenseCholesky
 from dd_contact.solvers.surface import Surface
 
 DT = 4e-5
@@ -144,9 +144,9 @@ def test_a_refactorised_group_frees_its_old_factor_before_assembling_the_new(ste
     old = weakref.ref(surface.state[last].factor)
     alive = []
 
-    def spy(A, log, block):
+    def spy(A, log, block, order=None):
         alive.append(old() is not None)
-        return DenseCholesky(A, log, block)
+        return DenseCholesky(A, log, block, order)
 
     monkeypatch.setattr("dd_contact.solvers.surface.DenseCholesky", spy)
     x = surface.state[last].factor.solve(np.ones(surface.state[last].factor.size))

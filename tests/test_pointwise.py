@@ -13,8 +13,8 @@ from test_pairs import _tilted_scene
 import dd_contact as dc
 from dd_contact.solvers import pointwise
 from dd_contact.solvers.lowrank import LowRankSurface
-from dd_contact.solvers.pointkernels import forward_columns
-from dd_contact.solvers.pointwise import PointCorrection, PointwiseSurface
+from dd_contact.solvers.pointkernels import PointCorrection, forward_columns, local_rows
+from dd_contact.solvers.pointwise import PointwiseSurface
 from dd_contact.solvers.surface import kept_into
 
 KAPPA = 1e4  # as tests/test_lowrank.py: exact solvers of these scenes agree to 1e-12 there
@@ -163,6 +163,18 @@ def test_a_first_flip_s_points_are_eliminated_by_the_solve_s_own_substitution(
     riding = sum(r.nrhs - 1 for r in work.records if r.kind == "dense_solve" and r.what == "x")
     assert riding == new > 0 and not two_passes
     assert not len(surface._pending) and surface._cache.rank == len(surface._cached)
+    # the rows the points touch (the end's normal dofs) are factorised last, so a new
+    # column's elimination is a solve with their trailing triangle alone
+    P, at, _ = surface.joined()
+    for grp in surface.schedule.groups[-1]:
+        local = local_rows(grp.blocks, surface.sizes, np.unique(P.indices[P.data != 0]), dict(at))
+        touched = local[local >= 0]
+        factor = surface.state[grp.name].factor
+        assert 0 < len(touched) < factor.size and factor.order is not None
+        assert set(factor.order[-len(touched) :].tolist()) == set(touched.tolist())
+        for r in work.records:
+            if r.block == grp.name and r.what == "x" and r.nrhs > 1:  # b and new columns
+                assert r.flops - r.size**2 <= (r.nrhs - 1) * len(touched) ** 2
 
 
 def test_a_first_flip_with_an_ill_conditioned_capacitance_matrix_is_re_factorised(monkeypatch):
@@ -217,3 +229,33 @@ def test_kept_columns_added_in_place_keep_their_values_when_the_scratch_is_reuse
     assert np.array_equal(kept["g"][0], np.arange(5))
     assert np.array_equal(kept["g"][1], expected)
     assert np.abs(G - expected.T @ expected).max() <= 1e-14 * np.abs(G).max()
+
+
+def test_a_dense_cholesky_in_another_row_order_solves_as_the_group_s_own():
+    """Rows factorised in another order (the points' last): solves, congruences and the
+    two halves in and out of the factor's order give the unpermuted factor's answers."""
+    from dd_contact.solvers.dense import DenseCholesky
+    from dd_contact.solvers.worklog import WorkLog
+
+    rng = np.random.default_rng(7)
+    n = 40
+    A = rng.standard_normal((n, n))
+    A = A @ A.T + n * np.eye(n)
+    order = rng.permutation(n)
+    plain = DenseCholesky(A.copy(), WorkLog(), "g")
+    ordered = DenseCholesky(A[np.ix_(order, order)].copy(), WorkLog(), "g", order)
+    B = rng.standard_normal((n, 3))
+    B[:10] = 0.0  # leading zero rows: the congruence starts at the first non-zero
+    tol = 1e-12 * np.abs(np.linalg.solve(A, B)).max()
+    assert np.abs(ordered.solve(B) - np.linalg.solve(A, B)).max() <= tol
+    assert np.abs(ordered.solve(B[:, 0]) - plain.solve(B[:, 0])).max() <= tol
+    assert (
+        np.abs(ordered.congruence(B) - plain.congruence(B)).max()
+        <= 1e-12 * np.abs(plain.congruence(B)).max()
+    )
+    y = ordered.half(B, 1)  # L^-1 B in the factor's order: its products are the same
+    assert np.abs(y.T @ y - plain.half(B, 1).T @ plain.half(B, 1)).max() <= 1e-12 * n
+    assert np.abs(ordered.half(y, 0) - np.linalg.solve(A, B)).max() <= tol
+    rows = np.array([3, 17])
+    moved = ordered.into_order(np.eye(n)[:, rows])  # a group's rows: where the factor has them
+    assert np.array_equal(moved[ordered.rows(rows), [0, 1]], [1.0, 1.0])

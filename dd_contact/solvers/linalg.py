@@ -22,7 +22,6 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 import numpy as np
-import scipy.linalg as sla
 import scipy.sparse as sp
 import threadpoolctl
 from dolfinx.fem.petsc import get_petsc_lib
@@ -34,7 +33,6 @@ from dd_contact.solvers.petsc_options import REQUIRED_ICNTL, _check_required_opt
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
-    "DenseCholesky",
     "PatternedMatrix",
     "SingularMatrixError",
     "SparseCholesky",
@@ -384,75 +382,6 @@ def _schur_complement(factor: PETSc.Mat, m: int) -> np.ndarray:
     _check(lib.MatDenseRestoreArray(S, ctypes.byref(data)))
     _check(lib.MatDestroy(ctypes.byref(S)))
     return out
-
-
-class DenseCholesky:
-    """A LAPACK Cholesky factorisation (potrf) of a dense SPD matrix; solves with trtrs.
-
-    Args:
-        A: The matrix; overwritten by the factor.
-        log: Where to record the work.
-        block: Name of the block, for the log.
-    """
-
-    def __init__(self, A: np.ndarray, log: WorkLog, block: str):
-        self.log, self.block, self.size = log, block, A.shape[0]
-        start = time.perf_counter()
-        try:
-            self.factor = sla.cho_factor(A, lower=True, overwrite_a=True, check_finite=False)
-        except np.linalg.LinAlgError:
-            raise SingularMatrixError(
-                f"dense block {block!r} is singular or not positive definite: part of the "
-                "model can move freely; check its supports, ties and contacts"
-            ) from None
-        n = self.size
-        log.add(block, "dense_factor", n, 0, time.perf_counter() - start, n**3 / 3.0)
-
-    def congruence(self, B: np.ndarray, what: str = "") -> np.ndarray:
-        """B^T A^-1 B, symmetric, from one forward substitution per column of B.
-
-        W^T W for W = L^-1 B, A = L L^T (symmetric to the last bit), over B's trailing t
-        rows: its leading zero rows are zero in W. Logged, size t: t^2 m and t m^2 flops.
-        """
-        start, nonzero = time.perf_counter(), np.any(B != 0.0, axis=1)
-        lead = int(np.argmax(nonzero)) if nonzero.any() else len(B)
-        L = self.factor[0][lead:, lead:]
-        W = sla.solve_triangular(L, B[lead:], lower=True, check_finite=False)
-        n, nrhs = len(L), B.shape[1]
-        seconds = time.perf_counter() - start
-        self.log.add(self.block, "dense_solve", n, nrhs, seconds, n * n * nrhs, what)
-        start = time.perf_counter()
-        out = W.T @ W
-        seconds = time.perf_counter() - start
-        self.log.add(self.block, "dense_product", n, nrhs, seconds, float(n * nrhs * nrhs), what)
-        return out
-
-    def product(self, B: np.ndarray, x: np.ndarray, what: str, transpose: bool) -> np.ndarray:
-        """``B^T x`` (``transpose``) or ``B x`` for a coupling matrix B with this factor's rows.
-
-        Logged as a ``"dense_product"`` with B's columns as right-hand sides: one pass over
-        B, memory traffic like a substitution (2 n m flops).
-        """
-        start = time.perf_counter()
-        out = B.T @ x if transpose else B @ x
-        n, m = B.shape
-        self.log.add(
-            self.block, "dense_product", n, m, time.perf_counter() - start, 2.0 * n * m, what
-        )
-        return out
-
-    def solve(self, B: np.ndarray, what: str = "") -> np.ndarray:
-        """Forward/back substitution for a vector or the columns of a matrix."""
-        start = time.perf_counter()
-        X = self._substitute(B)
-        nrhs, n, seconds = 1 if B.ndim == 1 else B.shape[1], self.size, time.perf_counter() - start
-        self.log.add(self.block, "dense_solve", n, nrhs, seconds, 2.0 * n * n * nrhs, what)
-        return X
-
-    def _substitute(self, B: np.ndarray) -> np.ndarray:
-        """``A^-1 B``: trtrs twice on the factor's transpose, LAPACK's upper factor in place."""
-        y = sla.lapack.dtrtrs(self.factor[0].T, B, lower=0, trans=1)[0]  # potrs copied it
-        return sla.lapack.dtrtrs(self.factor[0].T, y, lower=0, trans=0)[0]
 
 
 class PatternedMatrix:

@@ -43,7 +43,7 @@ from scipy.sparse.csgraph import connected_components
 
 from dd_contact.blocks import Block
 from dd_contact.calibration import cached_rates
-from dd_contact.solvers.linalg import DenseCholesky
+from dd_contact.solvers.dense import DenseCholesky
 from dd_contact.solvers.schedule import Operation, Schedule
 from dd_contact.solvers.surface import Surface, kept_into
 from dd_contact.solvers.worklog import WorkLog
@@ -439,10 +439,10 @@ class LowRankSurface(Surface):
         start = time.perf_counter()
         n, m = R.shape
         if grp.last or not grp.neighbours:
-            X = sla.solve_triangular(factor.factor[0], R, lower=True, check_finite=False)
+            X = factor.half(R, 1)  # in the factor's order, as the solve's forward half
             flops = float(n * n * m)
         else:
-            X = sla.cho_solve(factor.factor, R, check_finite=False)
+            X = factor.substitute(R)
             flops = 2.0 * n * n * m
         seconds = time.perf_counter() - start
         self.log.add(grp.name, "dense_solve", n, m, seconds, flops, "lowrank")

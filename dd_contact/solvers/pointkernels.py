@@ -1,13 +1,15 @@
 """The dense kernels of the point-by-point corrections (:mod:`~dd_contact.solvers.pointwise`).
 
 A first flip's points are eliminated forward through a last-level group's Cholesky factor
-beside the corrected solve's own right-hand side (:func:`forward_columns`); the capacitance
-matrix of points beside other columns is factorised equilibrated (:func:`equilibrated`).
+beside the corrected solve's own right-hand side (:func:`forward_columns`); the correction
+whose columns are the points' rows (:class:`PointCorrection`) factorises its capacitance
+matrix, of points beside other columns equilibrated (:func:`equilibrated`).
 """
 
 from __future__ import annotations
 
 import ctypes
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
@@ -15,8 +17,9 @@ import scipy.sparse as sp
 from scipy.linalg import cython_blas
 
 from dd_contact.blocks import Block
+from dd_contact.solvers.lowrank import Correction, capacitance
 
-__all__ = ["equilibrated", "forward_columns", "local_rows", "point_columns"]
+__all__ = ["PointCorrection", "equilibrated", "forward_columns", "local_rows", "point_columns"]
 
 
 def _cython_blas(name: str, *argtypes):
@@ -148,3 +151,77 @@ def point_columns(
         if len(J):
             dofs[b] = J
     return dofs, V[nonzero].toarray()
+
+
+@dataclass
+class PointCorrection(Correction):
+    """A Woodbury correction whose columns are contact points' rows (sparse).
+
+    Attributes:
+        rows: The rows where the points' columns are non-zero (over the surface blocks
+            ``at`` holds, one after the other), sorted.
+        values: The columns on those rows (dense: a point's row has a node's few dofs).
+        at: Each of those blocks and its rows.
+        last: Per last-level group, the columns that reach it (a mask) and their forward
+            elimination ``L^-1 V``, when no column reaches an earlier level: a corrected
+            solve is then one pass (:meth:`PointwiseSurface.solve`). None: two passes.
+    """
+
+    rows: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
+    values: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    at: list[tuple[Block, slice]] = field(default_factory=list)
+    cholesky: tuple[np.ndarray, bool] | None = None
+    last: dict[str, tuple[np.ndarray, np.ndarray]] | None = None
+    slots: np.ndarray | None = None  # its columns in the cache, G made at the first solve
+
+    def factorise(self) -> None:
+        """Factors of ``I + D G``: Cholesky if every point changed the same way, else LU.
+
+        With one sign s, ``I + s G`` is symmetric and positive definite (s = -1: G of
+        points the factorised matrix holds is below the identity), and Cholesky is half
+        an LU's work; a release loses digits to round-off, which the refinement gives back.
+        """
+        if len(self.D) and np.all(self.D == self.D[0]):
+            C = np.eye(self.rank) + self.D[0] * self.G
+            factor, info = sla.lapack.dpotrf(C, lower=1, clean=0)  # no wrapper's copies
+            if info == 0:  # else not positive definite in round-off: LU
+                norm = np.abs(C).sum(axis=0).max()
+                rcond, _ = sla.lapack.dpocon(factor, norm, uplo="L")
+                self.cholesky = (factor, True)
+                self.capacitance = (factor, np.zeros(0))  # marks it factorised
+                self.conditioned = float(rcond)
+                return
+        if not self.pieces:
+            self.capacitance, self.conditioned = capacitance(self.D, self.G)
+            return
+        C = np.eye(self.rank) + self.D[:, None] * self.G
+        self.capacitance, self.conditioned, self.scale = equilibrated(C)
+
+    def solve(self, y: np.ndarray) -> np.ndarray:
+        """``(I + D G)^-1 y``."""
+        if self.cholesky is not None:
+            return sla.lapack.dpotrs(self.cholesky[0], y, lower=1)[0]
+        return super().solve(y)
+
+    def points_of(self, x: dict[str, np.ndarray]) -> np.ndarray:
+        """``V^T x``."""
+        return self.values.T @ np.concatenate([x[b] for b, _ in self.at])[self.rows]
+
+    def projected(self, x: dict[str, np.ndarray]) -> np.ndarray:
+        """``D V^T x``, then the pieces' ``D U^T x_J`` (other regions' changes) if any."""
+        points = self.points_of(x)
+        if not self.pieces:
+            return self.D * points
+        p = len(points)
+        rest = Correction(self.pieces, self.D[p:]).projected(x)
+        return np.concatenate([self.D[:p] * points, rest])
+
+    def shifted(self, g: dict[str, np.ndarray], z: np.ndarray) -> dict[str, np.ndarray]:
+        """``g - V z``, and ``- E U z`` for the pieces if any."""
+        out = {b: v.copy() for b, v in g.items()}
+        p = self.values.shape[1]
+        Vz = np.zeros(self.at[-1][1].stop if self.at else 0)
+        Vz[self.rows] = self.values @ z[:p]
+        for b, rows in self.at:
+            out[b] -= Vz[rows]
+        return Correction(self.pieces).shifted(out, z[p:]) if self.pieces else out

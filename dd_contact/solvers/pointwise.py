@@ -35,14 +35,13 @@ beside the slip's unit columns.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
 from dd_contact.blocks import Block
-from dd_contact.solvers.linalg import DenseCholesky
+from dd_contact.solvers.dense import DenseCholesky
 from dd_contact.solvers.lowrank import (
     CAPACITANCE_RCOND,
     UPDATE_MARGIN,
@@ -50,18 +49,16 @@ from dd_contact.solvers.lowrank import (
     UPDATES,
     Correction,
     LowRankSurface,
-    capacitance,
     low_rank,
     norm_of,
 )
-from dd_contact.solvers.pointkernels import equilibrated, forward_columns, local_rows
+from dd_contact.solvers.pointkernels import PointCorrection, forward_columns, local_rows
 from dd_contact.solvers.schedule import Operation
 from dd_contact.solvers.surface import Surface, kept_into
 
 __all__ = [
     "CACHE_BUDGET",
     "POINT_APPLICATIONS",
-    "PointCorrection",
     "PointwiseSurface",
 ]
 
@@ -75,80 +72,6 @@ CACHE_BUDGET = 2.0
 #: eliminations (the 87k joint with elastic pins: one application, no refinement, in every
 #: corrected solve, its reciprocal condition number 1e-4).
 POINT_APPLICATIONS = 1.0
-
-
-@dataclass
-class PointCorrection(Correction):
-    """A Woodbury correction whose columns are contact points' rows (sparse).
-
-    Attributes:
-        rows: The rows where the points' columns are non-zero (over the surface blocks
-            ``at`` holds, one after the other), sorted.
-        values: The columns on those rows (dense: a point's row has a node's few dofs).
-        at: Each of those blocks and its rows.
-        last: Per last-level group, the columns that reach it (a mask) and their forward
-            elimination ``L^-1 V``, when no column reaches an earlier level: a corrected
-            solve is then one pass (:meth:`PointwiseSurface.solve`). None: two passes.
-    """
-
-    rows: np.ndarray = field(default_factory=lambda: np.zeros(0, int))
-    values: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
-    at: list[tuple[Block, slice]] = field(default_factory=list)
-    cholesky: tuple[np.ndarray, bool] | None = None
-    last: dict[str, tuple[np.ndarray, np.ndarray]] | None = None
-    slots: np.ndarray | None = None  # its columns in the cache, G made at the first solve
-
-    def factorise(self) -> None:
-        """Factors of ``I + D G``: Cholesky if every point changed the same way, else LU.
-
-        With one sign s, ``I + s G`` is symmetric and positive definite (s = -1: G of
-        points the factorised matrix holds is below the identity), and Cholesky is half
-        an LU's work; a release loses digits to round-off, which the refinement gives back.
-        """
-        if len(self.D) and np.all(self.D == self.D[0]):
-            C = np.eye(self.rank) + self.D[0] * self.G
-            factor, info = sla.lapack.dpotrf(C, lower=1, clean=0)  # no wrapper's copies
-            if info == 0:  # else not positive definite in round-off: LU
-                norm = np.abs(C).sum(axis=0).max()
-                rcond, _ = sla.lapack.dpocon(factor, norm, uplo="L")
-                self.cholesky = (factor, True)
-                self.capacitance = (factor, np.zeros(0))  # marks it factorised
-                self.conditioned = float(rcond)
-                return
-        if not self.pieces:
-            self.capacitance, self.conditioned = capacitance(self.D, self.G)
-            return
-        C = np.eye(self.rank) + self.D[:, None] * self.G
-        self.capacitance, self.conditioned, self.scale = equilibrated(C)
-
-    def solve(self, y: np.ndarray) -> np.ndarray:
-        """``(I + D G)^-1 y``."""
-        if self.cholesky is not None:
-            return sla.lapack.dpotrs(self.cholesky[0], y, lower=1)[0]
-        return super().solve(y)
-
-    def points_of(self, x: dict[str, np.ndarray]) -> np.ndarray:
-        """``V^T x``."""
-        return self.values.T @ np.concatenate([x[b] for b, _ in self.at])[self.rows]
-
-    def projected(self, x: dict[str, np.ndarray]) -> np.ndarray:
-        """``D V^T x``, then the pieces' ``D U^T x_J`` (other regions' changes) if any."""
-        points = self.points_of(x)
-        if not self.pieces:
-            return self.D * points
-        p = len(points)
-        rest = Correction(self.pieces, self.D[p:]).projected(x)
-        return np.concatenate([self.D[:p] * points, rest])
-
-    def shifted(self, g: dict[str, np.ndarray], z: np.ndarray) -> dict[str, np.ndarray]:
-        """``g - V z``, and ``- E U z`` for the pieces if any."""
-        out = {b: v.copy() for b, v in g.items()}
-        p = self.values.shape[1]
-        Vz = np.zeros(self.at[-1][1].stop if self.at else 0)
-        Vz[self.rows] = self.values @ z[:p]
-        for b, rows in self.at:
-            out[b] -= Vz[rows]
-        return Correction(self.pieces).shifted(out, z[p:]) if self.pieces else out
 
 
 class PointwiseSurface(LowRankSurface):
@@ -176,12 +99,33 @@ class PointwiseSurface(LowRankSurface):
         self._saved = 0.0  # priced re-factorisations the updates since then saved
         self._prices: dict[tuple, float] = {}  # lists of operations, priced
         self._reach: np.ndarray | None = None  # per group of the chain, the columns reaching it
+        self._orders: dict[str, np.ndarray | None] = {}  # per group, its rows' (points' last)
 
     def add_points(self, name: str, parts: list[tuple[Block, np.ndarray]], rows) -> None:
         """A region's point rows, numbered as its matrix (``parts`` one after the other)."""
         self.regions[name] = tuple(block for block, _ in parts)
         self._rows.append((name, parts, sp.csr_array(rows)))
-        self._points = None
+        self._points, self._orders = None, {}
+
+    def _row_order(self, g) -> np.ndarray | None:
+        """A last-level group's rows with those the points touch last.
+
+        A first flip's columns are eliminated from their first non-zero row on
+        (:meth:`_eliminate`, :meth:`_forward_last`), so through the trailing triangle of the
+        touched rows alone (the bar's end on its wall: its 369 normal dofs of 1,107 rows).
+        """
+        if g.name not in self._orders:
+            n, order = sum(self.sizes[b] for b in g.blocks), None
+            if self._rows and (g.last or not g.neighbours):
+                P, at, _ = self.joined()
+                touched_rows = np.unique(P.indices[P.data != 0.0])
+                local = local_rows(g.blocks, self.sizes, touched_rows, dict(at))
+                touched = np.zeros(n, bool)
+                touched[local[local >= 0]] = True
+                order = np.concatenate([np.flatnonzero(~touched), np.flatnonzero(touched)])
+            same = order is None or np.array_equal(order, np.arange(n))
+            self._orders[g.name] = None if same else order
+        return self._orders[g.name]
 
     def joined(self) -> tuple[sp.csc_array, list[tuple[Block, slice]], dict[str, int]]:
         """Every region's points as columns over their blocks, one block after the other.
@@ -441,7 +385,7 @@ class PointwiseSurface(LowRankSurface):
             return super()._eliminate(grp, R)
         factor = self.state[grp.name].factor
         assert isinstance(factor, DenseCholesky)  # the symmetric changes are corrected
-        start, (n, m) = time.perf_counter(), R.shape
+        start, (n, m), R = time.perf_counter(), R.shape, factor.into_order(R)
         lead = int(np.argmax(np.any(R != 0.0, axis=1)))
         X = np.zeros_like(R)
         L = factor.factor[0].T[lead:, lead:]  # LAPACK's upper factor, as DenseCholesky's
@@ -542,11 +486,12 @@ class PointwiseSurface(LowRankSurface):
             if local is None or not (inside := local >= 0).any():
                 u[grp.name] = self._half(grp, b, 1)
                 continue
-            here = values[inside]
+            here, factor = values[inside], self.state[grp.name].factor
+            assert isinstance(factor, DenseCholesky)  # a point correction's groups: symmetric
             cols = np.flatnonzero(np.any(here != 0.0, axis=0))
             B = self._scratch(grp.name, len(b), 1 + len(cols))
-            B[:, 0] = b
-            B[local[inside][:, None], 1 + np.arange(len(cols))] = here[:, cols]
+            B[:, 0] = factor.into_order(b)  # the factor's order, as the kept columns
+            B[factor.rows(local[inside])[:, None], 1 + np.arange(len(cols))] = here[:, cols]
             X = self._columns_forward(grp, B)
             u[grp.name] = X[:, 0].copy()  # the scratch is written again by the next one
             if grp.name not in self._cache.kept:  # its kept columns: in the group's space
@@ -589,10 +534,13 @@ class PointwiseSurface(LowRankSurface):
         return B
 
     def _half(self, grp, b: np.ndarray, trans: int) -> np.ndarray:
-        """``L^-1 b`` (``trans`` 1) or ``L^-T b`` (0) with the group's Cholesky factor."""
+        """``L^-1 b`` (``trans`` 1) or ``L^-T b`` (0) with the group's Cholesky factor.
+
+        ``L^-1 b`` is in the factor's order (:meth:`DenseCholesky.half`), as the kept columns.
+        """
         factor = self.state[grp.name].factor
         assert isinstance(factor, DenseCholesky)  # a point correction's groups: symmetric
         start, n = time.perf_counter(), len(b)
-        out = sla.lapack.dtrtrs(factor.factor[0].T, b, lower=0, trans=trans)[0]
+        out = factor.half(b, trans)
         self.log.add(grp.name, "dense_solve", n, 1, time.perf_counter() - start, n * n, "x")
         return out

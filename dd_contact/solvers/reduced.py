@@ -31,6 +31,7 @@ import scipy.sparse as sp
 
 from dd_contact.blocks import Block, BlockSystem
 from dd_contact.errors import InputError
+from dd_contact.solvers.dense import DenseCholesky
 from dd_contact.solvers.eigen import (
     MODES_BLOCK,
     MODES_WORKSPACE,
@@ -40,7 +41,6 @@ from dd_contact.solvers.eigen import (
 from dd_contact.solvers.interior import InteriorCholesky, InteriorMatrix
 from dd_contact.solvers.interior import multi_solve as _solve
 from dd_contact.solvers.linalg import (
-    DenseCholesky,
     PatternedMatrix,
     SparseStatistics,
     coo_of,

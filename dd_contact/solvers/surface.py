@@ -14,9 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.blocks import Block
-from dd_contact.solvers.linalg import (
-    DenseCholesky,
-)
+from dd_contact.solvers.dense import DenseCholesky
 from dd_contact.solvers.schedule import (
     Group,
     Schedule,
@@ -160,7 +158,9 @@ class Surface:
                 state = self.state[g.name]
                 if g.name in self.stale:
                     state.factor = None  # freed before its successor is assembled: not two at once
-                    state.factor = self._dense_factor(self._assemble(g, level_pairs), g)
+                    order = None if g.name in self.lu else self._row_order(g)
+                    A = self._assemble(g, level_pairs, order)
+                    state.factor = self._dense_factor(A, g, order)
                     if not g.last and g.neighbours:
                         self._couple(g, state, level_pairs)
                 if not g.last and g.neighbours:
@@ -186,30 +186,41 @@ class Surface:
                 self.state[g.name].subtracted = None
         self.changed, self.new_pairs = set(), set()
 
-    def _dense_factor(self, A: np.ndarray, g: Group) -> DenseCholesky:
-        """The factor of a group's matrix: Cholesky, or LU where friction made it unsymmetric."""
-        return (
-            DenseLU(A, self.log, g.name)
-            if g.name in self.lu
-            else DenseCholesky(A, self.log, g.name)
-        )
+    def _dense_factor(self, A: np.ndarray, g: Group, order=None) -> DenseCholesky:
+        """The factor of a group's matrix: Cholesky, or LU where friction made it unsymmetric.
+
+        ``order``: A's rows and columns are the group's in that order (Cholesky only).
+        """
+        if g.name in self.lu:
+            return DenseLU(A, self.log, g.name)
+        return DenseCholesky(A, self.log, g.name, order)
+
+    def _row_order(self, g: Group) -> np.ndarray | None:
+        """The order a group's rows are factorised in; ``None``: its blocks' one after the other."""
+        return None
 
     def held_contact(self) -> dict[tuple[Block, Block], sp.csr_array]:
         """The contact matrices the factors are made of: those given."""
         return self.contact
 
-    def _assemble(self, g: Group, level_pairs) -> np.ndarray:
+    def _assemble(self, g: Group, level_pairs, order: np.ndarray | None = None) -> np.ndarray:
+        """A group's matrix, its rows and columns in ``order`` (written there: no copy)."""
         offsets = np.cumsum([0] + [self.sizes[b] for b in g.blocks])
+        place = None if order is None else np.argsort(order)
+
+        def at(i: int, j: int):  # where block pair (i, j) is in A
+            if place is None:
+                return slice(offsets[i], offsets[i + 1]), slice(offsets[j], offsets[j + 1])
+            return np.ix_(place[offsets[i] : offsets[i + 1]], place[offsets[j] : offsets[j + 1]])
+
         held = self.held_contact()
         A = np.zeros((offsets[-1], offsets[-1]))
         for i, a in enumerate(g.blocks):
-            rows = slice(offsets[i], offsets[i + 1])
             for j, b in enumerate(g.blocks):
-                columns = slice(offsets[j], offsets[j + 1])
                 if level_pairs.get((a, b)) is not None:
-                    A[rows, columns] = level_pairs[(a, b)]
+                    A[at(i, j)] = level_pairs[(a, b)]
                 if (a, b) in held:  # a contact piece of row a, on top
-                    A[rows, columns] += held[(a, b)].toarray()
+                    A[at(i, j)] += held[(a, b)].toarray()
         return A
 
     def _couple(self, g: Group, state: _GroupState, level_pairs) -> None:

@@ -23,7 +23,8 @@ import scipy.linalg as sla
 
 from dd_contact.blocks import Block
 from dd_contact.errors import SingularMatrixError
-from dd_contact.solvers.linalg import DenseCholesky, SparseCholesky
+from dd_contact.solvers.dense import DenseCholesky
+from dd_contact.solvers.linalg import SparseCholesky
 from dd_contact.solvers.schedule import Schedule
 from dd_contact.solvers.worklog import WorkLog
 
@@ -72,7 +73,7 @@ class DenseLU(DenseCholesky):
         )
         return out
 
-    def _substitute(self, B: np.ndarray) -> np.ndarray:
+    def substitute(self, B: np.ndarray) -> np.ndarray:
         """``A^-1 B`` by the factor (getrs); :meth:`DenseCholesky.solve` times and logs it."""
         return sla.lu_solve(self.lu, B, check_finite=False)
 

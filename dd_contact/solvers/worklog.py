@@ -1,7 +1,7 @@
 """The work log: every factorisation and solve of a run, with its size, time and flops.
 
 :class:`dd_contact.solvers.linalg.SparseCholesky` and
-:class:`dd_contact.solvers.linalg.DenseCholesky` append a :class:`WorkRecord` for each
+:class:`dd_contact.solvers.dense.DenseCholesky` append a :class:`WorkRecord` for each
 factorisation and solve; :mod:`dd_contact.timing` builds records of the same kind for its
 plans, so a run can report what it did and compare it with what was predicted.
 """

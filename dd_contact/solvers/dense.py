@@ -1,0 +1,125 @@
+"""The Cholesky factorisation of a dense group of the surface system (LAPACK), counting its work.
+
+A group's rows may be factorised in another order than the group's own (``order``): the
+rows that contact points touch last, so that a point's column, eliminated forward from its
+first non-zero row (:func:`~dd_contact.solvers.pointkernels.forward_columns`), starts
+near the bottom of the factor (``PointwiseSurface._dense_factor``).
+Every method takes and returns the group's own order; :meth:`half` 's forward half and
+:meth:`into_order` are in the factor's, as the kept eliminations ``L^-1 V`` are.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.linalg as sla
+
+from dd_contact.errors import SingularMatrixError
+from dd_contact.solvers.worklog import WorkLog
+
+__all__ = ["DenseCholesky"]
+
+
+class DenseCholesky:
+    """A LAPACK Cholesky factorisation (potrf) of a dense SPD matrix; solves with trtrs.
+
+    Args:
+        A: The matrix, its rows and columns the group's in ``order``; overwritten by the factor.
+        log: Where to record the work.
+        block: Name of the block, for the log.
+        order: The group's rows in the order A has them (``None``: their own).
+
+    Attributes:
+        factor: ``cho_factor`` 's (the lower triangle L, row-major, of A in ``order``).
+        place: Where each of the group's rows is in the factor (``None``: the same row).
+    """
+
+    order: np.ndarray | None = None
+    place: np.ndarray | None = None
+
+    def __init__(self, A: np.ndarray, log: WorkLog, block: str, order: np.ndarray | None = None):
+        self.log, self.block, self.size = log, block, A.shape[0]
+        if order is not None:
+            self.order, self.place = order, np.argsort(order)
+        start = time.perf_counter()
+        try:
+            self.factor = sla.cho_factor(A, lower=True, overwrite_a=True, check_finite=False)
+        except np.linalg.LinAlgError:
+            raise SingularMatrixError(
+                f"dense block {block!r} is singular or not positive definite: part of the "
+                "model can move freely; check its supports, ties and contacts"
+            ) from None
+        n = self.size
+        log.add(block, "dense_factor", n, 0, time.perf_counter() - start, n**3 / 3.0)
+
+    def into_order(self, B: np.ndarray) -> np.ndarray:
+        """B's rows (the group's order) in the factor's order."""
+        return B if self.order is None else B[self.order]
+
+    def rows(self, local: np.ndarray) -> np.ndarray:
+        """The factor's rows of the group's rows ``local``."""
+        return local if self.place is None else self.place[local]
+
+    def _out_of_order(self, X: np.ndarray) -> np.ndarray:
+        return X if self.place is None else X[self.place]
+
+    def half(self, b: np.ndarray, trans: int) -> np.ndarray:
+        """``L^-1 b`` (``trans`` 1) or ``L^-T b`` (0); not logged.
+
+        Forward, b is in the group's order and the result in the factor's; backward, the
+        other way round.
+        """
+        if trans:
+            b = self.into_order(b)
+        out = sla.lapack.dtrtrs(self.factor[0].T, b, lower=0, trans=trans)[0]
+        return out if trans else self._out_of_order(out)
+
+    def congruence(self, B: np.ndarray, what: str = "") -> np.ndarray:
+        """B^T A^-1 B, symmetric, from one forward substitution per column of B.
+
+        W^T W for W = L^-1 B, A = L L^T (symmetric to the last bit), over B's trailing t
+        rows: its leading zero rows are zero in W. Logged, size t: t^2 m and t m^2 flops.
+        """
+        B = self.into_order(B)
+        start, nonzero = time.perf_counter(), np.any(B != 0.0, axis=1)
+        lead = int(np.argmax(nonzero)) if nonzero.any() else len(B)
+        L = self.factor[0][lead:, lead:]
+        W = sla.solve_triangular(L, B[lead:], lower=True, check_finite=False)
+        n, nrhs = len(L), B.shape[1]
+        seconds = time.perf_counter() - start
+        self.log.add(self.block, "dense_solve", n, nrhs, seconds, n * n * nrhs, what)
+        start = time.perf_counter()
+        out = W.T @ W
+        seconds = time.perf_counter() - start
+        self.log.add(self.block, "dense_product", n, nrhs, seconds, float(n * nrhs * nrhs), what)
+        return out
+
+    def product(self, B: np.ndarray, x: np.ndarray, what: str, transpose: bool) -> np.ndarray:
+        """``B^T x`` (``transpose``) or ``B x`` for a coupling matrix B with this factor's rows.
+
+        Logged as a ``"dense_product"`` with B's columns as right-hand sides: one pass over
+        B, memory traffic like a substitution (2 n m flops).
+        """
+        start = time.perf_counter()
+        out = B.T @ x if transpose else B @ x
+        n, m = B.shape
+        self.log.add(
+            self.block, "dense_product", n, m, time.perf_counter() - start, 2.0 * n * m, what
+        )
+        return out
+
+    def solve(self, B: np.ndarray, what: str = "") -> np.ndarray:
+        """Forward/back substitution for a vector or the columns of a matrix."""
+        start = time.perf_counter()
+        X = self.substitute(B)
+        nrhs, n, seconds = 1 if B.ndim == 1 else B.shape[1], self.size, time.perf_counter() - start
+        self.log.add(self.block, "dense_solve", n, nrhs, seconds, 2.0 * n * n * nrhs, what)
+        return X
+
+    def substitute(self, B: np.ndarray) -> np.ndarray:
+        """``A^-1 B``: trtrs twice on the factor's transpose, LAPACK's upper factor in place.
+
+        Not logged (:meth:`solve` is).
+        """
+        return self.half(self.half(B, 1), 0)
