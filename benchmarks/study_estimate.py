@@ -41,6 +41,11 @@ substitutions of the interior factor); ``m=320 (stop 40, merged)``
 one-pass orthogonalisation and first flips eliminated in the solve too). The verdict is
 this run's.
 
+``same machine (stop 42)`` (``paper_scale_stop42_same_machine.json``): the m = 320 run,
+FULL and the unreduced w-u at 1/4 in one invocation on one otherwise idle machine (load
+about 1), each its own process, compared by CPU time: the percentage of FULL without a
+prediction or another machine's rates, and the peak memory against w-u's.
+
 Writes benchmarks/results/paper_study_estimate.json.
 
 Run: python benchmarks/study_estimate.py
@@ -57,6 +62,12 @@ import numpy as np
 HERE = Path(__file__).parent / "results"
 STEPS, CHANGES = 10_000, 20_000  # Table 3 (dd_contact.paper.flops.paper.PAPER_BAR)
 KEYS = ("setup", "step", "change")
+SAME_MACHINE = "paper_scale_stop42_same_machine.json"
+SAME_RUNS = {
+    "reduced": "parallelepiped|1/4|w-u reduced m=320|run",
+    "FULL": "parallelepiped|1/4|FULL|run",
+    "w-u": "parallelepiped|1/4|w-u|run",
+}
 CELLS = {"1/16": 25_000, "1/4": 100_000, "paper": 400_000}
 
 
@@ -87,6 +98,16 @@ def rates(run: dict) -> dict:
 def whole(r: dict) -> float:
     """The study's seconds from a run's rates."""
     return r["setup"] + STEPS * r["step"] + CHANGES * r["change"]
+
+
+def whole_means(r: dict) -> float:
+    """The study's seconds from means, the run's dearest step paid once."""
+    return (
+        r["setup"]
+        + r["dearest_step"]
+        + STEPS * r["step_mean_but_dearest"]
+        + CHANGES * r["change_mean"]
+    )
 
 
 def run_of(name: str, key: str) -> dict | None:
@@ -198,12 +219,7 @@ def main() -> None:
         entry = {"study_cpu_seconds": t}
         if "step_mean" in r:  # every step at its mean (the changing steps' overhead in)
             entry["study_cpu_seconds_mean_steps"] = float(t + STEPS * (r["step_mean"] - r["step"]))
-            entry["study_cpu_seconds_means"] = float(
-                r["setup"]
-                + r["dearest_step"]
-                + STEPS * r["step_mean_but_dearest"]
-                + CHANGES * r["change_mean"]
-            )
+            entry["study_cpu_seconds_means"] = float(whole_means(r))
         for ref in (
             ("measured wall", "predicted") if size == "1/4" else ("extrapolated wall", "predicted")
         ):
@@ -219,6 +235,25 @@ def main() -> None:
                 entry[f"{peer}_over_this"] = float(whole(p) / t)
         out["study_seconds"][label] = entry
         print(label, {k: round(v, 4) for k, v in entry.items()})
+    same = (
+        json.loads((HERE / SAME_MACHINE).read_text())["runs"]
+        if (HERE / SAME_MACHINE).exists()
+        else {}
+    )
+    parts = {label: rates(same[key]) for label, key in SAME_RUNS.items() if key in same}
+    if {"reduced", "FULL"} <= parts.keys():
+        full_cpu, reduced = whole(parts["FULL"]), parts["reduced"]
+        out["same_machine"] = {
+            "runs": parts,
+            "study_cpu_seconds": {k: float(whole(r)) for k, r in parts.items()},
+            "percent_of_FULL": float(100.0 * whole(reduced) / full_cpu),
+            "percent_of_FULL_means": float(100.0 * whole_means(reduced) / full_cpu),
+        }
+        if "w-u" in parts:
+            out["same_machine"]["peak_rss_gib_over_w-u"] = float(
+                reduced["peak_rss_gib"] / parts["w-u"]["peak_rss_gib"]
+            )
+        print("same machine", {k: v for k, v in out["same_machine"].items() if k != "runs"})
     target = HERE / "paper_study_estimate.json"
     if target.exists():  # the estimate before the last re-measurement, kept as "before"
         old = json.loads(target.read_text())
