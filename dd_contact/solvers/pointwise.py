@@ -457,13 +457,14 @@ class PointwiseSurface(LowRankSurface):
                 n = len(Wz)
                 lost += np.sqrt(np.sqrt(n) * size) * float(np.linalg.norm(Wz))
             self._split(grp, self._half(grp, u[grp.name], 0), x)
-        x.update(Surface.back_substitute(self, x))
         e = c.values @ (c.D * c.points_of(x) - z)
         lost = np.linalg.norm(e) + np.finfo(float).eps * lost
         if lost > UPDATE_TOLERANCE * (size * norm_of(x) + norm_of(g)):
             return super().solve(g, complete)
         self.applications.append(1)
-        self._solved = x
+        if complete:  # else the earlier levels wait for back_substitute, as a plain solve's
+            x.update(Surface.back_substitute(self, x))
+            self._solved = x
         return x
 
     def _forward_last(self, h: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
