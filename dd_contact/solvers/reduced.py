@@ -49,14 +49,16 @@ from dd_contact.solvers.linalg import (
 )
 from dd_contact.solvers.subdomains import coupling_layout
 from dd_contact.solvers.worklog import WorkLog
+from dd_contact.subdomains import MODES_TOLERANCE
 
 __all__ = ["DenseCondensation", "ReducedBasis", "fixed_interface_modes", "reduced_subdomains"]
 
-#: Constraint modes taken at once, at most (four n x columns arrays at a block's peak) ...
+#: Constraint modes taken at once, at most (three n x columns arrays at a block's peak) ...
 REDUCTION_CHUNK = 64
 
-#: ... at most so many bytes in each, but 16 columns at least (a solve for fewer costs
-#: nearly as much: the factor is read once per solve): 21 at 48k dofs, 16 from 65k.
+#: ... at most so many bytes in each, but 32 columns at least: a MUMPS solve reads the
+#: factor once per block of columns, which fewer than 32 do not pay for (335k interior dofs,
+#: 293M factor entries: 128 ms a column in blocks of 8 or 16, 84 in blocks of 32, 79 in 64).
 CHUNK_BYTES = 8 * 2**20
 
 #: An interior of at most this many dofs is kept whole (every fixed-interface mode, by a
@@ -106,8 +108,8 @@ def _pieces(S: sp.sparray, b: np.ndarray, i: np.ndarray, D: np.ndarray) -> dict:
 
 
 def _chunk(n: int) -> int:
-    """Columns of an n-row block: REDUCTION_CHUNK at most, CHUNK_BYTES at most, 16 at least."""
-    return max(16, min(REDUCTION_CHUNK, CHUNK_BYTES // (8 * max(n, 1))))
+    """Columns of an n-row block: REDUCTION_CHUNK at most, CHUNK_BYTES at most, 32 at least."""
+    return max(32, min(REDUCTION_CHUNK, CHUNK_BYTES // (8 * max(n, 1))))
 
 
 def _add_sparse(Y: np.ndarray, S: sp.sparray) -> None:
@@ -199,7 +201,7 @@ class ReducedBasis:
         modes: int,
         log: WorkLog,
         name: str,
-        tolerance: float = 1e-12,
+        tolerance: float = MODES_TOLERANCE,
         eigensolver: str = "block",
     ):
         n = A.shape[0]
@@ -223,8 +225,12 @@ class ReducedBasis:
         M_ii = None if Mp is None else InteriorMatrix(Mp.pop("ii"))
         release_freed_memory()  # the slicing's temporaries, before the factor's peak
         self.factor = InteriorCholesky(A_ii, log, f"{name} (interior)")
+        if eigensolver != "slepc":  # only SLEPc reads A_ii's PETSc copy (its operator)
+            self.factor.drop_matrix()
         P = _pattern_span(patterns, n, self.fixed)
         self.omega2, V = self._modes(A_ii, M_ii, modes, (tolerance, eigensolver), P.shape[1])
+        self.factor.drop_matrix()
+        del A_ii  # Ap's is the one left: _reduced frees it once read
         raw = _solve(self.factor, P[self.i], "load modes") if P.shape[1] else P[self.i]
         self.G = _orthonormal(V, self.omega2.size, raw, M_ii)
         self._M_ii = M_ii
@@ -273,8 +279,7 @@ class ReducedBasis:
         M_ii = self._M_ii
         chunk = _chunk(self.n)
         A_r[nb:, nb:] = _congruence(G, A_ii, chunk)  # (A Psi)_i = 0: no coupling to the modes
-        del A_ii, Ap["ii"]
-        self.factor.drop_matrix()  # A_ii is read no more: gone before the blocks' arrays
+        del A_ii, Ap["ii"]  # read no more: gone before the blocks' arrays
         D = self.fixed
         A_Db, A_Di = Ap["Db"], Ap["Di"]
         #: ``A[D, :] T`` and ``M[D, :] T``: the supports' rows, for their reactions.
@@ -295,16 +300,17 @@ class ReducedBasis:
             if M is None:
                 continue
             assert M_r is not None and M_ii is not None  # with M
-            Y_b = M_bb[:, j0:j1].toarray() - M_bi @ X  # Y = M Psi, this block of columns
-            Y_i = M_ii @ X  # in place: each n x columns array costs (issue 28)
-            Y_i *= -1.0
-            _add_sparse(Y_i, M_ib[:, j0:j1])
-            W = _solve(self.factor, Y_i, "constraint modes' mass")
-            M_r[:nb, j0:j1] = Y_b - A_bi @ W
-            M_r[nb:, j0:j1] = G.T @ Y_i
-            M_r[j0:j1, nb:] = M_r[nb:, j0:j1].T
             assert self.reaction_mass is not None  # with M
             self.reaction_mass[:, j0:j1] = M_Db[:, j0:j1].toarray() - M_Di @ X
+            Y_b = M_bb[:, j0:j1].toarray() - M_bi @ X  # Y = M Psi, this block of columns
+            Y_i = M_ii @ X
+            del X  # each n x columns array costs (issue 28): three at most
+            Y_i *= -1.0
+            _add_sparse(Y_i, M_ib[:, j0:j1])
+            M_r[nb:, j0:j1] = G.T @ Y_i
+            M_r[j0:j1, nb:] = M_r[nb:, j0:j1].T
+            W = _solve(self.factor, Y_i, "constraint modes' mass")
+            M_r[:nb, j0:j1] = Y_b - A_bi @ W
         if M_r is not None:
             # G^T M_ii A_ii^-1 A_ib, for the walls' directions without a solve: M_r's modes
             # rows hold G^T Y_i = G^T (M_ib - M_ii A_ii^-1 A_ib), column by column
@@ -405,7 +411,7 @@ class ReducedBasis:
         """Free the factorisation."""
         self.factor.destroy()
         if self._M_ii is not None:
-            self._M_ii.mat.destroy()
+            self._M_ii.release()
 
     def prescribed(self, values: np.ndarray, t: float) -> np.ndarray:
         """The values of its prescribed dofs as the reduced block sees them: none (zero)."""
