@@ -14,11 +14,12 @@ import time
 
 import numpy as np
 import scipy.linalg as sla
+import scipy.sparse as sp
 
 from dd_contact.errors import SingularMatrixError
 from dd_contact.solvers.worklog import WorkLog
 
-__all__ = ["DenseCholesky"]
+__all__ = ["DenseBacked", "DenseCholesky"]
 
 
 class DenseCholesky:
@@ -123,3 +124,28 @@ class DenseCholesky:
         Not logged (:meth:`solve` is).
         """
         return self.half(self.half(B, 1), 0)
+
+
+class DenseBacked(sp.csr_array):
+    """A CSR array of a small dense matrix whose products with numpy arrays are BLAS's.
+
+    A reduced block's stiffness and mass are held so (on the dense arrays they were made
+    from). scipy's CSR product reads an index per entry and gathers: a quiet step's products with
+    a reduced block's stiffness and mass at 2,006 x 2,006 took 6.1 ms each, numpy's 2.0.
+    Everything else is the CSR array's; arrays made from it (slices, sums, transposes) are
+    plain CSR. ``dense`` is shared, not copied: neither is to change in place.
+    """
+
+    def __init__(self, arg1=None, *args, dense: np.ndarray | None = None, **kwargs):
+        super().__init__(dense if dense is not None else arg1, *args, **kwargs)
+        self._dense = dense
+
+    def __matmul__(self, other):
+        if self._dense is not None and isinstance(other, np.ndarray):
+            return self._dense @ other
+        return super().__matmul__(other)
+
+    def __rmatmul__(self, other):
+        if self._dense is not None and isinstance(other, np.ndarray):
+            return other @ self._dense
+        return super().__rmatmul__(other)

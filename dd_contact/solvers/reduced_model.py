@@ -21,6 +21,7 @@ import scipy.sparse as sp
 from dd_contact import forms
 from dd_contact.blocks import Block
 from dd_contact.parallel import allgathered, collective
+from dd_contact.solvers.dense import DenseBacked
 from dd_contact.solvers.linalg import sparse_statistics
 from dd_contact.solvers.reduced import ReducedBasis, _pattern_span, _petsc
 from dd_contact.solvers.subdomains import coupling_layout
@@ -202,7 +203,7 @@ def _walls_in_reduced(zones: Sequence, bases: dict[Block, ReducedBasis]) -> None
 def _replace(model, block: Block, basis: ReducedBasis) -> None:
     """The block's pieces of ``model`` in reduced coordinates (``T^T A T``, ``T^T A_us``)."""
     system, extra = model.system, basis.size - basis.b.size
-    system.matrices[(block, block)] = sp.csr_array(basis.A_r)
+    system.matrices[(block, block)] = DenseBacked(dense=basis.A_r)
     for (row, col), A in list(system.matrices.items()):
         if row == block and col == block:
             continue
@@ -217,7 +218,7 @@ def _replace(model, block: Block, basis: ReducedBasis) -> None:
                 sp.hstack([columns, sp.csr_array((A.shape[0], extra))])
             )
     if basis.M_r is not None:
-        model.mass[block] = sp.csr_array(basis.M_r)
+        model.mass[block] = DenseBacked(dense=basis.M_r)
     model.dirichlet[block] = (np.zeros(0, dtype=np.int32), np.zeros(0))
 
 
