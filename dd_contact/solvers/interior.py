@@ -37,33 +37,38 @@ def _dense(X: np.ndarray, comm) -> PETSc.Mat:
 class InteriorMatrix:
     """A symmetric interior block held once: its upper triangle, as a scipy CSR array.
 
-    Products with numpy arrays read the triangle and its transpose, once for all of a
-    block's columns (``U X + U^T X - D X``); PETSc's SBAIJ product with a dense matrix
-    reads the matrix once per column (at 332k rows and 26M entries: 57 ms a column with 8
-    columns, 17 ms by scipy). :attr:`mat`, the PETSc SBAIJ copy MUMPS factorises (it reads
-    an SBAIJ matrix's values in place; of an AIJ one it copies the upper triangle) and
-    SLEPc reads, is made when first asked for and freed by :meth:`release`.
+    Held with half its diagonal (``H = triu(A, 1) + D / 2``, halving is exact), so that a
+    product is ``H X + H^T X``: scipy's, which read the triangle once for all of a block's
+    columns, where PETSc's SBAIJ product with a dense matrix reads the matrix once per column
+    (at 332k rows and 26M entries: 57 ms a column, against 17-29). :attr:`mat`, the PETSc
+    SBAIJ copy MUMPS factorises (it reads an SBAIJ matrix's values in place; of an AIJ one
+    it copies the upper triangle) and SLEPc reads, is made when first asked for and freed
+    by :meth:`release`.
     """
 
     def __init__(self, A: sp.sparray):
         U = sp.triu(sp.csr_array(A), format="csr")
         U.sort_indices()
-        self.upper = U
-        self._diagonal = U.diagonal()
+        diagonal = U.diagonal()
+        self.half = sp.csr_array(U - sp.diags_array(diagonal / 2.0, format="csr"))
+        self.half.sort_indices()
+        del U
         self._mat: PETSc.Mat | None = None
         #: Stored entries of both triangles (as an AIJ matrix's), for the work log.
-        self.nnz = 2 * U.nnz - np.count_nonzero(self._diagonal)
+        self.nnz = 2 * self.half.nnz - np.count_nonzero(diagonal)
 
     @property
     def shape(self) -> tuple[int, int]:
         """The block's shape (n x n)."""
-        return self.upper.shape
+        return self.half.shape
 
     @property
     def mat(self) -> PETSc.Mat:
         """The PETSc SBAIJ copy (made on first use)."""
         if self._mat is None:
-            U, index = self.upper, PETSc.IntType
+            H, index = self.half, PETSc.IntType
+            U = sp.csr_array(H + sp.diags_array(H.diagonal(), format="csr"))
+            U.sort_indices()
             self._mat = PETSc.Mat().createSBAIJ(
                 U.shape[0],
                 1,
@@ -89,9 +94,8 @@ class InteriorMatrix:
         return out
 
     def _product(self, X: np.ndarray) -> np.ndarray:
-        out = self.upper @ X
-        out += self.upper.T @ X
-        out -= (self._diagonal if X.ndim == 1 else self._diagonal[:, None]) * X
+        out = self.half @ X
+        out += self.half.T @ X
         return out
 
 
