@@ -263,7 +263,12 @@ class ReducedBasis:
             return values, np.hstack([vectors, np.zeros((self.i.size, extra))])
         tolerance, eigensolver = how
         if eigensolver == "slepc":
-            return fixed_interface_modes(self.factor, M_ii.mat, modes, tolerance, self.name, extra)
+            try:
+                return fixed_interface_modes(
+                    self.factor, M_ii.mat, modes, tolerance, self.name, extra
+                )
+            finally:
+                M_ii.release()  # SLEPc's copy: the products are the triangle's
         return lowest_modes(
             lambda X: _solve(self.factor, X, "modes"), M_ii.__matmul__, self.i.size, modes,
             tolerance, self.name, MODES_BLOCK, MODES_WORKSPACE, extra
