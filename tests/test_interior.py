@@ -20,14 +20,34 @@ def _spd(n: int = 300, seed: int = 3) -> sp.csr_array:
 
 def test_products_equal_the_whole_matrix():
     A = _spd()
-    X = np.random.default_rng(1).random((A.shape[0], 5))
+    X = np.random.default_rng(1).random((A.shape[0], 13))  # more than PRODUCT_COLUMNS
     M = InteriorMatrix(A)
-    assert M.mat.getType() == "seqsbaij"
     assert M.nnz == A.nnz  # both triangles counted, as the AIJ matrix stores them
     ref = A @ X
     assert np.abs(M @ X - ref).max() <= 1e-13 * np.abs(ref).max()
+    assert (M @ X).flags.f_contiguous  # as MUMPS's solves take it
     assert np.abs(M @ X[:, 0] - ref[:, 0]).max() <= 1e-13 * np.abs(ref).max()
-    M.mat.destroy()
+    # the PETSc copy, made when asked for, is the whole matrix's upper triangle
+    assert M._mat is None
+    assert M.mat.getType() == "seqsbaij"
+    y = M.mat.createVecLeft()
+    x = M.mat.createVecRight()
+    x.array[:] = X[:, 0]
+    M.mat.mult(x, y)
+    assert np.abs(y.array - ref[:, 0]).max() <= 1e-13 * np.abs(ref).max()
+    M.release()
+    assert M._mat is None
+    assert np.abs(M @ X - ref).max() <= 1e-13 * np.abs(ref).max()  # products go on
+
+
+def test_a_dropped_factor_lets_the_petsc_copy_go():
+    A = _spd()
+    M = InteriorMatrix(A)
+    factor = InteriorCholesky(M, WorkLog(), "interior")
+    assert M._mat is not None  # factorised from it
+    factor.drop_matrix()
+    assert M._mat is None and factor._interior is None  # the triangle is its owner's alone
+    factor.destroy()
 
 
 def test_solves_after_the_matrix_is_dropped():

@@ -163,6 +163,36 @@ def test_expansion_waits_for_a_read():
     assert np.linalg.norm(u - ref) <= 1e-8 * np.linalg.norm(ref)
 
 
+def test_a_reduced_block_is_held_for_blas_products_and_without_petsc_copies():
+    """Its stiffness and mass multiply by BLAS on the basis's arrays, as their CSR would;
+    the interior's PETSc copies are gone once the modes are out (the block eigensolver)."""
+    from dd_contact.solvers.dense import DenseBacked
+
+    scene = _cantilever(nx=6)
+    scene.subdomains[0].reduce(modes=4)
+    problem = dd.TransientProblem(scene, 1e-3, "w-u")
+    try:
+        block = scene.subdomains[0].block
+        basis = problem.model.reduced[block]
+        stiffness = problem.model.system.matrices[(block, block)]
+        mass = problem.model.mass[block]
+        x = np.random.default_rng(5).standard_normal(basis.size)
+        for matrix, dense in ((stiffness, basis.A_r), (mass, basis.M_r)):
+            assert isinstance(matrix, DenseBacked) and matrix._dense is dense
+            csr = sp.csr_array(matrix)  # a plain copy: scipy's product
+            assert not isinstance(csr, DenseBacked)
+            ref = csr @ x
+            assert np.abs(matrix @ x - ref).max() <= 1e-13 * np.abs(ref).max()
+            assert np.abs(x @ matrix - x @ csr).max() <= 1e-13 * np.abs(ref).max()
+            rows = matrix[[0, 2]]  # a slice is plain CSR: no stale dense array
+            assert getattr(rows, "_dense", None) is None
+            assert np.abs(rows @ x - ref[[0, 2]]).max() <= 1e-13 * np.abs(ref).max()
+        assert basis._M_ii._mat is None and basis.factor._interior is None
+        problem.advance()
+    finally:
+        problem.close()
+
+
 def test_reduced_subdomains_refuse_what_is_not_built():
     with pytest.raises(NotImplementedError, match="w-u, w-v-u, v-w-u"):
         scene = _cantilever(nx=4)
