@@ -41,10 +41,11 @@ substitutions of the interior factor); ``m=320 (stop 40, merged)``
 one-pass orthogonalisation and first flips eliminated in the solve too). The verdict is
 this run's.
 
-``same machine (stop 42)`` (``paper_scale_stop42_same_machine.json``): the m = 320 run,
-FULL and the unreduced w-u at 1/4 in one invocation on one otherwise idle machine (load
-about 1), each its own process, compared by CPU time: the percentage of FULL without a
-prediction or another machine's rates, and the peak memory against w-u's.
+``same_machine`` (``SAME_MACHINE``: ``paper_scale_stop42_same_machine.json``, and
+``paper_scale_stop43_same_machine.json`` with stop 43's set-up and quiet step), per stop:
+the m = 320 run, FULL and the unreduced w-u at 1/4 in one invocation on one otherwise idle
+machine (load about 1), each its own process, compared by CPU time: the percentage of FULL
+without a prediction or another machine's rates, and the peak memory against w-u's.
 
 Writes benchmarks/results/paper_study_estimate.json.
 
@@ -62,7 +63,10 @@ import numpy as np
 HERE = Path(__file__).parent / "results"
 STEPS, CHANGES = 10_000, 20_000  # Table 3 (dd_contact.paper.flops.paper.PAPER_BAR)
 KEYS = ("setup", "step", "change")
-SAME_MACHINE = "paper_scale_stop42_same_machine.json"
+SAME_MACHINE = {
+    "stop 42": "paper_scale_stop42_same_machine.json",
+    "stop 43": "paper_scale_stop43_same_machine.json",
+}
 SAME_RUNS = {
     "reduced": "parallelepiped|1/4|w-u reduced m=320|run",
     "FULL": "parallelepiped|1/4|FULL|run",
@@ -235,25 +239,24 @@ def main() -> None:
                 entry[f"{peer}_over_this"] = float(whole(p) / t)
         out["study_seconds"][label] = entry
         print(label, {k: round(v, 4) for k, v in entry.items()})
-    same = (
-        json.loads((HERE / SAME_MACHINE).read_text())["runs"]
-        if (HERE / SAME_MACHINE).exists()
-        else {}
-    )
-    parts = {label: rates(same[key]) for label, key in SAME_RUNS.items() if key in same}
-    if {"reduced", "FULL"} <= parts.keys():
-        full_cpu, reduced = whole(parts["FULL"]), parts["reduced"]
-        out["same_machine"] = {
-            "runs": parts,
-            "study_cpu_seconds": {k: float(whole(r)) for k, r in parts.items()},
-            "percent_of_FULL": float(100.0 * whole(reduced) / full_cpu),
-            "percent_of_FULL_means": float(100.0 * whole_means(reduced) / full_cpu),
-        }
-        if "w-u" in parts:
-            out["same_machine"]["peak_rss_gib_over_w-u"] = float(
-                reduced["peak_rss_gib"] / parts["w-u"]["peak_rss_gib"]
-            )
-        print("same machine", {k: v for k, v in out["same_machine"].items() if k != "runs"})
+    out["same_machine"] = {}
+    for stop, name in SAME_MACHINE.items():
+        same = json.loads((HERE / name).read_text())["runs"] if (HERE / name).exists() else {}
+        parts = {label: rates(same[key]) for label, key in SAME_RUNS.items() if key in same}
+        if {"reduced", "FULL"} <= parts.keys():
+            full_cpu, reduced = whole(parts["FULL"]), parts["reduced"]
+            entry = out["same_machine"][stop] = {
+                "file": name,
+                "runs": parts,
+                "study_cpu_seconds": {k: float(whole(r)) for k, r in parts.items()},
+                "percent_of_FULL": float(100.0 * whole(reduced) / full_cpu),
+                "percent_of_FULL_means": float(100.0 * whole_means(reduced) / full_cpu),
+            }
+            if "w-u" in parts:
+                entry["peak_rss_gib_over_w-u"] = float(
+                    reduced["peak_rss_gib"] / parts["w-u"]["peak_rss_gib"]
+                )
+            print("same machine", stop, {k: v for k, v in entry.items() if k != "runs"})
     target = HERE / "paper_study_estimate.json"
     if target.exists():  # the estimate before the last re-measurement, kept as "before"
         old = json.loads(target.read_text())
