@@ -58,11 +58,6 @@ class InteriorMatrix:
         self.nnz = 2 * self.half.nnz - np.count_nonzero(diagonal)
 
     @property
-    def shape(self) -> tuple[int, int]:
-        """The block's shape (n x n)."""
-        return self.half.shape
-
-    @property
     def mat(self) -> PETSc.Mat:
         """The PETSc SBAIJ copy (made on first use)."""
         if self._mat is None:

@@ -229,7 +229,7 @@ class ReducedBasis:
             self.factor.drop_matrix()
         P = _pattern_span(patterns, n, self.fixed)
         self.omega2, V = self._modes(A_ii, M_ii, modes, (tolerance, eigensolver), P.shape[1])
-        self.factor.drop_matrix()
+        self.factor.drop_matrix()  # SLEPc's operator (dropped already otherwise: a no-op)
         del A_ii  # Ap's is the one left: _reduced frees it once read
         raw = _solve(self.factor, P[self.i], "load modes") if P.shape[1] else P[self.i]
         self.G = _orthonormal(V, self.omega2.size, raw, M_ii)
