@@ -19,7 +19,9 @@ When the points' columns reach the last level alone (their blocks are eliminated
 a contact interface's in w-u and w-v-u), their kept elimination is ``W = L^-1 V`` and a
 corrected solve is one pass, a plain solve's substitutions with ``W z`` subtracted between
 them (:meth:`PointwiseSurface.solve`), checked by its residual on the points' rows: it costs
-no more than a solve after re-factorising, and the price rule counts no extra pass for it.
+no more than a solve after re-factorising. Points much stiffer than the rest (the bar on its
+wall) leave that answer short of the tolerance; it is refined with its true residual, one
+more pass each, which the price rule counts.
 Everything else is :class:`LowRankSurface` 's: the price rule (an update is taken while
 priced below re-factorising the groups it would make stale), a two-pass corrected solve
 refined with its true residual and re-factorised if it stays inaccurate, and the corrected
@@ -44,6 +46,8 @@ from dd_contact.blocks import Block
 from dd_contact.solvers.dense import DenseCholesky
 from dd_contact.solvers.lowrank import (
     CAPACITANCE_RCOND,
+    REFINEMENTS,
+    REFINEMENTS_KEPT,
     UPDATE_MARGIN,
     UPDATE_TOLERANCE,
     UPDATES,
@@ -100,6 +104,7 @@ class PointwiseSurface(LowRankSurface):
         self._prices: dict[tuple, float] = {}  # lists of operations, priced
         self._reach: np.ndarray | None = None  # per group of the chain, the columns reaching it
         self._orders: dict[str, np.ndarray | None] = {}  # per group, its rows' (points' last)
+        self._refinements: list[int] = []  # of the last one-pass corrected solves
 
     def add_points(self, name: str, parts: list[tuple[Block, np.ndarray]], rows) -> None:
         """A region's point rows, numbered as its matrix (``parts`` one after the other)."""
@@ -312,9 +317,9 @@ class PointwiseSurface(LowRankSurface):
         price = self.update_seconds(dofs, len(D), len(ids))  # rest's elimination, the LU
         earlier = [not grp.last for grp in self.schedule.flat]
         one_pass = not len(D) and not self._reached_by()[earlier][:, ids].any()
-        # a corrected solve of one pass costs a plain one's (:meth:`solve`)
+        # a corrected solve of one pass costs a plain one's and its refinements (:meth:`solve`)
         solve = (
-            0.0
+            self._refinement_seconds()
             if one_pass
             else self.solve_seconds(None if self.applications else POINT_APPLICATIONS)
         )
@@ -424,10 +429,15 @@ class PointwiseSurface(LowRankSurface):
         residual ``g - S' x`` is ``V (z - D V^T x)`` (the points' rows alone) plus the
         substitutions' round-off, a plain solve's and ``eps |L| |W z|`` (bounded with
         ``|L|_F^2 <= sqrt(n) |S'|_F``). That bound reads 2e-16 to 3e-16 where the true
-        backward error is 8e-18 to 4e-17 (the 1/16 bar's releases); above
-        :data:`~dd_contact.solvers.lowrank.UPDATE_TOLERANCE`, the solve is made again as
-        :class:`LowRankSurface` 's (two passes, refined with the true residual, re-factorised
-        if it stays inaccurate). Otherwise as :class:`LowRankSurface`.
+        backward error is 8e-18 to 4e-17 (the 1/16 bar's releases). Above
+        :data:`~dd_contact.solvers.lowrank.UPDATE_TOLERANCE` the answer is refined with its
+        true residual, each refinement one more pass (points much stiffer than the rest of
+        S, added to or released from it, cancel digits in ``W z``: the bar on its wall in
+        w-u, 189 points against a factor without them, missed by 1e6 in one pass and met
+        it after one refinement); if it stays above after
+        :data:`~dd_contact.solvers.lowrank.REFINEMENTS`, the solve is made again as
+        :class:`LowRankSurface` 's (two passes, refined, re-factorised if it stays
+        inaccurate). Otherwise as :class:`LowRankSurface`.
         """
         c = self.correction
         lazy = isinstance(c, PointCorrection) and c.slots is not None
@@ -437,18 +447,57 @@ class PointwiseSurface(LowRankSurface):
             return super().solve(g, complete)
         assert isinstance(c, PointCorrection)
         self._solved = None
-        x: dict[str, np.ndarray] = {}
-        u, t = self._forward_last(self.forward(g)), np.zeros(c.rank)
+        u = self._forward_last(self.forward(g))
         if lazy and not self._completed(c, c.slots, {}, np.zeros((0, 0)), np.zeros(0)):
             self._refactorise()  # its capacitance matrix is ill-conditioned
             return super().solve(g, complete)
         if c.last is None:
             return super().solve(g, complete)
+        x, lost = self._one_pass(c, u)
+        size, passes = self._matrix_norm(), 1
+        while lost > UPDATE_TOLERANCE * (size * norm_of(x) + norm_of(g)):
+            if passes > REFINEMENTS:
+                return super().solve(g, complete)
+            # every block: the residual reads the pairs of the earlier levels too
+            x.update(Surface.back_substitute(self, x))
+            r = self._residual(g, x)
+            d, lost = self._one_pass(c, self._forward_last(self.forward(r)))
+            d.update(Surface.back_substitute(self, d))
+            x = {b: v + d[b] for b, v in x.items()}
+            lost += np.finfo(float).eps * (size * norm_of(x) + norm_of(g))  # r's own
+            passes += 1
+        self.applications.append(1)
+        self._refinements = [*self._refinements[-REFINEMENTS_KEPT + 1 :], passes - 1]
+        self.extra_seconds += (passes - 1) * self.solve_seconds(1.0)  # toward re-factorising
+        if complete or passes > 1:  # else the earlier levels wait for back_substitute
+            x.update(Surface.back_substitute(self, x))  # (a refined x has them: no work)
+            self._solved = x
+        return x
+
+    def _refinement_seconds(self) -> float:
+        """Price of a one-pass corrected solve beyond a plain one: its refinements.
+
+        The mean of the last :data:`~dd_contact.solvers.lowrank.REFINEMENTS_KEPT` solves',
+        each a pass and a residual product.
+        """
+        mean = float(np.mean(self._refinements)) if self._refinements else 0.0
+        return mean * self.solve_seconds(1.0)
+
+    def _one_pass(
+        self, c: PointCorrection, u: dict[str, np.ndarray]
+    ) -> tuple[dict[str, np.ndarray], float]:
+        """The last level's blocks of ``S'^-1 h`` and a bound on its residual's norm.
+
+        ``u`` is ``L^-1 h`` there (changed in place); the bound is :meth:`solve` 's.
+        """
+        assert c.last is not None  # a one-pass correction
+        t = np.zeros(c.rank)
         for grp in self.schedule.groups[-1]:
             if grp.name in c.last:
                 mask, X = c.last[grp.name]
                 t[mask] += X.T @ u[grp.name]
         z, size, lost = c.solve(c.D * t), self._matrix_norm(), 0.0
+        x: dict[str, np.ndarray] = {}
         for grp in self.schedule.groups[-1]:
             if grp.name in c.last:
                 mask, X = c.last[grp.name]
@@ -458,14 +507,7 @@ class PointwiseSurface(LowRankSurface):
                 lost += np.sqrt(np.sqrt(n) * size) * float(np.linalg.norm(Wz))
             self._split(grp, self._half(grp, u[grp.name], 0), x)
         e = c.values @ (c.D * c.points_of(x) - z)
-        lost = np.linalg.norm(e) + np.finfo(float).eps * lost
-        if lost > UPDATE_TOLERANCE * (size * norm_of(x) + norm_of(g)):
-            return super().solve(g, complete)
-        self.applications.append(1)
-        if complete:  # else the earlier levels wait for back_substitute, as a plain solve's
-            x.update(Surface.back_substitute(self, x))
-            self._solved = x
-        return x
+        return x, float(np.linalg.norm(e) + np.finfo(float).eps * lost)
 
     def _forward_last(self, h: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
         """``L^-1 h`` per last-level group, the points not eliminated yet beside it.
