@@ -164,7 +164,8 @@ def test_expansion_waits_for_a_read():
 
 
 def test_a_reduced_block_is_held_for_blas_products_and_without_petsc_copies():
-    """Its stiffness and mass multiply by BLAS on the basis's arrays, as their CSR would;
+    """Its stiffness and mass multiply by BLAS on the basis's arrays (symmetric: one
+    triangle), as their CSR would;
     the interior's PETSc copies are gone once the modes are out (the block eigensolver)."""
     from dd_contact.solvers.dense import DenseBacked
 
@@ -184,6 +185,11 @@ def test_a_reduced_block_is_held_for_blas_products_and_without_petsc_copies():
             ref = csr @ x
             assert np.abs(matrix @ x - ref).max() <= 1e-13 * np.abs(ref).max()
             assert np.abs(x @ matrix - x @ csr).max() <= 1e-13 * np.abs(ref).max()
+            assert matrix._symmetric  # exactly symmetric: dsymv, one triangle read
+            for columns in (2, DenseBacked.SYMV_COLUMNS + 2):  # one by one, and by gemm
+                X = np.random.default_rng(columns).standard_normal((basis.size, columns))
+                want = csr @ X
+                assert np.abs(matrix @ X - want).max() <= 1e-13 * np.abs(want).max()
             rows = matrix[[0, 2]]  # a slice is plain CSR: no stale dense array
             assert getattr(rows, "_dense", None) is None
             assert np.abs(rows @ x - ref[[0, 2]]).max() <= 1e-13 * np.abs(ref).max()
