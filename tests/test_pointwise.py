@@ -224,6 +224,34 @@ def test_stiff_points_corrected_in_one_pass_are_refined_not_solved_again(monkeyp
     assert surface._refinements and max(surface._refinements) >= 1
 
 
+@pytest.mark.filterwarnings("ignore::dd_contact.CoarseContactWarning")
+def test_a_refined_one_pass_solve_keeps_the_earlier_levels_it_solved(monkeypatch):
+    """w-v-u, the reduced cantilever in two tied pieces pressed on its wall (``dd-contact
+    verify`` 's reduced-static): a corrected solve refined with its residual leaves the
+    earlier levels' state at the refinement's right-hand side, so its answer's interface
+    blocks are its own, not back-substituted again from that state (which answered with a
+    whole-system residual of 1.9e-3). The reduced answer equals the unreduced one."""
+    from dd_contact.paper.verify.reduced import static_difference
+
+    monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
+    passes, one_pass = [0], PointwiseSurface._one_pass
+    monkeypatch.setattr(
+        PointwiseSurface, "_one_pass", lambda s, c, u: passes.append(1) or one_pass(s, c, u)
+    )
+    per_solve, solve = [], PointwiseSurface.solve
+
+    def counted(surface, g, complete):  # the one-pass passes each solve made
+        before = len(passes)
+        out = solve(surface, g, complete)
+        per_solve.append(len(passes) - before)
+        return out
+
+    monkeypatch.setattr(PointwiseSurface, "solve", counted)
+    du, df = static_difference(2, "w-v-u", [3, 0])
+    assert du <= 1e-8 and df <= 1e-8
+    assert max(per_solve) >= 2  # a refined solve among them
+
+
 def test_a_first_flip_with_an_ill_conditioned_capacitance_matrix_is_re_factorised(monkeypatch):
     """Its capacitance matrix is made by the solve that eliminates the new points: when that
     is ill-conditioned the solve re-factorises, as a change checked at once would."""

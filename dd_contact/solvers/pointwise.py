@@ -469,9 +469,10 @@ class PointwiseSurface(LowRankSurface):
         self.applications.append(1)
         self._refinements = [*self._refinements[-REFINEMENTS_KEPT + 1 :], passes - 1]
         self.extra_seconds += (passes - 1) * self.solve_seconds(1.0)  # toward re-factorising
-        if complete or passes > 1:  # else the earlier levels wait for back_substitute
-            x.update(Surface.back_substitute(self, x))  # (a refined x has them: no work)
-            self._solved = x
+        if complete and passes == 1:  # else the earlier levels wait for back_substitute
+            x.update(Surface.back_substitute(self, x))
+        if complete or passes > 1:  # a refined x has every block (the earlier levels' state
+            self._solved = x  # is the refinement's now: not to be back-substituted again)
         return x
 
     def _refinement_seconds(self) -> float:
