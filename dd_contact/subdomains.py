@@ -66,8 +66,9 @@ class Material:
 #: The eigensolver's default relative tolerance on a reduced subdomain's modes. The basis is
 #: used whole, whatever its accuracy (the reduced matrices are its exact congruences), so a
 #: mode's residual r moves the reduced model's frequencies by about r^2. The paper's bar
-#: (50 x 12 x 10, m = 320): its contact-force history moves by 7e-9 of the peak from 1e-8 to
-#: 1e-6 (2e-8 at 1e-3), and 320 modes at 87k interior dofs take 18 restarts instead of 21.
+#: (50 x 12 x 10 and 100 x 25 x 10, m = 320): its contact-force history moves by 7e-9 of
+#: the peak from 1e-8 to 1e-6 (2e-8 at 1e-3), and 320 modes at 87k interior dofs take 18
+#: restarts instead of 21.
 MODES_TOLERANCE = 1e-6
 
 
