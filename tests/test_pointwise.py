@@ -234,9 +234,11 @@ def test_a_refined_one_pass_solve_keeps_the_earlier_levels_it_solved(monkeypatch
     from dd_contact.paper.verify.reduced import static_difference
 
     monkeypatch.setattr(LowRankSurface, "refactorise_seconds", lambda self, blocks: np.inf)
-    passes, one_pass = [0], PointwiseSurface._one_pass
+    passes, one_pass = [], PointwiseSurface._one_pass
     monkeypatch.setattr(
-        PointwiseSurface, "_one_pass", lambda s, c, u: passes.append(1) or one_pass(s, c, u)
+        PointwiseSurface,
+        "_one_pass",
+        lambda s, c, u, size: passes.append(1) or one_pass(s, c, u, size),
     )
     per_solve, solve = [], PointwiseSurface.solve
 

@@ -453,18 +453,18 @@ class PointwiseSurface(LowRankSurface):
             return super().solve(g, complete)
         if c.last is None:
             return super().solve(g, complete)
-        x, lost = self._one_pass(c, u)
-        size, passes = self._matrix_norm(), 1
-        while lost > UPDATE_TOLERANCE * (size * norm_of(x) + norm_of(g)):
+        size, scale, passes = self._matrix_norm(), norm_of(g), 1
+        x, lost = self._one_pass(c, u, size)
+        while lost > UPDATE_TOLERANCE * (size * norm_of(x) + scale):
             if passes > REFINEMENTS:
                 return super().solve(g, complete)
             # every block: the residual reads the pairs of the earlier levels too
             x.update(Surface.back_substitute(self, x))
             r = self._residual(g, x)
-            d, lost = self._one_pass(c, self._forward_last(self.forward(r)))
+            d, lost = self._one_pass(c, self._forward_last(self.forward(r)), size)
             d.update(Surface.back_substitute(self, d))
             x = {b: v + d[b] for b, v in x.items()}
-            lost += np.finfo(float).eps * (size * norm_of(x) + norm_of(g))  # r's own
+            lost += np.finfo(float).eps * (size * norm_of(x) + scale)  # r's own
             passes += 1
         self.applications.append(1)
         self._refinements = [*self._refinements[-REFINEMENTS_KEPT + 1 :], passes - 1]
@@ -485,11 +485,12 @@ class PointwiseSurface(LowRankSurface):
         return mean * self.solve_seconds(1.0)
 
     def _one_pass(
-        self, c: PointCorrection, u: dict[str, np.ndarray]
+        self, c: PointCorrection, u: dict[str, np.ndarray], size: float
     ) -> tuple[dict[str, np.ndarray], float]:
         """The last level's blocks of ``S'^-1 h`` and a bound on its residual's norm.
 
-        ``u`` is ``L^-1 h`` there (changed in place); the bound is :meth:`solve` 's.
+        ``u`` is ``L^-1 h`` there (changed in place), ``size`` is ``|S'|_F``; the bound is
+        :meth:`solve` 's.
         """
         assert c.last is not None  # a one-pass correction
         t = np.zeros(c.rank)
@@ -497,7 +498,7 @@ class PointwiseSurface(LowRankSurface):
             if grp.name in c.last:
                 mask, X = c.last[grp.name]
                 t[mask] += X.T @ u[grp.name]
-        z, size, lost = c.solve(c.D * t), self._matrix_norm(), 0.0
+        z, lost = c.solve(c.D * t), 0.0
         x: dict[str, np.ndarray] = {}
         for grp in self.schedule.groups[-1]:
             if grp.name in c.last:
