@@ -16,8 +16,7 @@ from dd_contact.errors import InputError, SingularMatrixError
 from dd_contact.paper.verify.reduced import STEEL, cantilever, locator
 from dd_contact.solvers import eigen
 from dd_contact.solvers.eigen import EigenStatistics, fixed_interface_modes, lowest_modes
-from dd_contact.solvers.interior import InteriorCholesky, InteriorMatrix
-from dd_contact.solvers.interior import multi_solve as _solve
+from dd_contact.solvers.interior import InteriorMatrix, PlainInterior
 from dd_contact.solvers.worklog import WorkLog
 
 
@@ -34,11 +33,12 @@ class Pencil:
         self.n = free.size
         self.log = WorkLog()
         self.mass = InteriorMatrix(self.M)
-        self.factor = InteriorCholesky(InteriorMatrix(self.A), self.log, "beam")
+        self.stiffness = InteriorMatrix(self.A)
+        self.factor = PlainInterior(self.stiffness, sp.csr_array((self.n, 0)), self.log, "beam")
 
     def block(self, count, block=16, workspace=64, stats=None, extra=0, tolerance=1e-12):
         return lowest_modes(
-            lambda X: _solve(self.factor, X, "modes"),
+            lambda X: self.factor.solve(X, "modes"),
             self.mass.__matmul__,
             self.n,
             count,
@@ -51,10 +51,13 @@ class Pencil:
         )
 
     def slepc(self, count):
-        return fixed_interface_modes(self.factor, self.mass.mat, count, 1e-12, "beam")
+        return fixed_interface_modes(
+            self.stiffness.mat, self.factor, self.mass.mat, count, 1e-12, "beam"
+        )
 
     def destroy(self):
         self.factor.destroy()
+        self.stiffness.release()
         self.mass.mat.destroy()
 
 

@@ -193,7 +193,7 @@ def test_a_reduced_block_is_held_for_blas_products_and_without_petsc_copies():
             rows = matrix[[0, 2]]  # a slice is plain CSR: no stale dense array
             assert getattr(rows, "_dense", None) is None
             assert np.abs(rows @ x - ref[[0, 2]]).max() <= 1e-13 * np.abs(ref).max()
-        assert basis._M_ii._mat is None and basis.factor._interior is None
+        assert basis._M_ii._mat is None and basis.factor._factor._a is None
         problem.advance()
     finally:
         problem.close()

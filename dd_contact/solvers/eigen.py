@@ -38,7 +38,7 @@ import numpy as np
 import scipy.linalg
 
 from dd_contact.errors import SingularMatrixError
-from dd_contact.solvers.linalg import SparseCholesky, release_freed_memory
+from dd_contact.solvers.linalg import release_freed_memory
 
 __all__ = ["EigenStatistics", "fixed_interface_modes", "lowest_modes"]
 
@@ -381,23 +381,30 @@ def _dense(solve: Apply, mass: Apply, n: int, count: int, block: int, extra: int
 class _FactorSolve:
     """A shell preconditioner applying a sparse factor's solve (SLEPc's shift-invert)."""
 
-    def __init__(self, factor: SparseCholesky):
+    def __init__(self, factor):
         self.factor, self.solves = factor, 0
 
     def apply(self, pc, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """Y = A^-1 x."""
-        self.factor.ksp.solve(x, y)
+        y.array[:] = self.factor.solve(x.array_r, None)  # logged together by the caller
         self.solves += 1
 
 
 def fixed_interface_modes(
-    factor: SparseCholesky, M: PETSc.Mat, count: int, tolerance: float, name: str, extra: int = 0
+    A: PETSc.Mat,
+    factor,
+    M: PETSc.Mat,
+    count: int,
+    tolerance: float,
+    name: str,
+    extra: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``count`` lowest eigenpairs of ``A phi = omega^2 M phi`` (SLEPc, shift-invert at 0).
 
-    The spectral transform's solves are ``factor``'s: SLEPc's operator at shift 0 is A
-    itself, and its KSP applies the factor through a shell preconditioner (SLEPc resets a
-    KSP it is given; this one keeps ``factor`` whole), so nothing is factorised again.
+    The spectral transform's solves are ``factor``'s (``factor.solve(b, None)``: ``A^-1 b``,
+    with its ``entries``, ``log`` and ``block``): SLEPc's operator at shift 0 is A itself,
+    and its KSP applies the factor through a shell preconditioner (SLEPc resets a KSP it
+    is given; this one keeps ``factor`` whole), so nothing is factorised again.
     Returns ``omega^2`` ascending and the modes, M-orthonormal, as the first ``count``
     columns of an array with ``extra`` more (left for the load modes: no copy of the modes).
     """
@@ -405,9 +412,9 @@ def fixed_interface_modes(
 
     eps = SLEPc.EPS().create(MPI.COMM_SELF)
     try:
-        eps.setOperators(factor.A, M)
+        eps.setOperators(A, M)
         eps.setProblemType(SLEPc.EPS.ProblemType.GHEP)
-        n = factor.A.getSize()[0]
+        n = A.getSize()[0]
         ncv = min(n, count + max(15, min(count, MODES_WORKSPACE)))
         eps.setDimensions(count, ncv, min(ncv, MODES_PROJECTED or ncv))
         eps.setWhichEigenpairs(SLEPc.EPS.Which.TARGET_MAGNITUDE)
@@ -439,7 +446,7 @@ def fixed_interface_modes(
         order = np.argsort(values)[:count]
         # through a file: SLEPc's basis is freed before their array exists (issue 28)
         spill = tempfile.TemporaryFile()
-        x = factor.A.createVecRight()
+        x = A.createVecRight()
         for k in order:
             eps.getEigenvector(k, x)
             spill.write(x.getArray().tobytes())

@@ -4,6 +4,13 @@ The reduction (:mod:`dd_contact.solvers.reduced`) factorises the interior block 
 once and reads the factor until the run ends; ``A_ii`` itself only until the reduced
 matrices are formed, ``M_ii`` for the whole run. docs/solvers.md, "Reduced subdomains"
 (memory).
+
+What the reduction asks of the factor (:func:`interior_factor`): ``A_ii^-1 B``, the
+interior's response to boundary values ``A_ii^-1 A_ib U`` and the condensed
+``A_bi A_ii^-1 B``. :class:`SchurInterior` factorises ``[[A_ii, A_ib], [A_bi, 0]]`` with the
+boundary as MUMPS's Schur block, so that the last two are one sweep of the factor each
+(expansion, reduction), not two; :class:`PlainInterior`, a factor of ``A_ii`` alone, is
+used where the Schur phases cannot be driven (another MUMPS version).
 """
 
 from __future__ import annotations
@@ -16,17 +23,23 @@ from petsc4py import PETSc
 import numpy as np
 import scipy.sparse as sp
 
-from dd_contact.solvers.linalg import SparseCholesky
+from dd_contact.solvers.linalg import MATRIX_READERS, SparseCholesky
+from dd_contact.solvers.mumps_schur import SchurFactorisation, layout_known
+from dd_contact.solvers.worklog import WorkLog
 
-__all__ = ["InteriorCholesky", "InteriorMatrix"]
+__all__ = [
+    "InteriorCholesky",
+    "InteriorMatrix",
+    "PlainInterior",
+    "SchurInterior",
+    "interior_factor",
+]
 
 #: Columns an :class:`InteriorMatrix` product takes at once: scipy's products copy them
 #: (C-ordered) and return as many, so the block bounds those temporaries; each block reads
 #: the triangle twice.
 PRODUCT_COLUMNS = 8
 
-#: MUMPS's controls whose solves read the matrix (iterative refinement, error analysis).
-MATRIX_READERS = (10, 11)
 
 
 def _dense(X: np.ndarray, comm) -> PETSc.Mat:
@@ -157,10 +170,11 @@ class InteriorCholesky(SparseCholesky):
             self.A.destroy()  # the factor matrix
 
 
-def multi_solve(factor: InteriorCholesky, B: np.ndarray, what: str) -> np.ndarray:
+def multi_solve(factor: InteriorCholesky, B: np.ndarray, what: str | None) -> np.ndarray:
     """``A^-1 B`` (MUMPS multi-RHS), B's array and the answer's shared with PETSc's matrices.
 
-    ``solve_many`` copies both: four n x columns arrays at its peak, not two.
+    ``solve_many`` copies both: four n x columns arrays at its peak, not two. ``what``
+    ``None``: not logged.
     """
     B = np.asfortranarray(B, dtype=PETSc.ScalarType)
     X = np.empty_like(B, order="F")
@@ -170,8 +184,93 @@ def multi_solve(factor: InteriorCholesky, B: np.ndarray, what: str) -> np.ndarra
     factor.factor_matrix.matSolve(Bm, Xm)
     seconds = time.perf_counter() - start
     Bm.destroy(), Xm.destroy()
+    if what is None:
+        return X
     flops = 4.0 * factor.entries * B.shape[1]
     factor.log.add(
         factor.block, "sparse_solve", B.shape[0], B.shape[1], seconds, flops, what, factor.entries
     )
     return X
+
+
+class SchurInterior:
+    """``A_ii``'s factor with the boundary b as MUMPS's Schur block (:func:`interior_factor`).
+
+    Factorises ``[[A_ii, A_ib], [A_bi, 0]]`` (b last); MUMPS's reduction phase gives
+    ``-A_bi A_ii^-1 B`` with one forward sweep, its expansion ``A_ii^-1 A_ib U`` with one
+    backward sweep (:meth:`~dd_contact.solvers.mumps_schur.SchurFactorisation.response`),
+    and its internal solve ``A_ii^-1 B``. The matrix's copy goes once factorised.
+    """
+
+    def __init__(self, A: InteriorMatrix, A_ib: sp.sparray, log: WorkLog, block: str):
+        self.log, self.block = log, block
+        ni, nb = A_ib.shape
+        H = sp.coo_array(A.half)
+        C = sp.coo_array(A_ib)
+        schur = ni + np.arange(nb, dtype=np.int32)  # the Schur block's pattern, zero
+        rows = np.concatenate([H.row, C.row, schur]).astype(np.int32)
+        cols = np.concatenate([H.col, ni + C.col, schur]).astype(np.int32)
+        values = np.concatenate([np.where(H.row == H.col, 2.0, 1.0) * H.data, C.data])
+        del H, C
+        values = np.concatenate([values, np.zeros(nb)])
+        self._factor = SchurFactorisation(rows, cols, ni + nb, nb, log, block)
+        del rows, cols
+        self._factor.factorise(values)  # S = -A_bi A_ii^-1 A_ib: the reduction forms its own
+        self._factor.release_matrix()
+        self.entries = self._factor.entries
+
+    def solve(self, B: np.ndarray, what: str | None) -> np.ndarray:
+        """``A_ii^-1 B`` (``what`` ``None``: not logged)."""
+        return self._factor.solve_interior(B, what)
+
+    def response(self, U: np.ndarray, what: str) -> np.ndarray:
+        """``A_ii^-1 A_ib U``: the interior held by boundary values U (one backward sweep)."""
+        return self._factor.response(U, what)
+
+    def condensed(self, B: np.ndarray, what: str) -> np.ndarray:
+        """``A_bi A_ii^-1 B`` (one forward sweep)."""
+        return -self._factor.reduce(B, what)
+
+    def destroy(self) -> None:
+        """Free MUMPS's memory."""
+        self._factor.destroy()
+
+
+class PlainInterior:
+    """``A_ii``'s factor alone, with :class:`SchurInterior`'s operations by whole solves."""
+
+    def __init__(self, A: InteriorMatrix, A_ib: sp.sparray, log: WorkLog, block: str):
+        self.log, self.block = log, block
+        self._A_ib = sp.csr_array(A_ib)
+        self._cholesky = InteriorCholesky(A, log, block)
+        self._cholesky.drop_matrix()
+        self.entries = self._cholesky.entries
+
+    def solve(self, B: np.ndarray, what: str | None) -> np.ndarray:
+        """``A_ii^-1 B`` (``what`` ``None``: not logged)."""
+        if B.ndim == 2:
+            return multi_solve(self._cholesky, B, what)
+        return multi_solve(self._cholesky, B[:, None], what)[:, 0]
+
+    def response(self, U: np.ndarray, what: str) -> np.ndarray:
+        """``A_ii^-1 A_ib U``."""
+        B = self._A_ib @ U
+        return self.solve(np.asfortranarray(B) if B.ndim == 2 else B, what)
+
+    def condensed(self, B: np.ndarray, what: str) -> np.ndarray:
+        """``A_bi A_ii^-1 B``."""
+        return self._A_ib.T @ self.solve(B, what)
+
+    def destroy(self) -> None:
+        """Free the factorisation."""
+        self._cholesky.destroy()
+
+
+def interior_factor(
+    A: InteriorMatrix, A_ib: sp.sparray, log: WorkLog, block: str
+) -> SchurInterior | PlainInterior:
+    """``A_ii``'s factor for a reduction: :class:`SchurInterior` where MUMPS's Schur phases
+    can be driven (its C layout is known), :class:`PlainInterior` otherwise."""
+    if layout_known():
+        return SchurInterior(A, A_ib, log, block)
+    return PlainInterior(A, A_ib, log, block)

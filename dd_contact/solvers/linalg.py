@@ -47,6 +47,10 @@ __all__ = [
 # control parameters" and 7 "Information parameters"; ICNTL(k) is ``id.ICNTL(k)``).
 ICNTL_SCHUR_SOLUTION = 26  # ICNTL(26): solution phase when a Schur complement was computed
 SCHUR_SOLVE_INTERNAL = 0  # ... 0: solve the internal problem only (Schur variables ignored)
+ICNTL_RHS_FORMAT = 20  # ICNTL(20): 0 dense right-hand sides, 1 sparse (sparsity exploited)
+SPARSE_RHS = 1
+#: MUMPS's controls whose solves read the matrix (iterative refinement, error analysis).
+MATRIX_READERS = (10, 11)
 INFOG_STATUS = 1  # INFOG(1): 0 success, < 0 error (-10: numerically singular matrix)
 INFOG_FACTOR_ENTRIES_ESTIMATED = 20  # INFOG(20): entries of the factor, from the analysis
 INFOG_NULL_PIVOTS = 28  # INFOG(28): null pivots found (with ICNTL(24) = 1)

@@ -13,9 +13,12 @@ included: they act on b only) and M its mass, the subdomain is represented by
 ``T = [Psi, [0; G]]`` with G the modes and load modes M-orthonormalised, and becomes
 ``A_r = T^T A T``, ``M_r = T^T M T``: small and dense. ``Psi`` is never formed whole: its
 columns are taken :data:`REDUCTION_CHUNK` at a time (``A_r``'s boundary block is the Schur
-complement; ``M_r``'s is ``Y_b - A_bi A_ii^-1 Y_i`` with ``Y = M Psi``, two solves per
-block). The reduced coordinates are ``q = [u_b, g]``: the boundary dofs stay physical. The
-full field is ``u_i = -A_ii^-1 A_ib u_b + G g``: one substitution, taken only when read.
+complement; ``M_r``'s is ``Y_b - A_bi A_ii^-1 Y_i`` with ``Y = M Psi``). With the boundary
+as the factor's Schur block (:class:`~dd_contact.solvers.interior.SchurInterior`) each
+block of Psi is one backward sweep and ``A_bi A_ii^-1 Y_i`` one forward sweep: one
+substitution a column, not two. The reduced coordinates are ``q = [u_b, g]``: the boundary
+dofs stay physical. The full field is ``u_i = -A_ii^-1 A_ib u_b + G g``: one backward
+sweep, taken only when read.
 """
 
 from __future__ import annotations
@@ -38,8 +41,7 @@ from dd_contact.solvers.eigen import (
     fixed_interface_modes,
     lowest_modes,
 )
-from dd_contact.solvers.interior import InteriorCholesky, InteriorMatrix
-from dd_contact.solvers.interior import multi_solve as _solve
+from dd_contact.solvers.interior import InteriorMatrix, interior_factor
 from dd_contact.solvers.linalg import (
     PatternedMatrix,
     SparseStatistics,
@@ -110,6 +112,13 @@ def _pieces(S: sp.sparray, b: np.ndarray, i: np.ndarray, D: np.ndarray) -> dict:
 def _chunk(n: int) -> int:
     """Columns of an n-row block: REDUCTION_CHUNK at most, CHUNK_BYTES at most, 32 at least."""
     return max(32, min(REDUCTION_CHUNK, CHUNK_BYTES // (8 * max(n, 1))))
+
+
+def _unit_columns(n: int, at: np.ndarray) -> np.ndarray:
+    """Columns ``at`` of the n x n identity (Fortran-ordered)."""
+    E = np.zeros((n, at.size), order="F")
+    E[at, np.arange(at.size)] = 1.0
+    return E
 
 
 def _add_sparse(Y: np.ndarray, S: sp.sparray) -> None:
@@ -224,14 +233,12 @@ class ReducedBasis:
         Ap["ii"] = A_ii = InteriorMatrix(Ap["ii"])
         M_ii = None if Mp is None else InteriorMatrix(Mp.pop("ii"))
         release_freed_memory()  # the slicing's temporaries, before the factor's peak
-        self.factor = InteriorCholesky(A_ii, log, f"{name} (interior)")
-        if eigensolver != "slepc":  # only SLEPc reads A_ii's PETSc copy (its operator)
-            self.factor.drop_matrix()
+        self.factor = interior_factor(A_ii, self._A_ib, log, f"{name} (interior)")
         P = _pattern_span(patterns, n, self.fixed)
         self.omega2, V = self._modes(A_ii, M_ii, modes, (tolerance, eigensolver), P.shape[1])
-        self.factor.drop_matrix()  # SLEPc's operator (dropped already otherwise: a no-op)
+        A_ii.release()  # SLEPc's operator (made for it alone)
         del A_ii  # Ap's is the one left: _reduced frees it once read
-        raw = _solve(self.factor, P[self.i], "load modes") if P.shape[1] else P[self.i]
+        raw = self.factor.solve(P[self.i], "load modes") if P.shape[1] else P[self.i]
         self.G = _orthonormal(V, self.omega2.size, raw, M_ii)
         self._M_ii = M_ii
         #: ``G^T M_ii A_ii^-1 A_ib`` (with mass; :meth:`wall_directions`)
@@ -265,12 +272,12 @@ class ReducedBasis:
         if eigensolver == "slepc":
             try:
                 return fixed_interface_modes(
-                    self.factor, M_ii.mat, modes, tolerance, self.name, extra
+                    A_ii.mat, self.factor, M_ii.mat, modes, tolerance, self.name, extra
                 )
             finally:
                 M_ii.release()  # SLEPc's copy: the products are the triangle's
         return lowest_modes(
-            lambda X: _solve(self.factor, X, "modes"), M_ii.__matmul__, self.i.size, modes,
+            lambda X: self.factor.solve(X, "modes"), M_ii.__matmul__, self.i.size, modes,
             tolerance, self.name, MODES_BLOCK, MODES_WORKSPACE, extra
         )  # fmt: skip
 
@@ -299,7 +306,7 @@ class ReducedBasis:
             M_r[nb:, nb:] = _congruence(G, M_ii, chunk)
         for j0 in range(0, nb, chunk):
             j1 = min(nb, j0 + chunk)
-            X = _solve(self.factor, self._A_ib[:, j0:j1].toarray(order="F"), "constraint modes")
+            X = self.factor.response(_unit_columns(nb, np.arange(j0, j1)), "constraint modes")
             A_r[:nb, j0:j1] = A_bb[:, j0:j1].toarray() - A_bi @ X
             self.reaction_rows[:, j0:j1] = A_Db[:, j0:j1].toarray() - A_Di @ X
             if M is None:
@@ -314,8 +321,7 @@ class ReducedBasis:
             _add_sparse(Y_i, M_ib[:, j0:j1])
             M_r[nb:, j0:j1] = G.T @ Y_i
             M_r[j0:j1, nb:] = M_r[nb:, j0:j1].T
-            W = _solve(self.factor, Y_i, "constraint modes' mass")
-            M_r[:nb, j0:j1] = Y_b - A_bi @ W
+            M_r[:nb, j0:j1] = Y_b - self.factor.condensed(Y_i, "constraint modes' mass")
         if M_r is not None:
             # G^T M_ii A_ii^-1 A_ib, for the walls' directions without a solve: M_r's modes
             # rows hold G^T Y_i = G^T (M_ib - M_ii A_ii^-1 A_ib), column by column
@@ -334,7 +340,7 @@ class ReducedBasis:
         out[: self.b.size] = v[self.b]
         out[self.b.size :] = self.G.T @ v_i
         if np.any(v_i):
-            out[: self.b.size] -= self._A_ib.T @ self.factor.solve_array(v_i, "projection")
+            out[: self.b.size] -= self.factor.condensed(v_i, "projection")
         return out
 
     def project_load(self, v: np.ndarray) -> np.ndarray:
@@ -359,7 +365,7 @@ class ReducedBasis:
         u[self.b] = q[:nb]
         u[self.i] = self.G @ q[nb:]
         if np.any(q[:nb]):
-            u[self.i] -= self.factor.solve_array(self._A_ib @ q[:nb], what)
+            u[self.i] -= self.factor.response(q[:nb], what)
         return u
 
     def coordinates(self, u: np.ndarray) -> np.ndarray:
@@ -374,7 +380,7 @@ class ReducedBasis:
         q[:nb] = u[self.b]
         rest = u[self.i].copy()
         if np.any(q[:nb]):
-            rest += self.factor.solve_array(self._A_ib @ q[:nb], "coordinates")
+            rest += self.factor.response(q[:nb], "coordinates")
         if self.G.shape[1]:
             q[nb:] = self._in_modes(rest)
         return q
@@ -406,9 +412,9 @@ class ReducedBasis:
             return at, P
         chunk = _chunk(self.n)  # a wall may hold most of b: its columns a block at a time
         for j0 in range(0, at.size if self.G.shape[1] else 0, chunk):
-            B = self._A_ib[:, at[j0 : j0 + chunk]].toarray()
+            U = _unit_columns(self.b.size, at[j0 : j0 + chunk])
             P[self.b.size :, j0 : j0 + chunk] = self._in_modes(
-                _solve(self.factor, B, "wall directions")
+                self.factor.response(U, "wall directions")
             )
         return at, P
 

@@ -20,7 +20,7 @@ from dd_contact import meshes
 from dd_contact.assembly import assemble
 from dd_contact.paper.verify.models import Record, locator, record
 from dd_contact.parallel import sum_over_ranks
-from dd_contact.solvers.linalg import SparseCholesky
+from dd_contact.solvers.interior import InteriorMatrix, PlainInterior
 from dd_contact.solvers.reduced import ReducedBasis, _petsc, fixed_interface_modes
 from dd_contact.solvers.reduced_model import tied_dofs
 from dd_contact.solvers.subdomains import coupling_layout
@@ -74,13 +74,14 @@ def full_frequencies_ratio(modes: int, count: int = 20, nx: int = 10) -> np.ndar
     basis, A, M, dofs = cantilever_basis(cantilever(nx), modes)
     free = np.setdiff1d(np.arange(A.shape[0]), dofs)
     Mf = _petsc(M[free][:, free])
-    full = SparseCholesky(_petsc(A[free][:, free]), WorkLog(), "full")
+    Af = InteriorMatrix(A[free][:, free])
+    full = PlainInterior(Af, sp.csr_array((free.size, 0)), WorkLog(), "full")
     try:
-        omega2, _ = fixed_interface_modes(full, Mf, count, 1e-13, "full")
+        omega2, _ = fixed_interface_modes(Af.mat, full, Mf, count, 1e-13, "full")
         # the reduced model's lowest from its inverse pencil (accurate at the low end)
         mu = sla.eigh(basis.M_r, basis.A_r, eigvals_only=True)[::-1][:count]
     finally:
-        full.A.destroy()
+        Af.release()
         full.destroy()
         Mf.destroy()
         basis.destroy()
