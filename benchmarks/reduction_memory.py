@@ -56,8 +56,10 @@ def worker(args) -> dict:
     from dd_contact.solvers.linalg import release_freed_memory
 
     phases = Phases(release_freed_memory)
-    factor_class = "InteriorCholesky" if hasattr(reduced, "InteriorCholesky") else "SparseCholesky"
-    _wrap_class(reduced, factor_class, phases, "assembly, blocks of A and M", "interior factor")
+    factor = next(
+        f for f in ("interior_factor", "InteriorCholesky", "SparseCholesky") if hasattr(reduced, f)
+    )
+    _wrap_class(reduced, factor, phases, "assembly, blocks of A and M", "interior factor")
     wrap_after(reduced.ReducedBasis, "_modes", phases, "fixed-interface modes")
     wrap_before(reduced.ReducedBasis, "_reduced", phases, "load modes")
     wrap_after(reduced.ReducedBasis, "_reduced", phases, "A_r, M_r (constraint modes)")
@@ -88,13 +90,19 @@ def _held(bases: dict) -> dict:
     out = {}
     for block, basis in bases.items():
         factor = basis.factor
-        F = getattr(factor, "factor_matrix", None) or factor.ksp.getPC().getFactorMatrix()
+        if hasattr(factor, "_factor"):  # the Schur factorisation, driven through MUMPS's C API
+            mumps = factor._factor._id
+            infog, info = (lambda k: mumps.infog[k - 1]), (lambda k: mumps.info[k - 1])
+        else:
+            factor = getattr(factor, "_cholesky", factor)
+            F = getattr(factor, "factor_matrix", None) or factor.ksp.getPC().getFactorMatrix()
+            infog, info = F.getMumpsInfog, F.getMumpsInfo
         arrays = {"G": basis.G, "A_r": basis.A_r, "M_r": basis.M_r, "patterns": basis._patterns}
         record = {
             "n_i": int(basis.i.size),
             "n_b": int(basis.b.size),
             "G_columns": int(basis.G.shape[1]),
-            "mumps": _mumps(F.getMumpsInfog, F.getMumpsInfo),
+            "mumps": _mumps(infog, info),
             "arrays_mb": {k: round(a.nbytes / 1e6, 1) for k, a in arrays.items() if a is not None},
         }
         if basis._M_ii is not None:

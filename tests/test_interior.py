@@ -7,7 +7,13 @@ import pytest
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from dd_contact.solvers.interior import InteriorCholesky, InteriorMatrix, multi_solve
+from dd_contact.solvers.interior import (
+    InteriorCholesky,
+    InteriorMatrix,
+    PlainInterior,
+    SchurInterior,
+    multi_solve,
+)
 from dd_contact.solvers.worklog import WorkLog
 
 
@@ -94,3 +100,54 @@ def test_the_matrix_is_kept_when_mumps_solves_read_it(icntl):
     assert np.abs(multi_solve(factor, B, "test") - ref).max() <= 1e-12 * np.abs(ref).max()
     factor.refactorise()  # still possible: nothing was dropped
     factor.destroy()
+
+
+@pytest.mark.parametrize("kind", ["schur", "plain"])
+def test_a_reductions_factor_answers_by_sweeps_as_by_dense_algebra(kind):
+    """``A_ii^-1 B``, ``A_ii^-1 A_ib U`` and ``A_bi A_ii^-1 B``, one column and several."""
+    A = _spd(360, seed=5).toarray()
+    b = np.arange(300, 360)  # the boundary: the last rows
+    i = np.arange(300)
+    A_ii, A_ib = A[np.ix_(i, i)], A[np.ix_(i, b)]
+    factory = SchurInterior if kind == "schur" else PlainInterior
+    log = WorkLog()
+    factor = factory(InteriorMatrix(sp.csr_array(A_ii)), sp.csr_array(A_ib), log, "interior")
+    rng = np.random.default_rng(7)
+    try:
+        for columns in ((), (1,), (5,)):
+            U = rng.standard_normal((b.size, *columns))
+            B = rng.standard_normal((i.size, *columns))
+            response = np.linalg.solve(A_ii, A_ib @ U)
+            solved = np.linalg.solve(A_ii, B)
+            condensed = A_ib.T @ solved
+            got = (factor.response(U, "t"), factor.solve(B, "t"), factor.condensed(B, "t"))
+            for value, want in zip(got, (response, solved, condensed), strict=True):
+                assert value.shape == want.shape
+                assert np.abs(value - want).max() <= 1e-12 * np.abs(want).max()
+        # each operation is one record of the log; the Schur one's are single sweeps
+        solves = [r.kind for r in log.records if r.kind not in ("sparse_factor", "schur")]
+        if kind == "schur":
+            assert set(solves) == {"sparse_backward", "sparse_solve", "sparse_forward"}
+            assert factor._factor._a is None  # the matrix's copy went once factorised
+        else:
+            assert set(solves) == {"sparse_solve"}
+        assert len(solves) == 9
+    finally:
+        factor.destroy()
+
+
+def test_an_expansion_without_its_reduction_is_refused():
+    A = _spd(120, seed=2).toarray()
+    i, b = np.arange(100), np.arange(100, 120)
+    factor = SchurInterior(
+        InteriorMatrix(sp.csr_array(A[np.ix_(i, i)])),
+        sp.csr_array(A[np.ix_(i, b)]),
+        WorkLog(),
+        "interior",
+    )
+    try:
+        factor.condensed(np.ones((100, 3)), "t")
+        with pytest.raises(RuntimeError, match="as many columns"):
+            factor._factor.expand(np.ones((20, 2)))  # reduced 3 columns, not 2
+    finally:
+        factor.destroy()

@@ -46,6 +46,42 @@ def test_static_response_is_exact_with_load_modes():
     basis.destroy()
 
 
+def test_the_boundarys_schur_block_gives_the_basis_whole_solves_give(monkeypatch):
+    """The reduction by MUMPS's Schur sweeps (SchurInterior) against whole substitutions
+    (PlainInterior, taken where those sweeps cannot be driven): the same reduced model."""
+    from dd_contact.solvers import interior, reduced
+
+    scene = _cantilever(nx=8)
+    n = scene.subdomains[0].num_dofs
+    pattern = np.random.default_rng(2).standard_normal(n)
+    made = []
+    factory = reduced.interior_factor
+    monkeypatch.setattr(reduced, "interior_factor", lambda *a: made.append(factory(*a)) or made[-1])
+    schur, *_ = _basis(scene, 6, patterns=[pattern])
+    monkeypatch.setattr(interior, "layout_known", lambda: False)
+    plain, *_ = _basis(scene, 6, patterns=[pattern])
+    try:
+        assert [type(f).__name__ for f in made] == ["SchurInterior", "PlainInterior"]
+        # the modes' basis of a repeated frequency (the square section's bending pairs) is
+        # the eigensolver's pick: compared are what does not depend on it
+        nb = schur.b.size
+        q = np.zeros(schur.size)
+        q[:nb] = np.random.default_rng(3).standard_normal(nb)
+        v = np.random.default_rng(4).standard_normal(n)
+        b = slice(0, nb)
+        pairs = [
+            (schur.A_r[b, b], plain.A_r[b, b]), (schur.M_r[b, b], plain.M_r[b, b]),
+            (schur.G @ schur.G.T, plain.G @ plain.G.T), (schur.omega2, plain.omega2),
+            (schur.reaction_rows[:, b], plain.reaction_rows[:, b]),
+            (schur.expand(q), plain.expand(q)), (schur.project(v)[b], plain.project(v)[b]),
+            (schur.expand(schur.coordinates(v)), plain.expand(plain.coordinates(v))),
+        ]  # fmt: skip
+        for got, want in pairs:
+            assert np.abs(got - want).max() <= 1e-10 * np.abs(want).max()
+    finally:
+        schur.destroy(), plain.destroy()
+
+
 def test_the_walls_directions_taken_from_the_reduced_mass_equal_the_solved_ones():
     """``wall_directions`` reads M_r's modes rows; the interior solve gives the same."""
     scene = _cantilever(nx=8)

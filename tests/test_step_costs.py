@@ -82,7 +82,9 @@ def test_a_settle_eliminates_its_dense_wall_once_with_the_whole_matrixs_answer(m
         (kept,) = problem._settles.kept.values()
     assert len(gaps) >= 2 and len(built) == 1  # one zone: eliminated at its first settle
     assert kept.points is not None  # a plane wall: its point rows corrected, not factorised
-    assert max(gaps) <= 1e-10
+    # round-off of the penalised wall rows: 3.5e-11 to 1.02e-10, by BLAS threads and the
+    # reduced matrices' last bits (ed178ca and its successor alike)
+    assert max(gaps) <= 1e-9
 
 
 def test_a_walls_moves_multiply_as_its_whole_directions():

@@ -41,7 +41,6 @@ __all__ = [
 PRODUCT_COLUMNS = 8
 
 
-
 def _dense(X: np.ndarray, comm) -> PETSc.Mat:
     """A PETSc dense matrix on X's array (Fortran-ordered: shared, not copied)."""
     return PETSc.Mat().createDense(X.shape, array=X, comm=comm)  # type: ignore[arg-type]  # stub
@@ -269,8 +268,11 @@ class PlainInterior:
 def interior_factor(
     A: InteriorMatrix, A_ib: sp.sparray, log: WorkLog, block: str
 ) -> SchurInterior | PlainInterior:
-    """``A_ii``'s factor for a reduction: :class:`SchurInterior` where MUMPS's Schur phases
-    can be driven (its C layout is known), :class:`PlainInterior` otherwise."""
+    """``A_ii``'s factor for a reduction.
+
+    :class:`SchurInterior` where MUMPS's Schur phases can be driven (its C layout is
+    known), :class:`PlainInterior` otherwise.
+    """
     if layout_known():
         return SchurInterior(A, A_ib, log, block)
     return PlainInterior(A, A_ib, log, block)

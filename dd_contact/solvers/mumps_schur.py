@@ -317,7 +317,9 @@ class SchurFactorisation:
         Returns the Schur complement ``S`` (m x m, symmetric; a new array, not kept here).
         """
         if self._released:
-            raise RuntimeError(f"block {self.block!r}: its matrix was released; it cannot re-factorise")
+            raise RuntimeError(
+                f"block {self.block!r}: its matrix was released; it cannot re-factorise"
+            )
         self.analyse(values)
         self._set_values(values)
         self.reduced = False
@@ -434,8 +436,11 @@ class SchurFactorisation:
         return rhs[:n].copy() if b.ndim == 1 else rhs[:n]
 
     def _point(self, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """MUMPS's right-hand side and reduced one for b's columns: this instance's for one
-        column; for several, new arrays (Fortran-ordered, as MUMPS reads them)."""
+        """MUMPS's right-hand side and reduced one for b's columns.
+
+        This instance's for one column; for several, new arrays (Fortran-ordered, as MUMPS
+        reads them).
+        """
         if b.ndim == 1:
             self._id.rhs, self._id.nrhs = _pointer(self._rhs, _REAL), 1
             self._id.redrhs = _pointer(self._redrhs, _REAL)
