@@ -12,7 +12,7 @@ from test_pairs import _tilted_scene
 
 import dd_contact as dc
 from dd_contact.solvers import pointwise
-from dd_contact.solvers.lowrank import LowRankSurface
+from dd_contact.solvers.lowrank import REFINEMENTS, LowRankSurface
 from dd_contact.solvers.pointkernels import PointCorrection, forward_columns, local_rows
 from dd_contact.solvers.pointwise import PointwiseSurface
 from dd_contact.solvers.surface import Surface, kept_into
@@ -222,6 +222,37 @@ def test_stiff_points_corrected_in_one_pass_are_refined_not_solved_again(monkeyp
     assert np.abs(fields - reference).max() <= 1e-7 * np.abs(reference).max()
     assert two_passes == 0 and isinstance(surface, PointwiseSurface)
     assert surface._refinements and max(surface._refinements) >= 1
+
+
+@pytest.mark.filterwarnings("ignore::dd_contact.CoarseTimeStepWarning")
+def test_refinements_that_cost_a_re_factorisation_re_factorise(monkeypatch):
+    """The bar on its wall: its stiff points keep the one-pass solves refined while they
+    differ from the reference. With each update's re-factorisation priced at two
+    refinements, the groups are re-factorised once two were made (the reference then holds
+    the points), the count starting afresh; the fields are re-factorising's."""
+    reference, *_ = _bar_steps(False, monkeypatch)
+    update, fired, counts = PointwiseSurface._point_update, [], []
+
+    def priced(surface, rest):  # after the update: its re-factorisation at two refinements
+        done = update(surface, rest)
+        surface._refactorise_price = 2.0 * surface.solve_seconds(1.0)
+        return done
+
+    factorise = PointwiseSurface.factorise
+
+    def watched(surface):
+        due = surface._refined >= surface._refactorise_price and surface.correction.rank
+        counts.append(surface._refined / surface.solve_seconds(1.0))
+        factorise(surface)
+        if due:
+            fired.append(surface.correction.rank == 0 and surface._refined == 0.0)
+
+    monkeypatch.setattr(PointwiseSurface, "_point_update", priced)
+    monkeypatch.setattr(PointwiseSurface, "factorise", watched)
+    fields, *_ = _bar_steps(True, monkeypatch)
+    assert fired and all(fired)  # re-factorised, its count reset
+    assert max(counts) < 2.0 + REFINEMENTS + 1e-9  # never a solve's refinements past the price
+    assert np.abs(fields - reference).max() <= 1e-7 * np.abs(reference).max()
 
 
 @pytest.mark.filterwarnings("ignore::dd_contact.CoarseContactWarning")

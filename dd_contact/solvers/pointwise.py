@@ -21,14 +21,11 @@ corrected solve is one pass, a plain solve's substitutions with ``W z`` subtract
 them (:meth:`PointwiseSurface.solve`), checked by its residual on the points' rows: it costs
 no more than a solve after re-factorising. Points much stiffer than the rest (the bar on its
 wall) leave that answer short of the tolerance; it is refined with its true residual, one
-more pass each, which the price rule counts.
-Everything else is :class:`LowRankSurface` 's: the price rule (an update is taken while
-priced below re-factorising the groups it would make stale), a two-pass corrected solve
-refined with its true residual and re-factorised if it stays inaccurate, and the corrected
-solves re-factorising once their extra passes cost what the correction saved. A change of a
-region without point rows (an obstacle) on blocks apart from the pairs' joins the points'
-correction as the eigenvectors of its change since the factorisation; one on blocks that a
-region without point rows fills too is corrected from the matrices by
+more pass each, priced, and re-factorised once that has cost a re-factorisation.
+Everything else is :class:`LowRankSurface` 's (the price rule, the two-pass corrected solve).
+A change of a region without point rows (an obstacle) on blocks apart from the pairs' joins
+the points' correction as the eigenvectors of its change since the factorisation; one on
+blocks that a region without point rows fills too is corrected from the matrices by
 :class:`LowRankSurface`; with friction against an obstacle,
 :class:`~dd_contact.solvers.stuck.StuckSurface` puts the points' columns in its correction
 beside the slip's unit columns.
@@ -60,11 +57,7 @@ from dd_contact.solvers.pointkernels import PointCorrection, forward_columns, lo
 from dd_contact.solvers.schedule import Operation
 from dd_contact.solvers.surface import Surface, kept_into
 
-__all__ = [
-    "CACHE_BUDGET",
-    "POINT_APPLICATIONS",
-    "PointwiseSurface",
-]
+__all__ = ["CACHE_BUDGET", "POINT_APPLICATIONS", "PointwiseSurface"]
 
 #: The eliminations of the points kept with a factorisation (each point's once, reused by
 #: every later change until the groups are re-factorised) may cost this many times the
@@ -105,6 +98,8 @@ class PointwiseSurface(LowRankSurface):
         self._reach: np.ndarray | None = None  # per group of the chain, the columns reaching it
         self._orders: dict[str, np.ndarray | None] = {}  # per group, its rows' (points' last)
         self._refinements: list[int] = []  # of the last one-pass corrected solves
+        # priced refinements since the factorisation, and its price then (:meth:`factorise`)
+        self._refined, self._refactorise_price = 0.0, np.inf
 
     def add_points(self, name: str, parts: list[tuple[Block, np.ndarray]], rows) -> None:
         """A region's point rows, numbered as its matrix (``parts`` one after the other)."""
@@ -192,11 +187,24 @@ class PointwiseSurface(LowRankSurface):
         """A region's present flags (sent with its matrix; ``None``: unknown)."""
         self.active[name] = None if active is None else np.array(active, bool)
 
+    def factorise(self) -> None:
+        """As :class:`LowRankSurface`; re-factorised once the refinements cost one.
+
+        One-pass solves refined for stiff points the reference lacks (the bar on its wall)
+        go on being refined while they differ from it: once that has cost a
+        re-factorisation, the groups are factorised with the present state, which holds them.
+        """
+        if self._refined < self._refactorise_price or not self.correction.rank:
+            super().factorise()
+        else:
+            self._refactorise()
+
     def _refactorise(self) -> None:
         super()._refactorise()
         self.reference = {n: a.copy() for n, a in self.active.items() if a is not None}
         self._cache, self._cached, self._pending = Correction(), {}, np.zeros(0, int)
         self._invested = self._saved = 0.0
+        self._refined, self._refactorise_price = 0.0, np.inf
 
     def elimination_seconds(self, ids: np.ndarray, r0: int) -> float:
         """Price of eliminating P's columns ``ids`` forward and their products with ``r0`` kept.
@@ -343,6 +351,7 @@ class PointwiseSurface(LowRankSurface):
         elif not self._completed(c, where, dofs, U, D):
             return False
         self.correction, self.corrected = c, dict(self.contact)
+        self._refactorise_price = refactorise
         # every update saved a re-factorisation: the corrected solves may cost them all
         self._saved += refactorise
         self.break_even = self._saved
@@ -469,6 +478,7 @@ class PointwiseSurface(LowRankSurface):
         self.applications.append(1)
         self._refinements = [*self._refinements[-REFINEMENTS_KEPT + 1 :], passes - 1]
         self.extra_seconds += (passes - 1) * self.solve_seconds(1.0)  # toward re-factorising
+        self._refined += (passes - 1) * self.solve_seconds(1.0)
         if complete and passes == 1:  # else the earlier levels wait for back_substitute
             x.update(Surface.back_substitute(self, x))
         if complete or passes > 1:  # a refined x has every block (the earlier levels' state
@@ -476,11 +486,7 @@ class PointwiseSurface(LowRankSurface):
         return x
 
     def _refinement_seconds(self) -> float:
-        """Price of a one-pass corrected solve beyond a plain one: its refinements.
-
-        The mean of the last :data:`~dd_contact.solvers.lowrank.REFINEMENTS_KEPT` solves',
-        each a pass and a residual product.
-        """
+        """Price of a one-pass corrected solve's refinements (the last few solves' mean)."""
         mean = float(np.mean(self._refinements)) if self._refinements else 0.0
         return mean * self.solve_seconds(1.0)
 
