@@ -121,6 +121,12 @@ def _unit_columns(n: int, at: np.ndarray) -> np.ndarray:
     return E
 
 
+def _columns_read(*blocks: sp.sparray) -> np.ndarray:
+    """The columns where any of the sparse blocks has an entry (sorted)."""
+    used = [sp.csr_array(S).indices for S in blocks]
+    return np.unique(np.concatenate(used)) if used else np.zeros(0, np.int64)
+
+
 def _add_sparse(Y: np.ndarray, S: sp.sparray) -> None:
     """``Y += S`` in place (no dense copy of S)."""
     S = sp.coo_array(S)
@@ -304,17 +310,24 @@ class ReducedBasis:
             assert M_r is not None and M_ii is not None  # with M
             M_bb, M_bi, M_ib, M_Db, M_Di = M["bb"], M["bi"], M["ib"], M["Db"], M["Di"]
             M_r[nb:, nb:] = _congruence(G, M_ii, chunk)
+        # the products of the b and D rows read X's rows next to them alone: those rows are
+        # gathered, not the whole of X copied for each product (scipy's wants it C-ordered)
+        near = _columns_read(A_bi, A_Di, *([] if M is None else [M_bi, M_Di]))
+        A_bi, A_Di = A_bi[:, near], A_Di[:, near]
+        if M is not None:
+            M_bi, M_Di = M_bi[:, near], M_Di[:, near]
         for j0 in range(0, nb, chunk):
             j1 = min(nb, j0 + chunk)
             X = self.factor.response(_unit_columns(nb, np.arange(j0, j1)), "constraint modes")
-            A_r[:nb, j0:j1] = A_bb[:, j0:j1].toarray() - A_bi @ X
-            self.reaction_rows[:, j0:j1] = A_Db[:, j0:j1].toarray() - A_Di @ X
+            X_near = X[near]
+            A_r[:nb, j0:j1] = A_bb[:, j0:j1].toarray() - A_bi @ X_near
+            self.reaction_rows[:, j0:j1] = A_Db[:, j0:j1].toarray() - A_Di @ X_near
             if M is None:
                 continue
             assert M_r is not None and M_ii is not None  # with M
             assert self.reaction_mass is not None  # with M
-            self.reaction_mass[:, j0:j1] = M_Db[:, j0:j1].toarray() - M_Di @ X
-            Y_b = M_bb[:, j0:j1].toarray() - M_bi @ X  # Y = M Psi, this block of columns
+            self.reaction_mass[:, j0:j1] = M_Db[:, j0:j1].toarray() - M_Di @ X_near
+            Y_b = M_bb[:, j0:j1].toarray() - M_bi @ X_near  # Y = M Psi, this block of columns
             Y_i = M_ii @ X
             del X  # each n x columns array costs (issue 28): three at most
             Y_i *= -1.0
