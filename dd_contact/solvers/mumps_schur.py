@@ -401,8 +401,10 @@ class SchurFactorisation:
         self._id.irhs_sparse, self._id.irhs_ptr = _pointer(rows, _INT), _pointer(starts, _INT)
         try:
             self._solve(SCHUR_REDUCTION, "reduction")
-        finally:
+        finally:  # dense again, and no pointers left to the arrays that go now
             self._id.icntl[ICNTL_RHS_FORMAT - 1] = PACKAGE_ICNTL[ICNTL_RHS_FORMAT]
+            self._id.nz_rhs, self._id.rhs_sparse = 0, _PREAL()
+            self._id.irhs_sparse, self._id.irhs_ptr = _PINT(), _PINT()
         self.reduced, self._reduced_columns = True, k
         x = self._expand(-xs)
         self._log_sweep("sparse_backward", time.perf_counter() - start, what, xs)
