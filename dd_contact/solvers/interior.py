@@ -90,16 +90,6 @@ class InteriorMatrix:
             self._mat.destroy()
             self._mat = None
 
-    def whole(self) -> sp.csr_array:
-        """Both triangles as one CSR array, twice the triangle's memory.
-
-        For many columns: scipy reads it once for all of them, where ``H X + H^T X``
-        scatters the second half.
-        """
-        W = sp.csr_array(self.half + self.half.T)
-        W.sort_indices()
-        return W
-
     def __matmul__(self, X: np.ndarray) -> np.ndarray:
         X = np.asarray(X, dtype=float)
         if X.ndim == 1:

@@ -314,12 +314,8 @@ class ReducedBasis:
         # gathered, not the whole of X copied for each product (scipy's wants it C-ordered)
         near = _columns_read(A_bi, A_Di, *([] if M is None else [M_bi, M_Di]))
         A_bi, A_Di = A_bi[:, near], A_Di[:, near]
-        M_whole = None
-        if M is not None and M_ii is not None:
+        if M is not None:
             M_bi, M_Di = M_bi[:, near], M_Di[:, near]
-            # M_ii whole while the blocks are taken (at 1/4 100 MB: 3.8 ms a column of 64
-            # against 9.4-14 for the triangle's two products with their transposing copies)
-            M_whole = M_ii.whole()
         for j0 in range(0, nb, chunk):
             j1 = min(nb, j0 + chunk)
             X = self.factor.response(_unit_columns(nb, np.arange(j0, j1)), "constraint modes")
@@ -328,18 +324,17 @@ class ReducedBasis:
             self.reaction_rows[:, j0:j1] = A_Db[:, j0:j1].toarray() - A_Di @ X_near
             if M is None:
                 continue
-            assert M_r is not None and M_whole is not None  # with M
+            assert M_r is not None and M_ii is not None  # with M
             assert self.reaction_mass is not None  # with M
             self.reaction_mass[:, j0:j1] = M_Db[:, j0:j1].toarray() - M_Di @ X_near
             Y_b = M_bb[:, j0:j1].toarray() - M_bi @ X_near  # Y = M Psi, this block of columns
-            Y_i = M_whole @ np.ascontiguousarray(X)
+            Y_i = M_ii @ X
             del X  # each n x columns array costs (issue 28): three at most
             Y_i *= -1.0
             _add_sparse(Y_i, M_ib[:, j0:j1])
             M_r[nb:, j0:j1] = G.T @ Y_i
             M_r[j0:j1, nb:] = M_r[nb:, j0:j1].T
             M_r[:nb, j0:j1] = Y_b - self.factor.condensed(Y_i, "constraint modes' mass")
-        M_whole = None  # before the rest's arrays
         if M_r is not None:
             # G^T M_ii A_ii^-1 A_ib, for the walls' directions without a solve: M_r's modes
             # rows hold G^T Y_i = G^T (M_ib - M_ii A_ii^-1 A_ib), column by column
