@@ -43,7 +43,8 @@ this run's.
 
 ``same_machine`` (``SAME_MACHINE``: ``paper_scale_stop42_same_machine.json``, and
 ``paper_scale_stop43_same_machine.json`` with stop 43's set-up and quiet step, and
-``paper_scale_stop44_same_machine.json`` with stop 44's refined one-pass solve), per stop:
+``paper_scale_stop44_same_machine.json`` with stop 44's refined one-pass solve, and
+``paper_scale_stop45_same_machine.json`` with stop 45's Schur-block reduction), per stop:
 the m = 320 run, FULL and the unreduced w-u at 1/4 in one invocation on one otherwise idle
 machine (load about 1), each its own process, compared by CPU time: the percentage of FULL
 without a prediction or another machine's rates, and the peak memory against w-u's.
@@ -68,6 +69,7 @@ SAME_MACHINE = {
     "stop 42": "paper_scale_stop42_same_machine.json",
     "stop 43": "paper_scale_stop43_same_machine.json",
     "stop 44": "paper_scale_stop44_same_machine.json",
+    "stop 45": "paper_scale_stop45_same_machine.json",
 }
 SAME_RUNS = {
     "reduced": "parallelepiped|1/4|w-u reduced m=320|run",
