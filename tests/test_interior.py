@@ -129,6 +129,7 @@ def test_a_reductions_factor_answers_by_sweeps_as_by_dense_algebra(kind):
         if kind == "schur":
             assert set(solves) == {"sparse_backward", "sparse_solve", "sparse_forward"}
             assert factor._factor._a is None  # the matrix's copy went once factorised
+            assert factor._factor._held is None  # no right-hand sides kept between calls
         else:
             assert set(solves) == {"sparse_solve"}
         assert len(solves) == 9

@@ -241,7 +241,7 @@ class SchurFactorisation:
         #: MUMPS holds the forward sweep of the last reduced b (an expansion releases it)
         self.reduced = False
         self._reduced_columns = 0  # of that b
-        #: the arrays MUMPS points at for several columns (:meth:`_point`)
+        #: the arrays MUMPS points at for several columns, during a call (:meth:`_point`)
         self._held: tuple[np.ndarray, np.ndarray] | None = None
         self._released = False  # the matrix let go (release_matrix): no re-factorisation
         self.statistics: SparseStatistics | None = None  # of the analysis, once done
@@ -370,6 +370,7 @@ class SchurFactorisation:
         self._solve(SCHUR_REDUCTION, "reduction")
         self._log_sweep("sparse_forward", time.perf_counter() - start, what, b)
         self.reduced, self._reduced_columns = True, _columns(b)
+        self._held = None  # MUMPS keeps the forward sweep itself: the arrays are the caller's
         return redrhs.copy() if b.ndim == 1 else redrhs
 
     def expand(self, xs: np.ndarray, what: str = "u") -> np.ndarray:
@@ -418,7 +419,7 @@ class SchurFactorisation:
         rhs, redrhs = self._point(xs)
         redrhs[:] = xs
         self._solve(SCHUR_EXPANSION, "expansion")
-        self.reduced = False  # MUMPS releases the forward sweep after an expansion
+        self.reduced, self._held = False, None  # MUMPS releases the forward sweep now
         n = self.size - self.schur
         return rhs[:n].copy() if xs.ndim == 1 else rhs[:n]
 
@@ -432,7 +433,7 @@ class SchurFactorisation:
         rhs[:n], rhs[n:] = b, 0.0
         start = time.perf_counter()
         self._solve(SCHUR_SOLVE_INTERNAL, "solution")
-        self.reduced = False
+        self.reduced, self._held = False, None
         if what is not None:
             self._log_sweep("sparse_solve", time.perf_counter() - start, what, b, sweeps=2)
         return rhs[:n].copy() if b.ndim == 1 else rhs[:n]
