@@ -12,6 +12,7 @@ from dd_contact.solvers.interior import (
     InteriorMatrix,
     PlainInterior,
     SchurInterior,
+    interior_factor,
     multi_solve,
 )
 from dd_contact.solvers.worklog import WorkLog
@@ -150,5 +151,18 @@ def test_an_expansion_without_its_reduction_is_refused():
         factor.condensed(np.ones((100, 3)), "t")
         with pytest.raises(RuntimeError, match="as many columns"):
             factor._factor.expand(np.ones((20, 2)))  # reduced 3 columns, not 2
+    finally:
+        factor.destroy()
+
+
+def test_an_interior_without_boundary_is_factorised_alone():
+    """No tied dofs (nothing for a Schur block): the plain factor, the same solves."""
+    A = _spd(80, seed=4)
+    factor = interior_factor(InteriorMatrix(A), sp.csr_array((80, 0)), WorkLog(), "interior")
+    try:
+        assert isinstance(factor, PlainInterior)
+        b = np.arange(80.0)
+        want = np.linalg.solve(A.toarray(), b)
+        assert np.abs(factor.solve(b, "t") - want).max() <= 1e-12 * np.abs(want).max()
     finally:
         factor.destroy()

@@ -271,8 +271,8 @@ def interior_factor(
     """``A_ii``'s factor for a reduction.
 
     :class:`SchurInterior` where MUMPS's Schur phases can be driven (its C layout is
-    known), :class:`PlainInterior` otherwise.
+    known) and there is a boundary to be its Schur block, :class:`PlainInterior` otherwise.
     """
-    if layout_known():
+    if A_ib.shape[1] and layout_known():
         return SchurInterior(A, A_ib, log, block)
     return PlainInterior(A, A_ib, log, block)
