@@ -44,6 +44,19 @@ def test_tie_operators_consistent(volume_cell, surface_cell):
         assert ops.height == pytest.approx(1 / 3, rel=1e-12)
 
 
+@pytest.mark.parametrize("volume_cell", ["hexahedron", "tetrahedron"])
+@pytest.mark.parametrize("surface_cell", ["quadrilateral", "triangle"])
+def test_tie_operators_leave_nodes_off_a_flat_face_out(volume_cell, surface_cell):
+    """A node off the tied face has a shape function that vanishes on it: no entry of the
+    ties touches it (their round-off there, 1e-17 to 1e-15 of the largest, is dropped)."""
+    V, S = _spaces(volume_cell, surface_cell)
+    ops = coupling.tie_operators(V, S)
+    on_face = np.flatnonzero(np.isclose(V.tabulate_dof_coordinates()[:, 0], 1.0))
+    for P in (ops.P1, ops.P2):
+        np.testing.assert_array_equal(np.unique(P.tocoo().row), on_face)
+    np.testing.assert_array_equal(np.unique(ops.P1.tocoo().col), on_face)
+
+
 @pytest.mark.parametrize(
     "surface_cell,volume_cell",
     [("quadrilateral", "hexahedron"), ("triangle", "hexahedron"), ("triangle", "tetrahedron")],

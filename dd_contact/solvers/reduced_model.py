@@ -21,6 +21,7 @@ import scipy.sparse as sp
 from dd_contact import forms
 from dd_contact.blocks import Block
 from dd_contact.parallel import allgathered, collective
+from dd_contact.scene import KAPPA_SPLIT
 from dd_contact.solvers.dense import DenseBacked
 from dd_contact.solvers.linalg import sparse_statistics
 from dd_contact.solvers.reduced import ReducedBasis, _pattern_span, _petsc
@@ -45,8 +46,6 @@ __all__ = [
 #: The orders that solve reduced subdomains (a small dense block through the subdomain seam).
 REDUCED_ORDERS = ("w-u", "w-v-u", "v-w-u")
 
-#: Coupling entries below this fraction of the largest are round-off (:func:`tied_dofs`).
-COUPLING_FLOOR = 1e-12
 
 logger = logging.getLogger(__name__)
 
@@ -89,8 +88,10 @@ def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, Redu
             )
         if any(t.u == block for t in system.stiff_ties):
             raise NotImplementedError(
-                f"subdomain {sub.name!r}: a reduced subdomain's ties must be below KAPPA_SPLIT "
-                "(stiffer ties are carried by an iteration on the whole field; not built yet)"
+                f"subdomain {sub.name!r}: a reduced subdomain's ties must have kappa at most "
+                f"{KAPPA_SPLIT:g} (stiffer ties are carried by an iteration on the whole field, "
+                "not built for a reduced one); give its ties kappa <= "
+                f"{KAPPA_SPLIT:g}, or do not reduce it"
             )
         boundary = tied_dofs(coupling_layout(block, system)[1])
         if np.intersect1d(boundary, dofs).size:
@@ -159,17 +160,13 @@ def reduction_pays(A, boundary: np.ndarray, fixed: np.ndarray, modes: int, patte
 
 
 def tied_dofs(C: sp.sparray) -> np.ndarray:
-    """The rows of coupling columns C with an entry above round-off: the boundary dofs b.
+    """The rows of coupling columns C with a non-zero entry: the boundary dofs b.
 
-    A tie's exact integration leaves entries of order 1e-17 of its largest on the next
-    layer of nodes (shape functions evaluated where they vanish): they are not coupling,
-    and kept they would double b. Dropping them changes the coupling by that much.
+    Every one is kept: the reduced model is then the unreduced one in its basis. The ties'
+    round-off entries are left out where they are made (:data:`~dd_contact.coupling.TIE_FLOOR`).
     """
     C = sp.coo_array(C)
-    if not C.nnz:
-        return np.zeros(0, np.int64)
-    kept = np.abs(C.data) > COUPLING_FLOOR * np.abs(C.data).max()
-    return np.unique(C.row[kept])
+    return np.unique(C.row[C.data != 0.0])
 
 
 def _walls_in_reduced(zones: Sequence, bases: dict[Block, ReducedBasis]) -> None:

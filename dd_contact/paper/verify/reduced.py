@@ -88,11 +88,13 @@ def full_frequencies_ratio(modes: int, count: int = 20, nx: int = 10) -> np.ndar
     return 1.0 / np.sqrt(omega2 * mu) - 1.0
 
 
-def static_difference(parts: int, algorithm: str, modes: list) -> tuple[float, float]:
+def static_difference(
+    parts: int, algorithm: str, modes: list, kappa: float = 1e3
+) -> tuple[float, float]:
     """Relative difference of u and of the contact force, reduced against unreduced."""
 
     def solve(reduce):
-        scene = cantilever(6, parts)
+        scene = cantilever(6, parts, kappa)
         for sub, m in zip(scene.subdomains, reduce, strict=True):
             if m is not None:
                 sub.reduce(modes=m)
