@@ -24,7 +24,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from dd_contact.solvers.linalg import MATRIX_READERS, SparseCholesky
-from dd_contact.solvers.mumps_schur import SchurFactorisation, layout_known
+from dd_contact.solvers.mumps_schur import SchurFactorisation, bordered, layout_known
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
@@ -204,15 +204,14 @@ class SchurInterior:
     def __init__(self, A: InteriorMatrix, A_ib: sp.sparray, log: WorkLog, block: str):
         self.log, self.block = log, block
         ni, nb = A_ib.shape
-        H = sp.coo_array(A.half)
-        C = sp.coo_array(A_ib)
-        schur = ni + np.arange(nb, dtype=np.int32)  # the Schur block's pattern, zero
-        rows = np.concatenate([H.row, C.row, schur]).astype(np.int32)
-        cols = np.concatenate([H.col, ni + C.col, schur]).astype(np.int32)
-        values = np.concatenate([np.where(H.row == H.col, 2.0, 1.0) * H.data, C.data])
-        del H, C
-        values = np.concatenate([values, np.zeros(nb)])
-        self._factor = SchurFactorisation(rows, cols, ni + nb, nb, log, block)
+        H = sp.coo_array(A.half)  # the triangle with half its diagonal
+        upper = (H.row, H.col, np.where(H.row == H.col, 2.0, 1.0) * H.data)
+        del H
+        rows, cols, values = bordered(upper, sp.coo_array(A_ib), mirrored=False)
+        del upper
+        self._factor = SchurFactorisation(
+            rows.astype(np.int32), cols.astype(np.int32), ni + nb, nb, log, block
+        )
         del rows, cols
         self._factor.factorise(values)  # S = -A_bi A_ii^-1 A_ib: the reduction forms its own
         self._factor.release_matrix()

@@ -46,7 +46,13 @@ from dd_contact.solvers.linalg import (
 from dd_contact.solvers.petsc_options import REQUIRED_ICNTL, _check_required_options, options_prefix
 from dd_contact.solvers.worklog import WorkLog
 
-__all__ = ["ICNTL_COMPACT", "MUMPS_LAYOUT_VERSION", "PACKAGE_ICNTL", "SchurFactorisation"]
+__all__ = [
+    "ICNTL_COMPACT",
+    "MUMPS_LAYOUT_VERSION",
+    "PACKAGE_ICNTL",
+    "SchurFactorisation",
+    "bordered",
+]
 
 #: MUMPS versions whose ``DMUMPS_STRUC_C`` has the layout below (5.8.x).
 MUMPS_LAYOUT_VERSION = "5.8."
@@ -502,6 +508,23 @@ class SchurFactorisation:
     def __del__(self) -> None:
         # as petsc4py objects: freed when collected if nobody called destroy()
         self.destroy()
+
+
+def bordered(
+    K: tuple[np.ndarray, np.ndarray, np.ndarray], C, mirrored: bool
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """COO of ``[[K, C], [C^T, 0]]`` from K's COO (n x n) and the coupling C (n x m).
+
+    The last m rows are the Schur block: its zero diagonal gives MUMPS its pattern. With
+    ``mirrored`` C^T is there too (K given by both triangles), else C only (one triangle).
+    """
+    rows, cols, values = K
+    C = C.tocoo()
+    n, m = C.shape
+    schur = n + np.arange(m)
+    mirror = [(C.col + n, C.row, C.data)] if mirrored else []
+    parts = [(rows, cols, values), (C.row, C.col + n, C.data), *mirror, (schur, schur, np.zeros(m))]
+    return tuple(np.concatenate(p) for p in zip(*parts, strict=True))  # type: ignore[return-value]
 
 
 def _stored_entries(rows: np.ndarray, cols: np.ndarray, size: int) -> int:

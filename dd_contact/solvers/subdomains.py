@@ -27,7 +27,7 @@ from dd_contact.solvers.linalg import (
     coo_of,
     sparse_statistics,
 )
-from dd_contact.solvers.mumps_schur import SchurFactorisation
+from dd_contact.solvers.mumps_schur import SchurFactorisation, bordered
 from dd_contact.solvers.schedule import (
     CONDENSATIONS,
     condensation_chunks,
@@ -138,11 +138,7 @@ class SubdomainCondensation:
         self.schur = m if condensation == "schur" else 0
         rows, cols, values = coo_of(system.block(block, block))
         if self.schur:
-            cr, cc, cv = coo_of(self.C)
-            diagonal = n + np.arange(m)  # the Schur block's pattern, zero
-            rows = np.concatenate([rows, cr, cc + n, diagonal])
-            cols = np.concatenate([cols, cc + n, cr, diagonal])
-            values = np.concatenate([values, cv, cv, np.zeros(m)])
+            rows, cols, values = bordered((rows, cols, values), self.C, mirrored=True)
         size = n + self.schur
         base = (rows, cols, values)
         # Driven through MUMPS's C interface (reduction and expansion apart), the Schur
