@@ -75,16 +75,24 @@ GIB = 1024.0**3
 
 
 # ------------------------------------------------------------------------------ the worker
-def case_of(label: str) -> tuple[str, int | None, bool]:
-    """(algorithm, modes, peer) of a run's label: an algorithm, an iterative peer
+def case_of(label: str) -> tuple[str, dict | None, bool]:
+    """(algorithm, reduction, peer) of a run's label: an algorithm, an iterative peer
     (``CG+GAMG``, ``CG+Jacobi``: FULL by CG on the one-mesh bar, iterative_peer.py) or an
-    order with every subdomain reduced (``"w-u reduced m=20"``: m fixed-interface modes)."""
+    order with every subdomain reduced (``"w-u reduced m=20"``: m fixed-interface modes;
+    ``"w-u reduced m=320 tol=0.1"``: found to that tolerance), the reduction as
+    ``Subdomain.reduce``'s arguments."""
     import iterative_peer
 
     if label in iterative_peer.PEERS:
         return "FULL", None, True
-    algorithm, _, modes = label.partition(" reduced m=")
-    return algorithm, int(modes) if modes else None, False
+    algorithm, _, reduction = label.partition(" reduced m=")
+    if not reduction:
+        return algorithm, None, False
+    modes, _, tolerance = reduction.partition(" tol=")
+    options = {"modes": int(modes)}
+    if tolerance:
+        options["tolerance"] = float(tolerance)
+    return algorithm, options, False
 
 
 def scene_for(model: str, scale: str, algorithm: str | None, comm, layout=None):
@@ -161,10 +169,10 @@ def worker(args) -> dict:
 
     comm = MPI.COMM_WORLD
     start, cpu_start = time.perf_counter(), time.process_time()
-    algorithm, modes, peer = case_of(args.worker)
+    algorithm, reduction, peer = case_of(args.worker)
     scene = scene_for(args.model, args.scale, algorithm, comm, "FULL" if peer else None)
-    for sub in scene.subdomains if modes is not None else ():
-        sub.reduce(modes=modes)
+    for sub in scene.subdomains if reduction is not None else ():
+        sub.reduce(**reduction)
     options = dict(json.loads(args.petsc_options)) if args.petsc_options else None
     with iterative_peer.peer(args.worker, scene) if peer else contextlib.nullcontext():
         problem = dc.TransientProblem(
@@ -175,7 +183,8 @@ def worker(args) -> dict:
         "model": args.model,
         "scale": args.scale,
         "algorithm": args.worker,
-        "modes": modes,
+        "modes": None if reduction is None else reduction["modes"],
+        "tolerance": None if reduction is None else reduction.get("tolerance"),
         "ranks": comm.size,
         "dofs": int(sum(problem.solver.system.sizes.values())),
         "blocks": {str(k): int(v) for k, v in problem.solver.system.sizes.items()},
@@ -217,6 +226,7 @@ def worker(args) -> dict:
                 "iterations": list(iterations),
                 "iterations_cpu": list(cpu),
                 "active": {k: int(v) for k, v in result["active"].items()},
+                "force": {k: [float(f) for f in v] for k, v in result["force"].items()},
             }
         )
         print(json.dumps({"progress": steps[-1]}), file=sys.stderr, flush=True)
