@@ -5,27 +5,23 @@ A tie (eqs. 6-7, A1-A6) needs three "mass" matrices with the penalty factor left
     P1 = int H_D^T H_D ds,   P2 = int H_D^T H_S ds,   P4 = int H_S^T H_S ds
 
 where H_D are the volume mesh's basis functions traced on its boundary and H_S the surface
-mesh's. The two meshes do not match, so the integrand of P1 and P2 is only piecewise smooth
-on a surface cell. We integrate all three over the *intersections* of surface cells and
+mesh's. The meshes do not match, so the integrand of P1 and P2 is only piecewise smooth on a
+surface cell. We integrate all three over the *intersections* of surface cells and
 boundary facets (segment-based mortar integration): each intersection polygon is cut into
 triangles carrying a Gauss rule, and the same points serve P1, P2 and P4. Two things follow:
 
-* consistency: for u = v = constant, P1 u - P2 v = 0 exactly, so a rigid translation of the
-  tied pair costs nothing (a facet integral for P1 next to point-sampled P2 would not); for
-  u and v interpolating one linear field, P1 u = P2 v and P4 v = P2^T u;
+* consistency: for u = v = constant, P1 u - P2 v = 0 to round-off, so a rigid translation
+  of the tied pair costs nothing (a facet integral for P1 next to point-sampled P2 would
+  not); for u and v interpolating one linear field, P1 u = P2 v and P4 v = P2^T u;
 * exactness: a linear field on one side transmits the exact nodal loads to the other, so the
   tied patch test holds to round-off, not just to quadrature error.
 
-Exactness needs care on a quadrilateral that is not a parallelogram (a surface cell or a
-volume facet): its bilinear basis is a rational function of the physical coordinates, which
-no polynomial rule on the intersection triangles integrates exactly. Consistency alone does
-not save the patch test then: the interface carries the traction to each subdomain through a
-different set of intersections, the quadrature errors of the two sets differ, and the stress
-picks up an error proportional to the penalty gap eps*sigma, i.e. O(1/kappa). So every
-intersection triangle gets a Gauss rule whose degree follows the distortion of the bilinear
-map over it (:func:`bilinear_distortion`), and too distorted triangles are split, so that
-the rational integrands are integrated to round-off (about 1e-14 of the triangle's area).
-Triangles and parallelograms keep the degree-6 rule, which is exact for them.
+On a quadrilateral that is not a parallelogram the bilinear basis is a rational function of
+the physical coordinates, which no polynomial rule on the triangles integrates exactly; the
+two subdomains' quadrature errors then differ and the stress picks up an O(1/kappa) error.
+So each triangle's Gauss degree follows the distortion of the bilinear map over it
+(:func:`bilinear_distortion`), too distorted ones are split, and the integrands come out to
+round-off (1e-14 of the triangle's area); triangles and parallelograms keep degree 6.
 
 All matrices are scalar (one dof per node); :func:`blocked` expands them to 3 components.
 """
@@ -76,12 +72,9 @@ _DEGREES = (
 )
 _MAX_SPLITS = 5
 
-#: Tie entries at most this fraction of the operator's largest are round-off, dropped. A
-#: node off the tied facets has a shape function that vanishes on them; evaluated at points
-#: found by inverse mapping it gives 1e-17 to 1e-15 of the largest entry. Kept, those
-#: entries are a model of their own: a reduced subdomain leaves them out of its boundary
-#: (it would double at the paper's bar), and a penalty tie amplifies the difference by its
-#: conditioning (the two-piece cantilever at kappa 1e6: 7e-7 of the displacement).
+#: Tie entries at most this fraction of the operator's largest are round-off (a node off the
+#: tied facets: 1e-17 to 1e-13; the pin joint's next are 1e-9), dropped: else a reduced
+#: subdomain, whose boundary leaves them out, is another model (docs/solvers.md).
 TIE_FLOOR = 1e-12
 
 
@@ -451,9 +444,9 @@ def tie_operators(
     run = np.flatnonzero(np.r_[True, (q_s[1:] != q_s[:-1]) | (q_f[1:] != q_f[:-1])])
     tied = np.unique(q_f)
     return TieOperators(
-        P1=_without_round_off(_mass(w, run, phi_v, dofs_v, phi_v, dofs_v, (n_v, n_v))),
-        P2=_without_round_off(_mass(w, run, phi_v, dofs_v, phi_s, dofs_s, (n_v, n_s))),
-        P4=_without_round_off(_mass(w, run, phi_s, dofs_s, phi_s, dofs_s, (n_s, n_s))),
+        P1=_mass(w, run, phi_v, dofs_v, phi_v, dofs_v, (n_v, n_v)),
+        P2=_mass(w, run, phi_v, dofs_v, phi_s, dofs_s, (n_v, n_s)),
+        P4=_mass(w, run, phi_s, dofs_s, phi_s, dofs_s, (n_s, n_s)),
         covered_area=covered,
         cell_area=cell_area,
         height=_mean_height(vol, facet_cell[tied], f_centre[tied], f_normal[tied]),
@@ -580,18 +573,13 @@ def _basis_at(
 
 
 def _mass(w, run, phi_a, dofs_a, phi_b, dofs_b, shape) -> sp.csr_array:
-    """``sum w phi_a phi_b^T`` assembled, the points of each ``run`` summed first."""
+    """``sum w phi_a phi_b^T``, each ``run``'s points summed first, less :data:`TIE_FLOOR`."""
     vals = np.add.reduceat(np.einsum("n,ni,nj->nij", w, phi_a, phi_b), run, axis=0)
     rows = np.broadcast_to(dofs_a[run, :, None], vals.shape)
     cols = np.broadcast_to(dofs_b[run, None, :], vals.shape)
-    return sp.csr_array(sp.coo_array((vals.ravel(), (rows.ravel(), cols.ravel())), shape=shape))
-
-
-def _without_round_off(P: sp.csr_array) -> sp.csr_array:
-    """P without its entries at most :data:`TIE_FLOOR` of its largest."""
-    if P.nnz:
-        P.data[np.abs(P.data) <= TIE_FLOOR * np.abs(P.data).max()] = 0.0
-        P.eliminate_zeros()
+    P = sp.csr_array(sp.coo_array((vals.ravel(), (rows.ravel(), cols.ravel())), shape=shape))
+    P.data[np.abs(P.data) <= TIE_FLOOR * np.abs(P.data).max(initial=0.0)] = 0.0
+    P.eliminate_zeros()
     return P
 
 
