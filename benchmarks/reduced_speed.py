@@ -24,6 +24,11 @@ unreduced and reduced with each of ``--trade-modes``: the contact-force history'
 error relative to the unreduced run's peak, and a chart
 (``benchmarks/results/reduced_trade.png``).
 
+**Paper trade** (``--part paper-trade``): the paper's bar on its wall (w-u, dt 1e-4, as
+``paper_scale.py``) reduced with each of ``--trade-modes`` and ``--trade-tolerances`` (the
+modes' eigensolver tolerance): the force history's largest error over the unreduced peak,
+the set-up's CPU seconds and the modes' solved columns (reduced_paper_trade_<cells>.json).
+
 Writes benchmarks/results/reduced_speed_<nx>x<ny>x<nz>.json and reduced_trade.json.
 
 Run: python benchmarks/reduced_speed.py [--elements 120 18 6] [--modes 20] [--steps 9]
@@ -147,10 +152,12 @@ def trade(elements, modes_list, steps, dt) -> dict:
     return out
 
 
-def paper_trade(elements, modes_list, steps) -> dict:
+def paper_trade(elements, modes_list, steps, tolerances=(None,)) -> dict:
     """The paper's bar (models.parallelepiped, shaken on its wall; w-u, dt 1e-4 as
-    paper_scale.py), reduced with each of ``modes_list`` against unreduced: the largest
-    error of the contact-force history (its x component) over the unreduced run's peak."""
+    paper_scale.py), reduced with each of ``modes_list`` (and each of the modes'
+    ``tolerances``; None: the package's default) against unreduced: the largest error of the
+    contact-force history (its x component) over the unreduced run's peak, the set-up's CPU
+    seconds and the columns the modes' solves took."""
     from mpi4py import MPI
 
     import numpy as np
@@ -158,30 +165,37 @@ def paper_trade(elements, modes_list, steps) -> dict:
     import dd_contact as dd
     from dd_contact.paper import models
 
-    def run(modes):
+    def run(modes, tolerance=None):
         scene = models.parallelepiped(tuple(elements), algorithm="w-u", comm=MPI.COMM_SELF)
+        options = {} if tolerance is None else {"tolerance": tolerance}
         for sub in scene.subdomains if modes is not None else ():
-            sub.reduce(modes=modes)
+            sub.reduce(modes=modes, **options)
+        c0 = time.process_time()
         problem = dd.TransientProblem(scene, 1e-4, "w-u", track_energy=False)
+        setup = time.process_time() - c0
         c0 = time.process_time()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", dd.CoarseTimeStepWarning)
             history = problem.run(steps, progress=False, summary=False)
         seconds = time.process_time() - c0
+        columns = sum(r.nrhs for r in problem.work.records if r.what == "modes")
         problem.close()
-        changes = sum(r["changes"] for r in history)
-        return np.array([r["force"]["end"][0] for r in history]), seconds, changes
+        record = {"cpu_seconds": seconds, "setup_cpu_seconds": setup, "mode_columns": columns}
+        record["changes"] = sum(r["changes"] for r in history)
+        return np.array([r["force"]["end"][0] for r in history]), record
 
-    reference, seconds, changes = run(None)
-    out = {"elements": list(elements), "dt": 1e-4, "steps": steps, "changes": changes}
-    out |= {"unreduced_cpu_seconds": seconds, "force_unreduced": reference.tolist(), "runs": {}}
+    reference, record = run(None)
+    out = {"elements": list(elements), "dt": 1e-4, "steps": steps, "changes": record["changes"]}
+    out |= {"unreduced_cpu_seconds": record["cpu_seconds"], "runs": {}}
+    out |= {"force_unreduced": reference.tolist()}
     peak = np.abs(reference).max()
     for m in modes_list:
-        force, seconds, changes = run(m)
-        error = float(np.abs(force - reference).max() / peak)
-        out["runs"][str(m)] = {"error": error, "cpu_seconds": seconds, "changes": changes}
-        out["runs"][str(m)]["force"] = force.tolist()
-        print(f"paper's bar {elements}, modes {m}: force history error {error:.3g} of the peak")
+        for tolerance in tolerances:
+            force, record = run(m, tolerance)
+            error = float(np.abs(force - reference).max() / peak)
+            key = str(m) if tolerance is None else f"{m} tol={tolerance:g}"
+            out["runs"][key] = {"error": error, **record, "force": force.tolist()}
+            print(f"paper's bar {elements}, modes {key}: force history error {error:.3g} of peak")
     return out
 
 
@@ -294,6 +308,9 @@ def main() -> None:
     parser.add_argument("--trade-elements", type=int, nargs=3, default=[40, 8, 4])
     parser.add_argument("--trade-modes", type=int, nargs="+", default=[5, 10, 20, 40, 80, 160])
     parser.add_argument("--trade-steps", type=int, default=60)
+    parser.add_argument(
+        "--trade-tolerances", type=float, nargs="+", help="paper-trade: the modes' tolerances"
+    )
     parser.add_argument("--worker", help=argparse.SUPPRESS)
     parser.add_argument("--dump", help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -305,7 +322,8 @@ def main() -> None:
     if "peer-accuracy" in args.part:
         peer_accuracy(args)
     if "paper-trade" in args.part:
-        data = paper_trade(args.trade_elements, args.trade_modes, args.trade_steps)
+        tolerances = args.trade_tolerances or [None]
+        data = paper_trade(args.trade_elements, args.trade_modes, args.trade_steps, tolerances)
         nx, ny, nz = args.trade_elements
         out = Path(args.out) if args.out else HERE / f"reduced_paper_trade_{nx}x{ny}x{nz}.json"
         out.write_text(json.dumps(data, indent=1))

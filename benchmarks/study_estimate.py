@@ -44,10 +44,13 @@ this run's.
 ``same_machine`` (``SAME_MACHINE``: ``paper_scale_stop42_same_machine.json``, and
 ``paper_scale_stop43_same_machine.json`` with stop 43's set-up and quiet step, and
 ``paper_scale_stop44_same_machine.json`` with stop 44's refined one-pass solve, and
-``paper_scale_stop45_same_machine.json`` with stop 45's Schur-block reduction), per stop:
+``paper_scale_stop45_same_machine.json`` with stop 45's Schur-block reduction, and
+``paper_scale_stop46_same_machine.json`` with the modes found to the tolerances 0.5, 0.1
+and the default, ``REDUCED_RUN``), per stop:
 the m = 320 run, FULL and the unreduced w-u at 1/4 in one invocation on one otherwise idle
 machine (load about 1), each its own process, compared by CPU time: the percentage of FULL
-without a prediction or another machine's rates, and the peak memory against w-u's.
+without a prediction or another machine's rates, the peak memory against w-u's and, where
+the runs recorded their contact forces, the reduced force history's error over the peak.
 
 Writes benchmarks/results/paper_study_estimate.json.
 
@@ -70,6 +73,15 @@ SAME_MACHINE = {
     "stop 43": "paper_scale_stop43_same_machine.json",
     "stop 44": "paper_scale_stop44_same_machine.json",
     "stop 45": "paper_scale_stop45_same_machine.json",
+    # the modes to 0.5 (the block Krylov space, unrestarted) and to 0.1; the default as before
+    "stop 46": "paper_scale_stop46_same_machine.json",
+    "stop 46, tol 0.1": "paper_scale_stop46_same_machine.json",
+    "stop 46, default tolerance": "paper_scale_stop46_same_machine.json",
+}
+#: A stop's reduced run where it is not SAME_RUNS' (its label names the modes' tolerance).
+REDUCED_RUN = {
+    "stop 46": "parallelepiped|1/4|w-u reduced m=320 tol=0.5|run",
+    "stop 46, tol 0.1": "parallelepiped|1/4|w-u reduced m=320 tol=0.1|run",
 }
 SAME_RUNS = {
     "reduced": "parallelepiped|1/4|w-u reduced m=320|run",
@@ -101,6 +113,16 @@ def rates(run: dict) -> dict:
         "peak_rss_gib": max(run["peak_rss_gib"]),
         "load_average_mean": run.get("load_average_mean"),
     }
+
+
+def history_error(reduced: dict, unreduced: dict) -> float | None:
+    """The largest difference of the contact force (x) over the unreduced run's peak, step
+    by step, where both runs recorded it (``paper_scale.py`` since stop 46)."""
+    if "force" not in unreduced["steps"][0] or "force" not in reduced["steps"][0]:
+        return None
+    steps = min(len(reduced["steps"]), len(unreduced["steps"]))
+    x = [np.array([s["force"]["end"][0] for s in r["steps"][:steps]]) for r in (reduced, unreduced)]
+    return float(np.abs(x[0] - x[1]).max() / np.abs(x[1]).max())
 
 
 def whole(r: dict) -> float:
@@ -246,7 +268,8 @@ def main() -> None:
     out["same_machine"] = {}
     for stop, name in SAME_MACHINE.items():
         same = json.loads((HERE / name).read_text())["runs"] if (HERE / name).exists() else {}
-        parts = {label: rates(same[key]) for label, key in SAME_RUNS.items() if key in same}
+        keys = SAME_RUNS | {"reduced": REDUCED_RUN.get(stop, SAME_RUNS["reduced"])}
+        parts = {label: rates(same[key]) for label, key in keys.items() if key in same}
         if {"reduced", "FULL"} <= parts.keys():
             full_cpu, reduced = whole(parts["FULL"]), parts["reduced"]
             entry = out["same_machine"][stop] = {
@@ -260,6 +283,9 @@ def main() -> None:
                 entry["peak_rss_gib_over_w-u"] = float(
                     reduced["peak_rss_gib"] / parts["w-u"]["peak_rss_gib"]
                 )
+                error = history_error(same[keys["reduced"]], same[keys["w-u"]])
+                if error is not None:
+                    entry["force_history_error_over_peak"] = error
             print("same machine", stop, {k: v for k, v in entry.items() if k != "runs"})
     target = HERE / "paper_study_estimate.json"
     if target.exists():  # the estimate before the last re-measurement, kept as "before"
