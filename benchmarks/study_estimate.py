@@ -77,11 +77,18 @@ SAME_MACHINE = {
     "stop 46": "paper_scale_stop46_same_machine.json",
     "stop 46, tol 0.1": "paper_scale_stop46_same_machine.json",
     "stop 46, default tolerance": "paper_scale_stop46_same_machine.json",
+    # the three again, each its own process, the default first (FULL's run is the first's)
+    "stop 46, second run": "paper_scale_stop46_same_machine.json",
+    "stop 46, tol 0.1, second run": "paper_scale_stop46_same_machine.json",
+    "stop 46, default tolerance, second run": "paper_scale_stop46_same_machine.json",
 }
 #: A stop's reduced run where it is not SAME_RUNS' (its label names the modes' tolerance).
 REDUCED_RUN = {
     "stop 46": "parallelepiped|1/4|w-u reduced m=320 tol=0.5|run",
     "stop 46, tol 0.1": "parallelepiped|1/4|w-u reduced m=320 tol=0.1|run",
+    "stop 46, second run": "parallelepiped|1/4+2|w-u reduced m=320 tol=0.5|run",
+    "stop 46, tol 0.1, second run": "parallelepiped|1/4+2|w-u reduced m=320 tol=0.1|run",
+    "stop 46, default tolerance, second run": "parallelepiped|1/4+2|w-u reduced m=320|run",
 }
 SAME_RUNS = {
     "reduced": "parallelepiped|1/4|w-u reduced m=320|run",

@@ -180,7 +180,10 @@ class Subdomain:
                 its interior dofs or more: every mode, the interior kept whole, for an
                 interior of up to ``WHOLE_INTERIOR_LIMIT`` dofs).
             tolerance: The eigensolver's relative tolerance on the modes
-                (``||A^-1 M x - x / lambda|| <= tolerance / lambda``).
+                (``||A^-1 M x - x / lambda|| <= tolerance / lambda``). The model is exact
+                in whatever basis it finds, so a loose one (0.1-0.5: the higher "modes"
+                are Ritz vectors) still carries the dynamics: the paper's bar with m = 320
+                kept its force history within 0.65 % at 0.5 and set up a third faster.
             if_cheaper: Keep it whole instead when its reduced block (boundary dofs, modes
                 and load modes: dense) would cost more to substitute than its sparse factor,
                 priced with this machine's measured rates: a block that is mostly boundary

@@ -166,3 +166,20 @@ def test_an_interior_without_boundary_is_factorised_alone():
         assert np.abs(factor.solve(b, "t") - want).max() <= 1e-12 * np.abs(want).max()
     finally:
         factor.destroy()
+
+
+@pytest.mark.parametrize("mirrored", [True, False])
+def test_the_bordered_pattern_is_the_matrix_with_its_coupling_and_a_zero_schur_block(mirrored):
+    """``bordered``: [[K, C], [C^T, 0]] from K's COO (both triangles), or its upper
+    triangle from K's (``mirrored`` False); the Schur block's diagonal stored as zeros."""
+    from dd_contact.solvers.mumps_schur import bordered
+
+    K = _spd(40)
+    C = sp.random_array((40, 7), density=0.1, rng=np.random.default_rng(5))
+    given = sp.coo_array(K if mirrored else sp.triu(K))
+    rows, cols, values = bordered((given.row, given.col, given.data), sp.coo_array(C), mirrored)
+    made = sp.coo_array((values, (rows, cols)), shape=(47, 47)).toarray()
+    whole = sp.block_array([[K, C], [C.T, sp.csr_array((7, 7))]]).toarray()
+    np.testing.assert_array_equal(made, whole if mirrored else np.triu(whole))
+    assert np.count_nonzero((rows == cols) & (rows >= 40)) == 7  # the zero diagonal, given
+    assert rows.dtype == given.row.dtype

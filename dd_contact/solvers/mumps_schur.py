@@ -521,7 +521,7 @@ def bordered(
     rows, cols, values = K
     C = C.tocoo()
     n, m = C.shape
-    schur = n + np.arange(m)
+    schur = np.arange(n, n + m, dtype=rows.dtype)  # K's index type: no wider copy
     mirror = [(C.col + n, C.row, C.data)] if mirrored else []
     parts = [(rows, cols, values), (C.row, C.col + n, C.data), *mirror, (schur, schur, np.zeros(m))]
     return tuple(np.concatenate(p) for p in zip(*parts, strict=True))  # type: ignore[return-value]
