@@ -81,6 +81,9 @@ SAME_MACHINE = {
     "stop 46, second run": "paper_scale_stop46_same_machine.json",
     "stop 46, tol 0.1, second run": "paper_scale_stop46_same_machine.json",
     "stop 46, default tolerance, second run": "paper_scale_stop46_same_machine.json",
+    # and a third of the modes to 0.5 and of the default (medians of three)
+    "stop 46, third run": "paper_scale_stop46_same_machine.json",
+    "stop 46, default tolerance, third run": "paper_scale_stop46_same_machine.json",
 }
 #: A stop's reduced run where it is not SAME_RUNS' (its label names the modes' tolerance).
 REDUCED_RUN = {
@@ -89,6 +92,8 @@ REDUCED_RUN = {
     "stop 46, second run": "parallelepiped|1/4+2|w-u reduced m=320 tol=0.5|run",
     "stop 46, tol 0.1, second run": "parallelepiped|1/4+2|w-u reduced m=320 tol=0.1|run",
     "stop 46, default tolerance, second run": "parallelepiped|1/4+2|w-u reduced m=320|run",
+    "stop 46, third run": "parallelepiped|1/4+3|w-u reduced m=320 tol=0.5|run",
+    "stop 46, default tolerance, third run": "parallelepiped|1/4+3|w-u reduced m=320|run",
 }
 SAME_RUNS = {
     "reduced": "parallelepiped|1/4|w-u reduced m=320|run",
