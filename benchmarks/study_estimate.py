@@ -46,7 +46,7 @@ this run's.
 ``paper_scale_stop44_same_machine.json`` with stop 44's refined one-pass solve, and
 ``paper_scale_stop45_same_machine.json`` with stop 45's Schur-block reduction, and
 ``paper_scale_stop46_same_machine.json`` with the modes found to the tolerances 0.5, 0.1
-and the default, ``REDUCED_RUN``), per stop:
+and the default, each run's key in ``SAME_MACHINE``), per stop:
 the m = 320 run, FULL and the unreduced w-u at 1/4 in one invocation on one otherwise idle
 machine (load about 1), each its own process, compared by CPU time: the percentage of FULL
 without a prediction or another machine's rates, the peak memory against w-u's and, where
@@ -68,32 +68,33 @@ import numpy as np
 HERE = Path(__file__).parent / "results"
 STEPS, CHANGES = 10_000, 20_000  # Table 3 (dd_contact.paper.flops.paper.PAPER_BAR)
 KEYS = ("setup", "step", "change")
-SAME_MACHINE = {
-    "stop 42": "paper_scale_stop42_same_machine.json",
-    "stop 43": "paper_scale_stop43_same_machine.json",
-    "stop 44": "paper_scale_stop44_same_machine.json",
-    "stop 45": "paper_scale_stop45_same_machine.json",
-    # the modes to 0.5 (the block Krylov space, unrestarted) and to 0.1; the default as before
-    "stop 46": "paper_scale_stop46_same_machine.json",
-    "stop 46, tol 0.1": "paper_scale_stop46_same_machine.json",
-    "stop 46, default tolerance": "paper_scale_stop46_same_machine.json",
-    # the three again, each its own process, the default first (FULL's run is the first's)
-    "stop 46, second run": "paper_scale_stop46_same_machine.json",
-    "stop 46, tol 0.1, second run": "paper_scale_stop46_same_machine.json",
-    "stop 46, default tolerance, second run": "paper_scale_stop46_same_machine.json",
-    # and a third of the modes to 0.5 and of the default (medians of three)
-    "stop 46, third run": "paper_scale_stop46_same_machine.json",
-    "stop 46, default tolerance, third run": "paper_scale_stop46_same_machine.json",
+#: Per stop: its file and, where it is not SAME_RUNS' "reduced", its reduced run's key (the
+#: label names the modes' tolerance).
+SAME_MACHINE: dict[str, tuple[str, str | None]] = {
+    "stop 42": ("paper_scale_stop42_same_machine.json", None),
+    "stop 43": ("paper_scale_stop43_same_machine.json", None),
+    "stop 44": ("paper_scale_stop44_same_machine.json", None),
+    "stop 45": ("paper_scale_stop45_same_machine.json", None),
 }
-#: A stop's reduced run where it is not SAME_RUNS' (its label names the modes' tolerance).
-REDUCED_RUN = {
-    "stop 46": "parallelepiped|1/4|w-u reduced m=320 tol=0.5|run",
-    "stop 46, tol 0.1": "parallelepiped|1/4|w-u reduced m=320 tol=0.1|run",
-    "stop 46, second run": "parallelepiped|1/4+2|w-u reduced m=320 tol=0.5|run",
-    "stop 46, tol 0.1, second run": "parallelepiped|1/4+2|w-u reduced m=320 tol=0.1|run",
-    "stop 46, default tolerance, second run": "parallelepiped|1/4+2|w-u reduced m=320|run",
-    "stop 46, third run": "parallelepiped|1/4+3|w-u reduced m=320 tol=0.5|run",
-    "stop 46, default tolerance, third run": "parallelepiped|1/4+3|w-u reduced m=320|run",
+# stop 46: the modes to 0.5 (the block Krylov space, unrestarted), to 0.1 and to the default;
+# the three again (tag +2, the default first) and 0.5 and the default a third time (+3);
+# FULL's and w-u's runs are the first invocation's
+_STOP46 = "paper_scale_stop46_same_machine.json"
+SAME_MACHINE |= {
+    "stop 46": (_STOP46, "parallelepiped|1/4|w-u reduced m=320 tol=0.5|run"),
+    "stop 46, tol 0.1": (_STOP46, "parallelepiped|1/4|w-u reduced m=320 tol=0.1|run"),
+    "stop 46, default tolerance": (_STOP46, "parallelepiped|1/4|w-u reduced m=320|run"),
+    "stop 46, second run": (_STOP46, "parallelepiped|1/4+2|w-u reduced m=320 tol=0.5|run"),
+    "stop 46, tol 0.1, second run": (_STOP46, "parallelepiped|1/4+2|w-u reduced m=320 tol=0.1|run"),
+    "stop 46, default tolerance, second run": (
+        _STOP46,
+        "parallelepiped|1/4+2|w-u reduced m=320|run",
+    ),
+    "stop 46, third run": (_STOP46, "parallelepiped|1/4+3|w-u reduced m=320 tol=0.5|run"),
+    "stop 46, default tolerance, third run": (
+        _STOP46,
+        "parallelepiped|1/4+3|w-u reduced m=320|run",
+    ),
 }
 SAME_RUNS = {
     "reduced": "parallelepiped|1/4|w-u reduced m=320|run",
@@ -278,9 +279,9 @@ def main() -> None:
         out["study_seconds"][label] = entry
         print(label, {k: round(v, 4) for k, v in entry.items()})
     out["same_machine"] = {}
-    for stop, name in SAME_MACHINE.items():
+    for stop, (name, reduced_run) in SAME_MACHINE.items():
         same = json.loads((HERE / name).read_text())["runs"] if (HERE / name).exists() else {}
-        keys = SAME_RUNS | {"reduced": REDUCED_RUN.get(stop, SAME_RUNS["reduced"])}
+        keys = SAME_RUNS | {"reduced": reduced_run or SAME_RUNS["reduced"]}
         parts = {label: rates(same[key]) for label, key in keys.items() if key in same}
         if {"reduced", "FULL"} <= parts.keys():
             full_cpu, reduced = whole(parts["FULL"]), parts["reduced"]

@@ -209,9 +209,8 @@ class SchurInterior:
         del H
         rows, cols, values = bordered(upper, sp.coo_array(A_ib), mirrored=False)
         del upper
-        self._factor = SchurFactorisation(
-            rows.astype(np.int32), cols.astype(np.int32), ni + nb, nb, log, block
-        )
+        rows, cols = rows.astype(np.int32, copy=False), cols.astype(np.int32, copy=False)
+        self._factor = SchurFactorisation(rows, cols, ni + nb, nb, log, block)
         del rows, cols
         self._factor.factorise(values)  # S = -A_bi A_ii^-1 A_ib: the reduction forms its own
         self._factor.release_matrix()
