@@ -25,15 +25,18 @@ def _spd(n: int = 300, seed: int = 3) -> sp.csr_array:
     return sp.csr_array(R + R.T + 10.0 * sp.eye_array(n))
 
 
-def test_products_equal_the_whole_matrix():
+@pytest.mark.parametrize("whole", [False, True])
+def test_products_equal_the_whole_matrix(whole):
     A = _spd()
     X = np.random.default_rng(1).random((A.shape[0], 13))  # more than PRODUCT_COLUMNS
-    M = InteriorMatrix(A)
+    M = InteriorMatrix(A, whole=whole)
+    assert (M.half is None) == whole and (M.whole is None) != whole  # held one way only
     assert M.nnz == A.nnz  # both triangles counted, as the AIJ matrix stores them
     ref = A @ X
     assert np.abs(M @ X - ref).max() <= 1e-13 * np.abs(ref).max()
     assert (M @ X).flags.f_contiguous  # as MUMPS's solves take it
     assert np.abs(M @ X[:, 0] - ref[:, 0]).max() <= 1e-13 * np.abs(ref).max()
+    assert np.abs(M.upper() - sp.triu(A)).max() <= 1e-15 * np.abs(A).max()
     # the PETSc copy, made when asked for, is the whole matrix's upper triangle
     assert M._mat is None
     assert M.mat.getType() == "seqsbaij"

@@ -97,6 +97,37 @@ def test_the_walls_directions_taken_from_the_reduced_mass_equal_the_solved_ones(
     basis.destroy()
 
 
+@pytest.mark.parametrize("modes, tolerance", [(6, 1e-6), (12, 0.5), (0, 1e-6)])
+def test_the_modes_krylov_relation_gives_the_mass_products_give(monkeypatch, modes, tolerance):
+    """M_r's coupling of modes to constraint modes from the block eigensolver's Krylov
+    relation (no product with G per block) equals the products' (SLEPc's modes take them),
+    converged modes or not (0.5: Ritz vectors far from converged), and with no modes."""
+    from dd_contact.solvers import reduced
+
+    scene = _cantilever(nx=8)
+    pattern = np.random.default_rng(2).standard_normal(scene.subdomains[0].num_dofs)
+
+    def basis():
+        return cantilever_basis(scene, modes, patterns=[pattern], tolerance=tolerance)[0]
+
+    related = basis()
+    modes_of = reduced.ReducedBasis._modes
+    monkeypatch.setattr(reduced.ReducedBasis, "_modes", lambda *a: (*modes_of(*a)[:2], None))
+    multiplied = basis()
+    try:
+        assert related.G.shape[1] == modes + 1  # the load mode too
+        np.testing.assert_array_equal(related.G, multiplied.G)  # the same basis
+        scale = np.abs(multiplied.M_r).max()
+        assert np.abs(related.M_r - multiplied.M_r).max() <= 1e-12 * scale
+        assert np.abs(related.A_r - multiplied.A_r).max() == 0.0
+        assert related._constraints_in_modes is not None
+        assert multiplied._constraints_in_modes is not None
+        diff = related._constraints_in_modes - multiplied._constraints_in_modes
+        assert np.abs(diff).max() <= 1e-12 * np.abs(multiplied._constraints_in_modes).max()
+    finally:
+        related.destroy(), multiplied.destroy()
+
+
 def test_a_load_in_the_patterns_span_up_to_its_assemblys_round_off_needs_no_substitution():
     """A re-assembled load differs from its patterns' combination by round-off that grows
     with the mesh (above 1e-12 of it at 342k dofs, where each step then paid a substitution

@@ -40,7 +40,7 @@ import scipy.linalg
 from dd_contact.errors import SingularMatrixError
 from dd_contact.solvers.linalg import release_freed_memory
 
-__all__ = ["EigenStatistics", "fixed_interface_modes", "lowest_modes"]
+__all__ = ["EigenStatistics", "KrylovResidual", "fixed_interface_modes", "lowest_modes"]
 
 #: SLEPc's workspace is count + this many vectors of the interior (its default, twice the
 #: count, held 640 vectors for 320 modes) ...
@@ -118,6 +118,21 @@ class EigenStatistics:
             return out
 
         return run
+
+
+@dataclass
+class KrylovResidual:
+    """What the modes X that :func:`lowest_modes` returns miss of being invariant under C.
+
+    ``C X = X diag(theta) + Q B`` with ``C = A^-1 M`` and ``theta = 1 / lambda``: the
+    Krylov relation of their space (Rayleigh-Ritz vectors: it holds to round-off whether or
+    not they converged), with Q (``block``, n x b) M-orthonormal to X and B (``coupling``,
+    b x count). So ``X^T M A^-1 F = (C X)^T F`` is had for any F without a solve. Exact
+    eigenvectors (the small problems solved whole) have ``b = 0``.
+    """
+
+    block: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    coupling: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
 
 Apply = Callable[[np.ndarray], np.ndarray]
@@ -251,6 +266,7 @@ def lowest_modes(
     workspace: int = 64,
     extra: int = 0,
     stats: EigenStatistics | None = None,
+    krylov_residual: KrylovResidual | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``count`` lowest ``lambda`` of ``A x = lambda M x`` and their M-orthonormal x.
 
@@ -265,6 +281,7 @@ def lowest_modes(
         workspace: The basis holds ``count`` + this many columns (at least two blocks more).
         extra: Columns left after the modes in the returned array (the load modes).
         stats: Filled with the columns solved, the block solves and the restarts.
+        krylov_residual: Filled with the modes' :class:`KrylovResidual` (the last block's copy).
 
     Returns:
         ``lambda`` ascending, and the modes as the first ``count`` columns of an
@@ -274,6 +291,9 @@ def lowest_modes(
     start = time.process_time()
     solve, mass = stats.timed("solve", solve), stats.timed("mass", mass)
     if count + 2 * block > n:  # a small problem: C whole, in blocks
+        if krylov_residual is not None:  # exact eigenvectors: nothing missed
+            krylov_residual.block = np.zeros((n, 0))
+            krylov_residual.coupling = np.zeros((0, count))
         return _dense(solve, mass, n, count, block, extra, stats)
     columns = min(n, count + max(workspace, 2 * block))
     rng = np.random.default_rng(20260528)
@@ -311,6 +331,9 @@ def lowest_modes(
         stats.restarts += 1
     if not done.all():
         raise _refusal(name, count, int(done.sum()), tolerance, stats.residuals)
+    if krylov_residual is not None:  # C V_k S = V_k S diag(theta) + Q (H_qk S), before V goes
+        krylov_residual.block = np.array(basis.V[:, k:filled], order="F")
+        krylov_residual.coupling = coupling[:, :count].copy()
     rotate(S[:, :count])
     del Q, MQ, W
     stats.cpu["all"] += time.process_time() - start

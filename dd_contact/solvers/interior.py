@@ -47,35 +47,54 @@ def _dense(X: np.ndarray, comm) -> PETSc.Mat:
 
 
 class InteriorMatrix:
-    """A symmetric interior block held once: its upper triangle, as a scipy CSR array.
+    """A symmetric interior block held once: by its upper triangle, or whole (scipy CSR).
 
-    Held with half its diagonal (``H = triu(A, 1) + D / 2``, halving is exact), so that a
-    product is ``H X + H^T X``: scipy's, which read the triangle once for all of a block's
-    columns, where PETSc's SBAIJ product with a dense matrix reads the matrix once per column
-    (at 332k rows and 26M entries: 57 ms a column, against 17-29). :attr:`mat`, the PETSc
-    SBAIJ copy MUMPS factorises (it reads an SBAIJ matrix's values in place; of an AIJ one
-    it copies the upper triangle) and SLEPc reads, is made when first asked for and freed
-    by :meth:`release`.
+    By the triangle (the stiffness: MUMPS and one congruence read it), with half its
+    diagonal (``H = triu(A, 1) + D / 2``, halving is exact), so that a product is
+    ``H X + H^T X``; whole (``whole=True``: the mass, whose products are most of a
+    reduction's after its solves), a product reads it once by rows. At 1/4 of the paper's
+    bar (335k interior dofs, the mass's 8.4M entries) the triangle's products took 11-15 ms a
+    column, the whole matrix's 5-6 (the transposed half scatters), for 50 MB more. Both are
+    scipy's, which read the matrix once for all of a block's columns, where PETSc's SBAIJ
+    product with a dense matrix reads it once per column (57 ms a column of the stiffness,
+    against 17-29). :attr:`mat`, the PETSc SBAIJ copy MUMPS factorises (it reads an SBAIJ
+    matrix's values in place; of an AIJ one it copies the upper triangle) and SLEPc reads, is
+    made when first asked for and freed by :meth:`release`.
     """
 
-    def __init__(self, A: sp.sparray):
-        U = sp.triu(sp.csr_array(A), format="csr")
-        U.sort_indices()
-        diagonal = U.diagonal()
-        self.half = sp.csr_array(U - sp.diags_array(diagonal / 2.0, format="csr"))
-        self.half.sort_indices()
-        del U
+    def __init__(self, A: sp.sparray, whole: bool = False):
+        if whole:
+            self.whole: sp.csr_array | None = sp.csr_array(A)  # A's arrays, not a copy
+            self.whole.sort_indices()
+            self.half: sp.csr_array | None = None
+            #: Stored entries of both triangles (as an AIJ matrix's), for the work log.
+            self.nnz = self.whole.nnz
+        else:
+            U = sp.triu(sp.csr_array(A), format="csr")
+            U.sort_indices()
+            diagonal = U.diagonal()
+            self.half = sp.csr_array(U - sp.diags_array(diagonal / 2.0, format="csr"))
+            self.half.sort_indices()
+            del U
+            self.whole = None
+            self.nnz = 2 * self.half.nnz - np.count_nonzero(diagonal)
         self._mat: PETSc.Mat | None = None
-        #: Stored entries of both triangles (as an AIJ matrix's), for the work log.
-        self.nnz = 2 * self.half.nnz - np.count_nonzero(diagonal)
+
+    def upper(self) -> sp.csr_array:
+        """The upper triangle with the whole diagonal (a new CSR array, sorted)."""
+        if self.whole is not None:
+            U = sp.triu(self.whole, format="csr")
+        else:
+            assert self.half is not None  # held by its triangle
+            U = sp.csr_array(self.half + sp.diags_array(self.half.diagonal(), format="csr"))
+        U.sort_indices()
+        return U
 
     @property
     def mat(self) -> PETSc.Mat:
         """The PETSc SBAIJ copy (made on first use)."""
         if self._mat is None:
-            H, index = self.half, PETSc.IntType
-            U = sp.csr_array(H + sp.diags_array(H.diagonal(), format="csr"))
-            U.sort_indices()
+            U, index = self.upper(), PETSc.IntType
             self._mat = PETSc.Mat().createSBAIJ(
                 U.shape[0],
                 1,
@@ -101,6 +120,9 @@ class InteriorMatrix:
         return out
 
     def _product(self, X: np.ndarray) -> np.ndarray:
+        if self.whole is not None:
+            return self.whole @ X
+        assert self.half is not None  # held by its triangle
         out = self.half @ X
         out += self.half.T @ X
         return out
@@ -204,9 +226,9 @@ class SchurInterior:
     def __init__(self, A: InteriorMatrix, A_ib: sp.sparray, log: WorkLog, block: str):
         self.log, self.block = log, block
         ni, nb = A_ib.shape
-        H = sp.coo_array(A.half)  # the triangle with half its diagonal
-        upper = (H.row, H.col, np.where(H.row == H.col, 2.0, 1.0) * H.data)
-        del H
+        U = sp.coo_array(A.upper())
+        upper = (U.row, U.col, U.data)
+        del U
         rows, cols, values = bordered(upper, sp.coo_array(A_ib), mirrored=False)
         del upper
         rows, cols = rows.astype(np.int32, copy=False), cols.astype(np.int32, copy=False)

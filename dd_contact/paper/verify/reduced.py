@@ -25,6 +25,7 @@ from dd_contact.solvers.reduced import ReducedBasis, _petsc, fixed_interface_mod
 from dd_contact.solvers.reduced_model import tied_dofs
 from dd_contact.solvers.subdomains import coupling_layout
 from dd_contact.solvers.worklog import WorkLog
+from dd_contact.subdomains import MODES_TOLERANCE
 
 __all__ = ["cantilever", "cantilever_basis", "case_reduced_modes", "case_reduced_static"]
 
@@ -56,8 +57,10 @@ def cantilever(nx: int = 10, parts: int = 1, kappa: float = 1e3) -> dd.Scene:
     return dd.Scene(MPI.COMM_WORLD, subs, interface=interface, contacts=[contact])
 
 
-def cantilever_basis(scene: dd.Scene, modes: int, sub: int = 0, patterns=()) -> tuple:
-    """A subdomain's basis with its assembled A, M and prescribed dofs."""
+def cantilever_basis(
+    scene: dd.Scene, modes: int, sub: int = 0, patterns=(), tolerance: float = MODES_TOLERANCE
+) -> tuple:
+    """A subdomain's basis with its assembled A, M and prescribed dofs (modes to ``tolerance``)."""
     model = assemble(scene)
     block = scene.subdomains[sub].block
     A = sp.csr_array(model.system.block(block, block))
@@ -65,7 +68,7 @@ def cantilever_basis(scene: dd.Scene, modes: int, sub: int = 0, patterns=()) -> 
     dofs = model.dirichlet[block][0]
     M = model.mass[block]
     tied = tied_dofs(C)
-    basis = ReducedBasis(A, M, tied, dofs, patterns, modes, WorkLog(), "cantilever")
+    basis = ReducedBasis(A, M, tied, dofs, patterns, modes, WorkLog(), "cantilever", tolerance)
     return basis, A, M, dofs
 
 
