@@ -137,6 +137,21 @@ def test_a_reductions_factor_answers_by_sweeps_as_by_dense_algebra(kind):
         else:
             assert set(solves) == {"sparse_solve"}
         assert len(solves) == 9
+        # a workspace reused block after block gives the same (B in its first rows: no copy)
+        work = factor.workspace(5)
+        U, B = rng.standard_normal((b.size, 5)), rng.standard_normal((i.size, 5))
+        want = (np.linalg.solve(A_ii, A_ib @ U), A_ib.T @ np.linalg.solve(A_ii, B))
+        for _ in range(2):
+            response = factor.response(U, "t", work).copy()
+            inside = work[: i.size]
+            inside[:] = B
+            got = (response, factor.condensed(inside, "t", work))
+            for value, expected in zip(got, want, strict=True):
+                assert np.abs(value - expected).max() <= 1e-12 * np.abs(expected).max()
+        if kind == "schur":
+            assert np.shares_memory(factor.response(U, "t", work), work)  # the answer's rows
+            with pytest.raises(ValueError, match="a workspace of 4 columns"):
+                factor.response(U[:, :4], "t", work)
     finally:
         factor.destroy()
 

@@ -110,10 +110,15 @@ class InteriorMatrix:
             self._mat = None
 
     def __matmul__(self, X: np.ndarray) -> np.ndarray:
+        return self.times(X)
+
+    def times(self, X: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """``A X``, into ``out`` if given (X's shape; else a new Fortran-ordered array)."""
         X = np.asarray(X, dtype=float)
         if X.ndim == 1:
             return self._product(X)
-        out = np.empty(X.shape, order="F")  # as MUMPS's solves take them: no copy there
+        if out is None:
+            out = np.empty(X.shape, order="F")  # as MUMPS's solves take them: no copy there
         for j0 in range(0, X.shape[1], PRODUCT_COLUMNS):
             j1 = j0 + PRODUCT_COLUMNS
             out[:, j0:j1] = self._product(np.ascontiguousarray(X[:, j0:j1]))
@@ -242,13 +247,20 @@ class SchurInterior:
         """``A_ii^-1 B`` (``what`` ``None``: not logged)."""
         return self._factor.solve_interior(B, what)
 
-    def response(self, U: np.ndarray, what: str) -> np.ndarray:
-        """``A_ii^-1 A_ib U``: the interior held by boundary values U (one backward sweep)."""
-        return self._factor.response(U, what)
+    def response(self, U: np.ndarray, what: str, into: np.ndarray | None = None) -> np.ndarray:
+        """``A_ii^-1 A_ib U``: the interior held by boundary values U (one backward sweep).
 
-    def condensed(self, B: np.ndarray, what: str) -> np.ndarray:
-        """``A_bi A_ii^-1 B`` (one forward sweep)."""
-        return -self._factor.reduce(B, what)
+        ``into``: a :meth:`workspace` of U's columns, whose first rows are then the answer.
+        """
+        return self._factor.response(U, what, into)
+
+    def condensed(self, B: np.ndarray, what: str, into: np.ndarray | None = None) -> np.ndarray:
+        """``A_bi A_ii^-1 B`` (one forward sweep); B may be ``into`` 's first rows."""
+        return -self._factor.reduce(B, what, into)
+
+    def workspace(self, k: int) -> np.ndarray:
+        """An array for k columns to pass as ``into`` call after call (touched only once)."""
+        return self._factor.workspace(k)
 
     def destroy(self) -> None:
         """Free MUMPS's memory."""
@@ -271,14 +283,18 @@ class PlainInterior:
             return multi_solve(self._cholesky, B, what)
         return multi_solve(self._cholesky, B[:, None], what)[:, 0]
 
-    def response(self, U: np.ndarray, what: str) -> np.ndarray:
-        """``A_ii^-1 A_ib U``."""
+    def response(self, U: np.ndarray, what: str, into: np.ndarray | None = None) -> np.ndarray:
+        """``A_ii^-1 A_ib U`` (``into`` is not used: the whole solve makes its own)."""
         B = self._A_ib @ U
         return self.solve(np.asfortranarray(B) if B.ndim == 2 else B, what)
 
-    def condensed(self, B: np.ndarray, what: str) -> np.ndarray:
-        """``A_bi A_ii^-1 B``."""
+    def condensed(self, B: np.ndarray, what: str, into: np.ndarray | None = None) -> np.ndarray:
+        """``A_bi A_ii^-1 B`` (``into``: not used)."""
         return self._A_ib.T @ self.solve(B, what)
+
+    def workspace(self, k: int) -> np.ndarray:
+        """An interior block of k columns (:meth:`SchurInterior.workspace`'s role)."""
+        return np.empty((self._A_ib.shape[0], k), order="F")
 
     def destroy(self) -> None:
         """Free the factorisation."""

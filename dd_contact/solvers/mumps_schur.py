@@ -364,20 +364,35 @@ class SchurFactorisation:
         self.log.add(self.block, "schur", m, 0, time.perf_counter() - start)
         return S
 
-    def reduce(self, b: np.ndarray, what: str = "u_hat") -> np.ndarray:
+    def reduce(
+        self, b: np.ndarray, what: str = "u_hat", into: np.ndarray | None = None
+    ) -> np.ndarray:
         """``-C^T K^-1 b``: MUMPS's reduction phase, one forward sweep (kept for :meth:`expand`).
 
         ``b``: one right-hand side, or n x k of them (one sweep of the factor for all).
+        ``into``: a :meth:`workspace` for k columns to use (b may be its first n rows: then
+        it is not copied).
         """
         n = self.size - self.schur
-        rhs, redrhs = self._point(b)
-        rhs[:n], rhs[n:] = b, 0.0
+        rhs, redrhs = self._point(b, into)
+        if not (into is not None and _is_top_of(b, rhs)):
+            rhs[:n] = b
+        rhs[n:] = 0.0
         start = time.perf_counter()
         self._solve(SCHUR_REDUCTION, "reduction")
         self._log_sweep("sparse_forward", time.perf_counter() - start, what, b)
         self.reduced, self._reduced_columns = True, _columns(b)
         self._held = None  # MUMPS keeps the forward sweep itself: the arrays are the caller's
         return redrhs.copy() if b.ndim == 1 else redrhs
+
+    def workspace(self, k: int) -> np.ndarray:
+        """A right-hand-side array for k columns, to be passed as ``into`` call after call.
+
+        An array of n x 64 doubles is given fresh pages by the OS, whose first touch costs
+        (335k rows at 4 KB pages: 55 ms, against 6 to write it again): a loop of several
+        columns a call reuses one instead.
+        """
+        return np.empty((self.size, k), order="F")
 
     def expand(self, xs: np.ndarray, what: str = "u") -> np.ndarray:
         """``K^-1 (b - C xs)`` for the last reduced b: MUMPS's expansion, one backward sweep.
@@ -389,20 +404,21 @@ class SchurFactorisation:
         self._log_sweep("sparse_backward", time.perf_counter() - start, what, xs)
         return x
 
-    def response(self, xs: np.ndarray, what: str) -> np.ndarray:
+    def response(self, xs: np.ndarray, what: str, into: np.ndarray | None = None) -> np.ndarray:
         """``K^-1 C xs`` (xs: m values, or m x k): one backward sweep, no forward one.
 
         MUMPS expands only a reduced right-hand side: the zero one is reduced first, given
         as sparse (ICNTL(20) = 1) with one explicit zero per column on a Schur row, so that
         its forward sweep visits the Schur block alone (85k interior dofs: 9.0 ms a column
-        of 64, against 16.5 for a whole substitution). Logged as one backward sweep.
+        of 64, against 16.5 for a whole substitution). Logged as one backward sweep. ``into``:
+        a :meth:`workspace` for k columns, whose first n rows are then the answer.
         """
         k = _columns(xs)
         zeros = np.zeros(k)
         rows = (self.size - self.schur + 1 + np.arange(k) % self.schur).astype(np.int32)
         starts = np.arange(1, k + 2, dtype=np.int32)
         start = time.perf_counter()
-        self._point(xs)
+        self._point(xs, into)
         self._id.icntl[ICNTL_RHS_FORMAT - 1] = SPARSE_RHS
         self._id.nz_rhs, self._id.rhs_sparse = k, _pointer(zeros, _REAL)
         self._id.irhs_sparse, self._id.irhs_ptr = _pointer(rows, _INT), _pointer(starts, _INT)
@@ -413,16 +429,16 @@ class SchurFactorisation:
             self._id.nz_rhs, self._id.rhs_sparse = 0, _PREAL()
             self._id.irhs_sparse, self._id.irhs_ptr = _PINT(), _PINT()
         self.reduced, self._reduced_columns = True, k
-        x = self._expand(-xs)
+        x = self._expand(-xs, into)
         self._log_sweep("sparse_backward", time.perf_counter() - start, what, xs)
         return x
 
-    def _expand(self, xs: np.ndarray) -> np.ndarray:
+    def _expand(self, xs: np.ndarray, into: np.ndarray | None = None) -> np.ndarray:
         if not self.reduced or _columns(xs) != self._reduced_columns:
             raise RuntimeError(
                 f"block {self.block!r}: expand() needs a reduce() of as many columns first"
             )
-        rhs, redrhs = self._point(xs)
+        rhs, redrhs = self._point(xs, into)
         redrhs[:] = xs
         self._solve(SCHUR_EXPANSION, "expansion")
         self.reduced, self._held = False, None  # MUMPS releases the forward sweep now
@@ -444,19 +460,24 @@ class SchurFactorisation:
             self._log_sweep("sparse_solve", time.perf_counter() - start, what, b, sweeps=2)
         return rhs[:n].copy() if b.ndim == 1 else rhs[:n]
 
-    def _point(self, b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _point(
+        self, b: np.ndarray, into: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
         """MUMPS's right-hand side and reduced one for b's columns.
 
-        This instance's for one column; for several, new arrays (Fortran-ordered, as MUMPS
-        reads them).
+        This instance's for one column; for several, ``into`` (a :meth:`workspace`) or new
+        arrays (Fortran-ordered, as MUMPS reads them).
         """
         if b.ndim == 1:
             self._id.rhs, self._id.nrhs = _pointer(self._rhs, _REAL), 1
             self._id.redrhs = _pointer(self._redrhs, _REAL)
             return self._rhs, self._redrhs
         k = b.shape[1]
-        # new each time: a result handed out is the caller's, not written over later
-        rhs, redrhs = np.zeros((self.size, k), order="F"), np.zeros((self.schur, k), order="F")
+        if into is not None and (into.shape != (self.size, k) or not into.flags.f_contiguous):
+            raise ValueError(f"into: a workspace of {k} columns is needed, got {into.shape}")
+        # new each time unless given: a result handed out is the caller's, not written over
+        rhs = np.zeros((self.size, k), order="F") if into is None else into
+        redrhs = np.zeros((self.schur, k), order="F")
         self._held = (rhs, redrhs)  # held while MUMPS points at them
         self._id.rhs, self._id.nrhs = _pointer(rhs, _REAL), k
         self._id.redrhs = _pointer(redrhs, _REAL)
@@ -549,6 +570,16 @@ def _mirror_lower(S: np.ndarray, rows: int = 256) -> None:
         D = S[r0:r1, r0:r1]
         D[...] = np.tril(D) + np.tril(D, -1).T
         S[r0:r1, r1:] = S[r1:, r0:r1].T
+
+
+def _is_top_of(b: np.ndarray, rhs: np.ndarray) -> bool:
+    """Whether b is rhs's first rows (the same memory, as laid out): nothing to copy."""
+    return (
+        b.ndim == 2
+        and b.shape[1] == rhs.shape[1]
+        and b.ctypes.data == rhs.ctypes.data
+        and b.strides == rhs.strides
+    )
 
 
 def _columns(b: np.ndarray) -> int:

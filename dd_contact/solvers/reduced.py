@@ -319,13 +319,10 @@ class ReducedBasis:
             out[m:] = seen(loads)
         return out
 
-    def _reduced(
-        self, Ap: dict, Mp: dict | None, residual: KrylovResidual | None
-    ) -> tuple[np.ndarray, np.ndarray | None]:
+    def _reduced(self, Ap: dict, Mp: dict | None, residual: KrylovResidual | None) -> tuple:
         """``T^T A T`` and ``T^T M T``, Psi's columns a block at a time (from :func:`_pieces`).
 
-        ``residual``: the modes' Krylov relation, if known (their mass coupling to the
-        constraint modes is then had without a product with G per block).
+        ``residual``: the modes' Krylov relation, if known (:meth:`_constraints_seen_by_modes`).
         """
         G, M = self.G, Mp
         nb, r = self.b.size, self.size
@@ -360,9 +357,12 @@ class ReducedBasis:
         A_bi, A_Di = A_bi[:, near], A_Di[:, near]
         if M is not None:
             M_bi, M_Di = M_bi[:, near], M_Di[:, near]
+        ni, work = self.i.size, [self.factor.workspace(min(chunk, nb)) for _ in range(2)]
         for j0 in range(0, nb, chunk):
             j1 = min(nb, j0 + chunk)
-            X = self.factor.response(_unit_columns(nb, np.arange(j0, j1)), "constraint modes")
+            into = [w[:, : j1 - j0] for w in work]  # the same pages block after block
+            E = _unit_columns(nb, np.arange(j0, j1))
+            X = self.factor.response(E, "constraint modes", into[0])
             X_near = X[near]
             A_r[:nb, j0:j1] = A_bb[:, j0:j1].toarray() - A_bi @ X_near
             self.reaction_rows[:, j0:j1] = A_Db[:, j0:j1].toarray() - A_Di @ X_near
@@ -372,14 +372,14 @@ class ReducedBasis:
             assert self.reaction_mass is not None  # with M
             self.reaction_mass[:, j0:j1] = M_Db[:, j0:j1].toarray() - M_Di @ X_near
             Y_b = M_bb[:, j0:j1].toarray() - M_bi @ X_near  # Y = M Psi, this block of columns
-            Y_i = M_ii @ X
-            del X  # each n x columns array costs (issue 28): three at most
+            Y_i = M_ii.times(X, out=into[1][:ni])
+            del X
             Y_i *= -1.0
             _add_sparse(Y_i, M_ib[:, j0:j1])
             if residual is None:
                 M_r[nb:, j0:j1] = G.T @ Y_i
                 M_r[j0:j1, nb:] = M_r[nb:, j0:j1].T
-            M_r[:nb, j0:j1] = Y_b - self.factor.condensed(Y_i, "constraint modes' mass")
+            M_r[:nb, j0:j1] = Y_b - self.factor.condensed(Y_i, "constraint modes' mass", into[1])
         if M_r is not None and residual is None:
             # G^T M_ii A_ii^-1 A_ib, for the walls' directions without a solve: M_r's modes
             # rows hold G^T Y_i = G^T (M_ib - M_ii A_ii^-1 A_ib), column by column
