@@ -46,7 +46,8 @@ this run's.
 ``paper_scale_stop44_same_machine.json`` with stop 44's refined one-pass solve, and
 ``paper_scale_stop45_same_machine.json`` with stop 45's Schur-block reduction, and
 ``paper_scale_stop46_same_machine.json`` with the modes found to the tolerances 0.5, 0.1
-and the default, each run's key in ``SAME_MACHINE``), per stop:
+and the default, ``paper_scale_stop47_same_machine.json`` with stop 47's reduction, each
+run's key in ``SAME_MACHINE``), per stop:
 the m = 320 run, FULL and the unreduced w-u at 1/4 in one invocation on one otherwise idle
 machine (load about 1), each its own process, compared by CPU time: the percentage of FULL
 without a prediction or another machine's rates, the peak memory against w-u's and, where
@@ -95,6 +96,16 @@ SAME_MACHINE |= {
         _STOP46,
         "parallelepiped|1/4+3|w-u reduced m=320|run",
     ),
+}
+# stop 47: the reduction without fresh pages per block and the modes' Krylov relation; the
+# modes to 0.5 three times (the first invocation with FULL and w-u, then +2 and +3) and the
+# default once
+_STOP47 = "paper_scale_stop47_same_machine.json"
+SAME_MACHINE |= {
+    "stop 47": (_STOP47, "parallelepiped|1/4|w-u reduced m=320 tol=0.5|run"),
+    "stop 47, second run": (_STOP47, "parallelepiped|1/4+2|w-u reduced m=320 tol=0.5|run"),
+    "stop 47, third run": (_STOP47, "parallelepiped|1/4+3|w-u reduced m=320 tol=0.5|run"),
+    "stop 47, default tolerance": (_STOP47, "parallelepiped|1/4|w-u reduced m=320|run"),
 }
 SAME_RUNS = {
     "reduced": "parallelepiped|1/4|w-u reduced m=320|run",
