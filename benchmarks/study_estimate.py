@@ -98,14 +98,19 @@ SAME_MACHINE |= {
     ),
 }
 # stop 47: the reduction without fresh pages per block and the modes' Krylov relation; the
-# modes to 0.5 three times (the first invocation with FULL and w-u, then +2 and +3) and the
-# default once
+# modes to 0.5 three times (the first invocation with FULL and w-u, then +2 and +3), the
+# default once, and the modes to 0.5 with the interior's factor out of core (+ooc)
 _STOP47 = "paper_scale_stop47_same_machine.json"
 SAME_MACHINE |= {
     "stop 47": (_STOP47, "parallelepiped|1/4|w-u reduced m=320 tol=0.5|run"),
     "stop 47, second run": (_STOP47, "parallelepiped|1/4+2|w-u reduced m=320 tol=0.5|run"),
     "stop 47, third run": (_STOP47, "parallelepiped|1/4+3|w-u reduced m=320 tol=0.5|run"),
     "stop 47, default tolerance": (_STOP47, "parallelepiped|1/4|w-u reduced m=320|run"),
+    # the interior's factor out of core (petsc_options mat_mumps_icntl_22 = 1)
+    "stop 47, interior out of core": (
+        _STOP47,
+        "parallelepiped|1/4+ooc|w-u reduced m=320 tol=0.5|run",
+    ),
 }
 SAME_RUNS = {
     "reduced": "parallelepiped|1/4|w-u reduced m=320|run",
