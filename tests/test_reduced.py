@@ -5,6 +5,8 @@ from __future__ import annotations
 import warnings
 from pathlib import Path
 
+from petsc4py import PETSc
+
 import numpy as np
 import pytest
 import scipy.sparse as sp
@@ -274,6 +276,35 @@ def test_a_reduced_block_is_held_for_blas_products_and_without_petsc_copies():
         problem.advance()
     finally:
         problem.close()
+
+
+def test_an_interior_factor_out_of_core_gives_the_in_core_run(tmp_path, monkeypatch):
+    """reduce(out_of_core=True): MUMPS keeps the interior's factor on disk (ICNTL(22) = 1),
+    for that factor alone, and the model, the steps and the expanded field are the same.
+
+    Three modes: the square section's bending pair and the next (a fourth would split the
+    next pair, whose basis is the eigensolver's pick)."""
+    monkeypatch.setenv("MUMPS_OOC_TMPDIR", str(tmp_path))
+    runs = {}
+    for out_of_core in (False, True):
+        scene = _cantilever(nx=6)
+        scene.subdomains[0].reduce(modes=3, out_of_core=out_of_core)
+        problem = dd.TransientProblem(scene, 1e-3, "w-u")
+        try:
+            basis = problem.model.reduced[scene.subdomains[0].block]
+            assert basis.factor._factor.icntl(22) == int(out_of_core)
+            for _ in range(3):
+                problem.advance()
+            nb = basis.b.size
+            u = scene.subdomains[0].u.x.array.copy()  # expanded: read back from the factor
+            runs[out_of_core] = (basis.A_r[:nb, :nb], basis.M_r[:nb, :nb], basis.omega2, u)
+        finally:
+            problem.close()
+    for got, want, tol in zip(runs[True], runs[False], (1e-14, 1e-14, 1e-13, 1e-9), strict=True):
+        assert np.abs(got - want).max() <= tol * np.abs(want).max()  # measured 3e-11 for u
+    assert not PETSc.Options().hasName("dd_contact_mat_mumps_icntl_22")  # put back
+    with pytest.raises(InputError, match=r"out_of_core=\.\.\.\) takes True or False"):
+        _cantilever(nx=4).subdomains[0].reduce(modes=2, out_of_core="yes")
 
 
 def test_reduced_subdomains_refuse_what_is_not_built():

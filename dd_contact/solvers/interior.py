@@ -25,6 +25,7 @@ import scipy.sparse as sp
 
 from dd_contact.solvers.linalg import MATRIX_READERS, SparseCholesky
 from dd_contact.solvers.mumps_schur import SchurFactorisation, bordered, layout_known
+from dd_contact.solvers.petsc_options import options_prefix, petsc_options
 from dd_contact.solvers.worklog import WorkLog
 
 __all__ = [
@@ -34,6 +35,9 @@ __all__ = [
     "SchurInterior",
     "interior_factor",
 ]
+
+#: The option that keeps a MUMPS factor out of core (on disk): ICNTL(22) = 1.
+OUT_OF_CORE = "mat_mumps_icntl_22"
 
 #: Columns an :class:`InteriorMatrix` product takes at once: scipy's products copy them
 #: (C-ordered) and return as many, so the block bounds those temporaries; each block reads
@@ -302,13 +306,17 @@ class PlainInterior:
 
 
 def interior_factor(
-    A: InteriorMatrix, A_ib: sp.sparray, log: WorkLog, block: str
+    A: InteriorMatrix, A_ib: sp.sparray, log: WorkLog, block: str, out_of_core: bool = False
 ) -> SchurInterior | PlainInterior:
-    """``A_ii``'s factor for a reduction.
+    """``A_ii``'s factor for a reduction (``out_of_core``: MUMPS keeps it on disk).
 
     :class:`SchurInterior` where MUMPS's Schur phases can be driven (its C layout is
     known) and there is a boundary to be its Schur block, :class:`PlainInterior` otherwise.
+    Out of core is MUMPS's ICNTL(22) = 1, put under the active options prefix while the
+    factor is made (both kinds read their options there).
     """
-    if A_ib.shape[1] and layout_known():
-        return SchurInterior(A, A_ib, log, block)
-    return PlainInterior(A, A_ib, log, block)
+    options = {OUT_OF_CORE: 1} if out_of_core else None
+    with petsc_options(options, options_prefix()):
+        if A_ib.shape[1] and layout_known():
+            return SchurInterior(A, A_ib, log, block)
+        return PlainInterior(A, A_ib, log, block)

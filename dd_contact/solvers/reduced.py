@@ -198,6 +198,7 @@ class ReducedBasis:
         tolerance: The eigensolver's relative tolerance on the modes.
         eigensolver: ``"block"`` (:func:`~dd_contact.solvers.eigen.lowest_modes`) or
             ``"slepc"`` (:func:`fixed_interface_modes`).
+        out_of_core: Its interior's factor on disk (MUMPS's ICNTL(22) = 1).
 
     Attributes:
         b, i: The boundary and interior dofs (sorted; the prescribed ones in neither).
@@ -219,6 +220,7 @@ class ReducedBasis:
         name: str,
         tolerance: float = MODES_TOLERANCE,
         eigensolver: str = "block",
+        out_of_core: bool = False,
     ):
         n = A.shape[0]
         self.n, self.name, self.log = n, name, log
@@ -240,7 +242,7 @@ class ReducedBasis:
         Ap["ii"] = A_ii = InteriorMatrix(Ap["ii"])
         M_ii = None if Mp is None else InteriorMatrix(Mp.pop("ii"), whole=True)
         release_freed_memory()  # the slicing's temporaries, before the factor's peak
-        self.factor = interior_factor(A_ii, self._A_ib, log, f"{name} (interior)")
+        self.factor = interior_factor(A_ii, self._A_ib, log, f"{name} (interior)", out_of_core)
         P = _pattern_span(patterns, n, self.fixed)
         self.omega2, V, residual = self._modes(
             A_ii, M_ii, modes, (tolerance, eigensolver), P.shape[1]

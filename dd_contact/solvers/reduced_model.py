@@ -120,6 +120,7 @@ def _reduce_owned(model, subdomains: Sequence, log: WorkLog) -> dict[Block, Redu
             sub.name,
             sub.reduction.tolerance,
             sub.reduction.eigensolver,
+            sub.reduction.out_of_core,
         )
         # the massless (wall) dofs among the boundary ones: their reported rates are the
         # step's mean, as a whole subdomain's (dd_contact.kinematics)
