@@ -79,8 +79,8 @@ def case_of(label: str) -> tuple[str, dict | None, bool]:
     """(algorithm, reduction, peer) of a run's label: an algorithm, an iterative peer
     (``CG+GAMG``, ``CG+Jacobi``: FULL by CG on the one-mesh bar, iterative_peer.py) or an
     order with every subdomain reduced (``"w-u reduced m=20"``: m fixed-interface modes;
-    ``"w-u reduced m=320 tol=0.1"``: found to that tolerance), the reduction as
-    ``Subdomain.reduce``'s arguments."""
+    ``"w-u reduced m=320 tol=0.1"``: found to that tolerance; a trailing ``" ooc"``: the
+    interior's factor out of core), the reduction as ``Subdomain.reduce``'s arguments."""
     import iterative_peer
 
     if label in iterative_peer.PEERS:
@@ -88,10 +88,13 @@ def case_of(label: str) -> tuple[str, dict | None, bool]:
     algorithm, _, reduction = label.partition(" reduced m=")
     if not reduction:
         return algorithm, None, False
+    reduction, ooc, _ = reduction.partition(" ooc")
     modes, _, tolerance = reduction.partition(" tol=")
-    options = {"modes": int(modes)}
+    options: dict = {"modes": int(modes)}
     if tolerance:
         options["tolerance"] = float(tolerance)
+    if ooc:
+        options["out_of_core"] = True
     return algorithm, options, False
 
 

@@ -164,3 +164,18 @@ def test_the_low_rank_accuracy_check_measures_every_solver_against_its_reference
     assert solutions["refactorised"]["work"]["dense_factor"] == 1
     exact = max(differences[k] for k in ("refactorised", "v-w-u", "FULL"))
     assert 0.0 < differences["corrected"] <= 2.0 * exact
+
+
+def test_the_paper_scale_labels_name_reduce_s_arguments():
+    """A run's label is the order and ``Subdomain.reduce``'s arguments, which must exist."""
+    import inspect
+
+    import dd_contact as dd
+
+    case_of = _script("paper_scale").case_of
+    assert case_of("FULL") == ("FULL", None, False)
+    assert case_of("w-u reduced m=320") == ("w-u", {"modes": 320}, False)
+    label = "w-u reduced m=320 tol=0.5 ooc"
+    want = {"modes": 320, "tolerance": 0.5, "out_of_core": True}
+    assert case_of(label) == ("w-u", want, False)
+    assert set(want) <= set(inspect.signature(dd.Subdomain.reduce).parameters)

@@ -291,10 +291,7 @@ def lowest_modes(
     start = time.process_time()
     solve, mass = stats.timed("solve", solve), stats.timed("mass", mass)
     if count + 2 * block > n:  # a small problem: C whole, in blocks
-        if krylov_residual is not None:  # exact eigenvectors: nothing missed
-            krylov_residual.block = np.zeros((n, 0))
-            krylov_residual.coupling = np.zeros((0, count))
-        return _dense(solve, mass, n, count, block, extra, stats)
+        return _dense(solve, mass, n, count, block, extra, stats, krylov_residual)
     columns = min(n, count + max(workspace, 2 * block))
     rng = np.random.default_rng(20260528)
     basis = _Basis(n, columns, mass, rng, stats)
@@ -387,8 +384,12 @@ def _kept(done: int, count: int, k: int, columns: int, block: int) -> int:
     return columns - block - block * max(room // block, 1)
 
 
-def _dense(solve: Apply, mass: Apply, n: int, count: int, block: int, extra: int, stats):
+def _dense(
+    solve: Apply, mass: Apply, n: int, count: int, block: int, extra: int, stats, krylov_residual
+):
     """:func:`lowest_modes` of a small pencil: ``M A^-1 M y = theta M y``, whole."""
+    if krylov_residual is not None:  # exact eigenvectors: nothing missed
+        krylov_residual.block, krylov_residual.coupling = np.zeros((n, 0)), np.zeros((0, count))
     eye = np.eye(n)
     M = mass(eye)
     C = np.hstack([solve(M[:, j0 : j0 + block]) for j0 in range(0, n, block)])
