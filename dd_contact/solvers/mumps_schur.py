@@ -388,9 +388,9 @@ class SchurFactorisation:
     def workspace(self, k: int) -> np.ndarray:
         """A right-hand-side array for k columns, to be passed as ``into`` call after call.
 
-        An array of n x 64 doubles is given fresh pages by the OS, whose first touch costs
-        (335k rows at 4 KB pages: 55 ms, against 6 to write it again): a loop of several
-        columns a call reuses one instead.
+        glibc maps an array beyond 32 MB afresh each time, and the first touch of its pages
+        costs the kernel (335k rows x 32 at 4 KB pages: 55 ms, against 6 to write it again):
+        a loop of several columns a call reuses one instead.
         """
         return np.empty((self.size, k), order="F")
 
