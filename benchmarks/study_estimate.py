@@ -99,7 +99,8 @@ SAME_MACHINE |= {
 }
 # stop 47: the reduction without fresh pages per block and the modes' Krylov relation; the
 # modes to 0.5 three times (the first invocation with FULL and w-u, then +2 and +3), the
-# default once, and the modes to 0.5 with the interior's factor out of core (+ooc)
+# default once, and the modes to 0.5 with the interior's factor out of core: by the
+# problem's PETSc options (+ooc), then by reduce(out_of_core=True) (label " ooc")
 _STOP47 = "paper_scale_stop47_same_machine.json"
 SAME_MACHINE |= {
     "stop 47": (_STOP47, "parallelepiped|1/4|w-u reduced m=320 tol=0.5|run"),
@@ -110,6 +111,10 @@ SAME_MACHINE |= {
     "stop 47, interior out of core": (
         _STOP47,
         "parallelepiped|1/4+ooc|w-u reduced m=320 tol=0.5|run",
+    ),
+    "stop 47, reduce(out_of_core=True)": (
+        _STOP47,
+        "parallelepiped|1/4|w-u reduced m=320 tol=0.5 ooc|run",
     ),
 }
 SAME_RUNS = {
