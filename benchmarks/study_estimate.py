@@ -77,25 +77,27 @@ SAME_MACHINE: dict[str, tuple[str, str | None]] = {
     "stop 44": ("paper_scale_stop44_same_machine.json", None),
     "stop 45": ("paper_scale_stop45_same_machine.json", None),
 }
+
+
+def _m320(file: str, tag: str = "", options: str = " tol=0.5") -> tuple[str, str]:
+    """A stop's entry: its file and its m = 320 run at 1/4 (``tag``: the scale's suffix,
+    +2, +3, +ooc; ``options``: the label's after ``m=320``, "" for the default tolerance)."""
+    return file, f"parallelepiped|1/4{tag}|w-u reduced m=320{options}|run"
+
+
 # stop 46: the modes to 0.5 (the block Krylov space, unrestarted), to 0.1 and to the default;
 # the three again (tag +2, the default first) and 0.5 and the default a third time (+3);
 # FULL's and w-u's runs are the first invocation's
 _STOP46 = "paper_scale_stop46_same_machine.json"
 SAME_MACHINE |= {
-    "stop 46": (_STOP46, "parallelepiped|1/4|w-u reduced m=320 tol=0.5|run"),
-    "stop 46, tol 0.1": (_STOP46, "parallelepiped|1/4|w-u reduced m=320 tol=0.1|run"),
-    "stop 46, default tolerance": (_STOP46, "parallelepiped|1/4|w-u reduced m=320|run"),
-    "stop 46, second run": (_STOP46, "parallelepiped|1/4+2|w-u reduced m=320 tol=0.5|run"),
-    "stop 46, tol 0.1, second run": (_STOP46, "parallelepiped|1/4+2|w-u reduced m=320 tol=0.1|run"),
-    "stop 46, default tolerance, second run": (
-        _STOP46,
-        "parallelepiped|1/4+2|w-u reduced m=320|run",
-    ),
-    "stop 46, third run": (_STOP46, "parallelepiped|1/4+3|w-u reduced m=320 tol=0.5|run"),
-    "stop 46, default tolerance, third run": (
-        _STOP46,
-        "parallelepiped|1/4+3|w-u reduced m=320|run",
-    ),
+    "stop 46": _m320(_STOP46),
+    "stop 46, tol 0.1": _m320(_STOP46, options=" tol=0.1"),
+    "stop 46, default tolerance": _m320(_STOP46, options=""),
+    "stop 46, second run": _m320(_STOP46, "+2"),
+    "stop 46, tol 0.1, second run": _m320(_STOP46, "+2", " tol=0.1"),
+    "stop 46, default tolerance, second run": _m320(_STOP46, "+2", ""),
+    "stop 46, third run": _m320(_STOP46, "+3"),
+    "stop 46, default tolerance, third run": _m320(_STOP46, "+3", ""),
 }
 # stop 47: the reduction without fresh pages per block and the modes' Krylov relation; the
 # modes to 0.5 three times (the first invocation with FULL and w-u, then +2 and +3), the
@@ -103,19 +105,12 @@ SAME_MACHINE |= {
 # problem's PETSc options (+ooc), then by reduce(out_of_core=True) (label " ooc")
 _STOP47 = "paper_scale_stop47_same_machine.json"
 SAME_MACHINE |= {
-    "stop 47": (_STOP47, "parallelepiped|1/4|w-u reduced m=320 tol=0.5|run"),
-    "stop 47, second run": (_STOP47, "parallelepiped|1/4+2|w-u reduced m=320 tol=0.5|run"),
-    "stop 47, third run": (_STOP47, "parallelepiped|1/4+3|w-u reduced m=320 tol=0.5|run"),
-    "stop 47, default tolerance": (_STOP47, "parallelepiped|1/4|w-u reduced m=320|run"),
-    # the interior's factor out of core (petsc_options mat_mumps_icntl_22 = 1)
-    "stop 47, interior out of core": (
-        _STOP47,
-        "parallelepiped|1/4+ooc|w-u reduced m=320 tol=0.5|run",
-    ),
-    "stop 47, reduce(out_of_core=True)": (
-        _STOP47,
-        "parallelepiped|1/4|w-u reduced m=320 tol=0.5 ooc|run",
-    ),
+    "stop 47": _m320(_STOP47),
+    "stop 47, second run": _m320(_STOP47, "+2"),
+    "stop 47, third run": _m320(_STOP47, "+3"),
+    "stop 47, default tolerance": _m320(_STOP47, options=""),
+    "stop 47, interior out of core": _m320(_STOP47, "+ooc"),
+    "stop 47, reduce(out_of_core=True)": _m320(_STOP47, options=" tol=0.5 ooc"),
 }
 SAME_RUNS = {
     "reduced": "parallelepiped|1/4|w-u reduced m=320|run",

@@ -134,6 +134,11 @@ class KrylovResidual:
     block: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
     coupling: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
 
+    @classmethod
+    def exact(cls, n: int, count: int) -> KrylovResidual:
+        """The residual of ``count`` exact eigenvectors of order n: nothing missed."""
+        return cls(np.zeros((n, 0)), np.zeros((0, count)))
+
 
 Apply = Callable[[np.ndarray], np.ndarray]
 
@@ -388,8 +393,9 @@ def _dense(
     solve: Apply, mass: Apply, n: int, count: int, block: int, extra: int, stats, krylov_residual
 ):
     """:func:`lowest_modes` of a small pencil: ``M A^-1 M y = theta M y``, whole."""
-    if krylov_residual is not None:  # exact eigenvectors: nothing missed
-        krylov_residual.block, krylov_residual.coupling = np.zeros((n, 0)), np.zeros((0, count))
+    if krylov_residual is not None:  # exact eigenvectors
+        exact = KrylovResidual.exact(n, count)
+        krylov_residual.block, krylov_residual.coupling = exact.block, exact.coupling
     eye = np.eye(n)
     M = mass(eye)
     C = np.hstack([solve(M[:, j0 : j0 + block]) for j0 in range(0, n, block)])

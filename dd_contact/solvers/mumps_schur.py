@@ -375,7 +375,7 @@ class SchurFactorisation:
         """
         n = self.size - self.schur
         rhs, redrhs = self._point(b, into)
-        if not (into is not None and _is_top_of(b, rhs)):
+        if not _is_top_of(b, rhs):  # (a new rhs never is)
             rhs[:n] = b
         rhs[n:] = 0.0
         start = time.perf_counter()

@@ -271,7 +271,7 @@ class ReducedBasis:
         """
         n = self.i.size
         if not modes:
-            return np.zeros(0), np.zeros((n, extra)), KrylovResidual(np.zeros((n, 0)))
+            return np.zeros(0), np.zeros((n, extra)), KrylovResidual.exact(n, 0)
         if M_ii is None:
             raise InputError(
                 f"subdomain {self.name!r}: reduce(modes={modes}) needs a mass matrix (a "
@@ -280,7 +280,7 @@ class ReducedBasis:
         if modes >= n:  # every mode: the interior whole (SLEPc gives n - 1 at most)
             eye = np.eye(n)
             values, vectors = scipy.linalg.eigh(A_ii @ eye, M_ii @ eye)
-            exact = KrylovResidual(np.zeros((n, 0)), np.zeros((0, n)))
+            exact = KrylovResidual.exact(n, n)
             return values, np.hstack([vectors, np.zeros((n, extra))]), exact
         tolerance, eigensolver = how
         if eigensolver == "slepc":
