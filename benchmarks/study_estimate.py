@@ -112,6 +112,17 @@ SAME_MACHINE |= {
     "stop 47, interior out of core": _m320(_STOP47, "+ooc"),
     "stop 47, reduce(out_of_core=True)": _m320(_STOP47, options=" tol=0.5 ooc"),
 }
+#: Per stop: its file, its reduced run at the paper's size (out of core) and, if run, the
+#: unreduced w-u there (the force history's reference); FULL does not fit at that size, so
+#: its run at 1/4 in the same file is carried there as ``paper_scale.py`` carries it (MUMPS's
+#: analyses: set-up and change with the factor's flops, a step with its entries)
+PAPER_SIZE: dict[str, tuple[str, str, str]] = {
+    "stop 48": (
+        "paper_scale_stop48_same_machine.json",
+        "parallelepiped|paper|w-u reduced m=320 tol=0.5 ooc|run",
+        "parallelepiped|paper+ooc|w-u|run",
+    ),
+}
 SAME_RUNS = {
     "reduced": "parallelepiped|1/4|w-u reduced m=320|run",
     "FULL": "parallelepiped|1/4|FULL|run",
@@ -174,6 +185,45 @@ def run_of(name: str, key: str) -> dict | None:
     if not path.exists():
         return None
     return json.loads(path.read_text())["runs"].get(key)
+
+
+def _paper_size(law: dict) -> dict:
+    """Per stop of PAPER_SIZE: the reduced study at the paper's size against FULL's run at 1/4
+    carried there by the analyses' power laws (``law``: paper_scale.py's extrapolation)."""
+    grown = CELLS["paper"] / CELLS["1/4"]
+    growth = {
+        "setup": grown ** law["exponent_flops"],
+        "step": grown ** law["exponent_entries"],
+        "change": grown ** law["exponent_flops"],
+    }
+    out = {}
+    for stop, (name, reduced_run, unreduced_run) in PAPER_SIZE.items():
+        same = json.loads((HERE / name).read_text())["runs"] if (HERE / name).exists() else {}
+        if reduced_run not in same or SAME_RUNS["FULL"] not in same:
+            continue
+        reduced, quarter = rates(same[reduced_run]), rates(same[SAME_RUNS["FULL"]])
+        full = {k: quarter[k] * growth[k] for k in KEYS}
+        entry = out[stop] = {
+            "file": name,
+            "reduced": reduced,
+            "FULL, 1/4": quarter,
+            "FULL, paper (extrapolated)": full,
+            "growth": growth,
+            "study_cpu_seconds": {"reduced": float(whole(reduced)), "FULL": float(whole(full))},
+            "percent_of_FULL": float(100.0 * whole(reduced) / whole(full)),
+            "percent_of_FULL_means": float(100.0 * whole_means(reduced) / whole(full)),
+        }
+        if unreduced_run in same:
+            unreduced = rates(same[unreduced_run])
+            entry["unreduced"] = unreduced
+            entry["peak_rss_gib_over_unreduced"] = (
+                reduced["peak_rss_gib"] / unreduced["peak_rss_gib"]
+            )
+            error = history_error(same[reduced_run], same[unreduced_run])
+            if error is not None:
+                entry["force_history_error_over_peak"] = error
+        print("paper size", stop, {k: v for k, v in entry.items() if not isinstance(v, dict)})
+    return out
 
 
 def main() -> None:
@@ -316,6 +366,7 @@ def main() -> None:
                 if error is not None:
                     entry["force_history_error_over_peak"] = error
             print("same machine", stop, {k: v for k, v in entry.items() if k != "runs"})
+    out["paper_size"] = _paper_size(s["parallelepiped|paper|FULL (extrapolated)"])
     target = HERE / "paper_study_estimate.json"
     if target.exists():  # the estimate before the last re-measurement, kept as "before"
         old = json.loads(target.read_text())

@@ -17,6 +17,7 @@ from dd_contact.errors import InputError
 from dd_contact.paper import verify
 from dd_contact.paper.examples import parallelepiped
 from dd_contact.paper.verify.reduced import cantilever, cantilever_basis, full_frequencies_ratio
+from dd_contact.solvers import interior
 from dd_contact.solvers.reduced_model import tied_dofs
 from dd_contact.solvers.subdomains import coupling_layout
 
@@ -282,9 +283,11 @@ def test_an_interior_factor_out_of_core_gives_the_in_core_run(tmp_path, monkeypa
     """reduce(out_of_core=True): MUMPS keeps the interior's factor on disk (ICNTL(22) = 1),
     for that factor alone, and the model, the steps and the expanded field are the same.
 
-    Three modes: the square section's bending pair and the next (a fourth would split the
-    next pair, whose basis is the eigensolver's pick)."""
+    Out of core the constraint modes go a pass's columns at a time (ICNTL(27)), here 5 of
+    the boundary's, in core all at once. Three modes: the square section's bending pair and
+    the next (a fourth would split the next pair, whose basis is the eigensolver's pick)."""
     monkeypatch.setenv("MUMPS_OOC_TMPDIR", str(tmp_path))
+    monkeypatch.setattr(interior, "OUT_OF_CORE_COLUMNS", 5)
     runs = {}
     for out_of_core in (False, True):
         scene = _cantilever(nx=6)
@@ -293,6 +296,9 @@ def test_an_interior_factor_out_of_core_gives_the_in_core_run(tmp_path, monkeypa
         try:
             basis = problem.model.reduced[scene.subdomains[0].block]
             assert basis.factor._factor.icntl(22) == int(out_of_core)
+            passes = (5, 5) if out_of_core else (-32, None)  # MUMPS's default bound, ours
+            assert (basis.factor._factor.icntl(27), basis.factor.pass_columns) == passes
+            assert basis.b.size > 3 * 5  # several passes out of core
             for _ in range(3):
                 problem.advance()
             nb = basis.b.size
@@ -303,6 +309,7 @@ def test_an_interior_factor_out_of_core_gives_the_in_core_run(tmp_path, monkeypa
     for got, want, tol in zip(runs[True], runs[False], (1e-14, 1e-14, 1e-13, 1e-9), strict=True):
         assert np.abs(got - want).max() <= tol * np.abs(want).max()  # measured 3e-11 for u
     assert not PETSc.Options().hasName("dd_contact_mat_mumps_icntl_22")  # put back
+    assert not PETSc.Options().hasName("dd_contact_mat_mumps_icntl_27")
     with pytest.raises(InputError, match=r"out_of_core=\.\.\.\) takes True or False"):
         _cantilever(nx=4).subdomains[0].reduce(modes=2, out_of_core="yes")
 

@@ -39,6 +39,12 @@ __all__ = [
 #: The option that keeps a MUMPS factor out of core (on disk): ICNTL(22) = 1.
 OUT_OF_CORE = "mat_mumps_icntl_22"
 
+#: Right-hand sides MUMPS takes in one pass over a factor on disk (ICNTL(27); MUMPS's own
+#: bound is 32): each pass reads the whole factor back (2.4 GB at a quarter of the paper's
+#: bar, 12 GB at its size, 0.6 s of a pass at 1/4), and out of core the memory is there.
+OUT_OF_CORE_COLUMNS = 128
+PASS_COLUMNS = "mat_mumps_icntl_27"
+
 #: Columns an :class:`InteriorMatrix` product takes at once: scipy's products copy them
 #: (C-ordered) and return as many, so the block bounds those temporaries; each block reads
 #: the triangle twice.
@@ -232,6 +238,9 @@ class SchurInterior:
     and its internal solve ``A_ii^-1 B``. The matrix's copy goes once factorised.
     """
 
+    #: Columns a pass over the factor takes (out of core), ``None``: the caller's blocks.
+    pass_columns: int | None = None
+
     def __init__(self, A: InteriorMatrix, A_ib: sp.sparray, log: WorkLog, block: str):
         self.log, self.block = log, block
         ni, nb = A_ib.shape
@@ -274,6 +283,9 @@ class SchurInterior:
 class PlainInterior:
     """``A_ii``'s factor alone, with :class:`SchurInterior`'s operations by whole solves."""
 
+    #: Columns a pass over the factor takes (out of core), ``None``: the caller's blocks.
+    pass_columns: int | None = None
+
     def __init__(self, A: InteriorMatrix, A_ib: sp.sparray, log: WorkLog, block: str):
         self.log, self.block = log, block
         self._A_ib = sp.csr_array(A_ib)
@@ -312,11 +324,15 @@ def interior_factor(
 
     :class:`SchurInterior` where MUMPS's Schur phases can be driven (its C layout is
     known) and there is a boundary to be its Schur block, :class:`PlainInterior` otherwise.
-    Out of core is MUMPS's ICNTL(22) = 1, put under the active options prefix while the
-    factor is made (both kinds read their options there).
+    Out of core is MUMPS's ICNTL(22) = 1, with :data:`OUT_OF_CORE_COLUMNS` right-hand sides
+    a pass (ICNTL(27)), put under the active options prefix while the factor is made (both
+    kinds read their options there).
     """
-    options = {OUT_OF_CORE: 1} if out_of_core else None
+    options = {OUT_OF_CORE: 1, PASS_COLUMNS: OUT_OF_CORE_COLUMNS} if out_of_core else None
     with petsc_options(options, options_prefix()):
         if A_ib.shape[1] and layout_known():
-            return SchurInterior(A, A_ib, log, block)
-        return PlainInterior(A, A_ib, log, block)
+            factor: SchurInterior | PlainInterior = SchurInterior(A, A_ib, log, block)
+        else:
+            factor = PlainInterior(A, A_ib, log, block)
+    factor.pass_columns = OUT_OF_CORE_COLUMNS if out_of_core else None
+    return factor

@@ -10,15 +10,14 @@ included: they act on b only) and M its mass, the subdomain is represented by
   the subdomain's own MUMPS factor of ``A_ii``);
 * a load mode ``A_ii^-1 p_i`` per load pattern p (so that quasi-static response is exact),
 
-``T = [Psi, [0; G]]`` with G the modes and load modes M-orthonormalised, and becomes
-``A_r = T^T A T``, ``M_r = T^T M T``: small and dense. ``Psi`` is never formed whole: its
-columns are taken :data:`REDUCTION_CHUNK` at a time (``A_r``'s boundary block is the Schur
-complement; ``M_r``'s is ``Y_b - A_bi A_ii^-1 Y_i`` with ``Y = M Psi``). With the boundary
-as the factor's Schur block (:class:`~dd_contact.solvers.interior.SchurInterior`) each
-block of Psi is one backward sweep and ``A_bi A_ii^-1 Y_i`` one forward sweep: one
-substitution a column, not two. The reduced coordinates are ``q = [u_b, g]``: the boundary
-dofs stay physical. The full field is ``u_i = -A_ii^-1 A_ib u_b + G g``: one backward
-sweep, taken only when read.
+``T = [Psi, [0; G]]``, G the modes and load modes M-orthonormalised; ``A_r = T^T A T`` and
+``M_r = T^T M T`` are small and dense. ``Psi`` is never formed whole: its columns are taken
+:data:`REDUCTION_CHUNK` at a time (out of core, a pass's
+:data:`~dd_contact.solvers.interior.OUT_OF_CORE_COLUMNS`; ``A_r``'s boundary block is the
+Schur complement, ``M_r``'s ``Y_b - A_bi A_ii^-1 Y_i`` with ``Y = M Psi``). With b the
+factor's Schur block (:class:`~dd_contact.solvers.interior.SchurInterior`) a block of Psi is
+one backward sweep, ``A_bi A_ii^-1 Y_i`` one forward sweep. In ``q = [u_b, g]`` the boundary
+dofs stay physical; ``u_i = -A_ii^-1 A_ib u_b + G g`` is one backward sweep, when read.
 """
 
 from __future__ import annotations
@@ -353,15 +352,16 @@ class ReducedBasis:
                 self._constraints_in_modes = seen
                 M_r[nb:, :nb] = _by_columns(M_ib.T, G, chunk).T - seen
                 M_r[:nb, nb:] = M_r[nb:, :nb].T
-        # the products of the b and D rows read X's rows next to them alone: those rows are
-        # gathered, not the whole of X copied for each product (scipy's wants it C-ordered)
+        # the b and D rows' products read X's rows next to them alone, gathered (scipy's
+        # products would copy the whole of X, C-ordered, for each)
         near = _columns_read(A_bi, A_Di, *([] if M is None else [M_bi, M_Di]))
         A_bi, A_Di = A_bi[:, near], A_Di[:, near]
         if M is not None:
             M_bi, M_Di = M_bi[:, near], M_Di[:, near]
-        ni, work = self.i.size, [self.factor.workspace(min(chunk, nb)) for _ in range(2)]
-        for j0 in range(0, nb, chunk):
-            j1 = min(nb, j0 + chunk)
+        width = self.factor.pass_columns or chunk  # out of core: fewer reads of the factor
+        ni, work = self.i.size, [self.factor.workspace(min(width, nb)) for _ in range(2)]
+        for j0 in range(0, nb, width):
+            j1 = min(nb, j0 + width)
             into = [w[:, : j1 - j0] for w in work]  # the same pages block after block
             E = _unit_columns(nb, np.arange(j0, j1))
             X = self.factor.response(E, "constraint modes", into[0])
