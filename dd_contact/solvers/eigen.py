@@ -51,6 +51,11 @@ MODES_WORKSPACE = 64
 #: 520 in 130, 22 s; 16 took 2,672 in 167, 61 s (928 in 58, 22 s, with 128 vectors more).
 MODES_BLOCK = 8
 
+#: ... and out of core, where each solve reads the factor back from disk (12 GB at the
+#: paper's bar: 16 s a solve of 8 columns): a quarter of the solves, the same basis
+#: (``count + max(workspace, 2 block)``: 320 + 64 columns either way).
+MODES_BLOCK_OUT_OF_CORE = 32
+
 #: ... and its largest projected problem (None: the whole workspace). 320 modes at 15k
 #: dofs: 1,545 solves with 64 (as before), 1,011 with 128, 800 with None, 41 % less CPU.
 MODES_PROJECTED: int | None = None

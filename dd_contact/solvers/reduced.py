@@ -33,14 +33,9 @@ import scipy.sparse as sp
 
 from dd_contact.blocks import Block, BlockSystem
 from dd_contact.errors import InputError
+from dd_contact.solvers import eigen
 from dd_contact.solvers.dense import DenseCholesky
-from dd_contact.solvers.eigen import (
-    MODES_BLOCK,
-    MODES_WORKSPACE,
-    KrylovResidual,
-    fixed_interface_modes,
-    lowest_modes,
-)
+from dd_contact.solvers.eigen import KrylovResidual, fixed_interface_modes
 from dd_contact.solvers.interior import InteriorMatrix, interior_factor
 from dd_contact.solvers.linalg import (
     PatternedMatrix,
@@ -289,10 +284,11 @@ class ReducedBasis:
                 ), None
             finally:
                 M_ii.release()  # SLEPc's copy: the products are the matrix's
-        residual = KrylovResidual()
-        values, vectors = lowest_modes(
-            lambda X: self.factor.solve(X, "modes"), M_ii.__matmul__, n, modes,
-            tolerance, self.name, MODES_BLOCK, MODES_WORKSPACE, extra, krylov_residual=residual
+        residual, on_disk = KrylovResidual(), self.factor.pass_columns is not None
+        values, vectors = eigen.lowest_modes(
+            lambda X: self.factor.solve(X, "modes"), M_ii.__matmul__, n, modes, tolerance,
+            self.name, eigen.MODES_BLOCK_OUT_OF_CORE if on_disk else eigen.MODES_BLOCK,
+            eigen.MODES_WORKSPACE, extra, krylov_residual=residual,
         )  # fmt: skip
         return values, vectors, residual
 
