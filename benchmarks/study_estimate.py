@@ -53,6 +53,12 @@ machine (load about 1), each its own process, compared by CPU time: the percenta
 without a prediction or another machine's rates, the peak memory against w-u's and, where
 the runs recorded their contact forces, the reduced force history's error over the peak.
 
+``paper_size`` (``PAPER_SIZE``, stop 48: ``paper_scale_stop48_same_machine.json``): the
+m = 320 run at the paper's size, its interior's factor out of core (12 GB on disk),
+against FULL, which does not fit in 24 GiB (29 GiB extrapolated): FULL's run at 1/4 in the same
+file, carried to the paper's size by the power laws ``paper_scale.py`` fits through MUMPS's
+analyses of FULL (set-up and change with the factor's flops, a step with its entries).
+
 Writes benchmarks/results/paper_study_estimate.json.
 
 Run: python benchmarks/study_estimate.py
@@ -112,13 +118,23 @@ SAME_MACHINE |= {
     "stop 47, interior out of core": _m320(_STOP47, "+ooc"),
     "stop 47, reduce(out_of_core=True)": _m320(_STOP47, options=" tol=0.5 ooc"),
 }
+# stop 48: reduce(out_of_core=True) in passes of 128 columns and Krylov blocks of 32 (three
+# runs: the first beside FULL, w-u and CG+GAMG, then +2 and +3), the modes to 0.5 in core
+# once; the paper's size below (PAPER_SIZE)
+_STOP48 = "paper_scale_stop48_same_machine.json"
+SAME_MACHINE |= {
+    "stop 48": _m320(_STOP48),
+    "stop 48, reduce(out_of_core=True)": _m320(_STOP48, options=" tol=0.5 ooc"),
+    "stop 48, reduce(out_of_core=True), second run": _m320(_STOP48, "+2", " tol=0.5 ooc"),
+    "stop 48, reduce(out_of_core=True), third run": _m320(_STOP48, "+3", " tol=0.5 ooc"),
+}
 #: Per stop: its file, its reduced run at the paper's size (out of core) and, if run, the
 #: unreduced w-u there (the force history's reference); FULL does not fit at that size, so
 #: its run at 1/4 in the same file is carried there as ``paper_scale.py`` carries it (MUMPS's
 #: analyses: set-up and change with the factor's flops, a step with its entries)
 PAPER_SIZE: dict[str, tuple[str, str, str]] = {
     "stop 48": (
-        "paper_scale_stop48_same_machine.json",
+        _STOP48,
         "parallelepiped|paper|w-u reduced m=320 tol=0.5 ooc|run",
         "parallelepiped|paper+ooc|w-u|run",
     ),
@@ -127,6 +143,7 @@ SAME_RUNS = {
     "reduced": "parallelepiped|1/4|w-u reduced m=320|run",
     "FULL": "parallelepiped|1/4|FULL|run",
     "w-u": "parallelepiped|1/4|w-u|run",
+    "CG+GAMG": "parallelepiped|1/4|CG+GAMG|run",
 }
 CELLS = {"1/16": 25_000, "1/4": 100_000, "paper": 400_000}
 
@@ -152,6 +169,19 @@ def rates(run: dict) -> dict:
         "change_mean": statistics.mean(change),
         "peak_rss_gib": max(run["peak_rss_gib"]),
         "load_average_mean": run.get("load_average_mean"),
+    }
+
+
+def finished(run: dict) -> dict:
+    """A run as :func:`rates` reads it. A run stopped by hand after some steps (the peer at
+    stop 48: minutes a step) counts the steps it finished (``steps_done``) and no build, which
+    it did not record (in its favour: its first solve is its set-up)."""
+    if "steps" in run or "steps_done" not in run:
+        return run
+    return run | {
+        "steps": run["steps_done"],
+        "build_cpu_seconds": 0.0,
+        "peak_rss_gib": [run["peak_tree_rss_gib"]],
     }
 
 
@@ -348,7 +378,7 @@ def main() -> None:
     for stop, (name, reduced_run) in SAME_MACHINE.items():
         same = json.loads((HERE / name).read_text())["runs"] if (HERE / name).exists() else {}
         keys = SAME_RUNS | {"reduced": reduced_run or SAME_RUNS["reduced"]}
-        parts = {label: rates(same[key]) for label, key in keys.items() if key in same}
+        parts = {label: rates(finished(same[key])) for label, key in keys.items() if key in same}
         if {"reduced", "FULL"} <= parts.keys():
             full_cpu, reduced = whole(parts["FULL"]), parts["reduced"]
             entry = out["same_machine"][stop] = {
@@ -358,6 +388,8 @@ def main() -> None:
                 "percent_of_FULL": float(100.0 * whole(reduced) / full_cpu),
                 "percent_of_FULL_means": float(100.0 * whole_means(reduced) / full_cpu),
             }
+            if "CG+GAMG" in parts:  # the iterative peer, run beside them
+                entry["CG+GAMG_over_this"] = float(whole(parts["CG+GAMG"]) / whole(reduced))
             if "w-u" in parts:
                 entry["peak_rss_gib_over_w-u"] = float(
                     reduced["peak_rss_gib"] / parts["w-u"]["peak_rss_gib"]

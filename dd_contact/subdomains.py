@@ -197,9 +197,10 @@ class Subdomain:
                 interior dofs (docs/solvers.md, "Reduced subdomains").
             out_of_core: Keep its interior's factor on disk (MUMPS out-of-core, in its
                 temporary directory): the set-up and the expansions of its full fields read
-                it back, no step does. At 1/4 of the paper's bar the run's peak memory fell
-                from 4.56 to 2.09 GiB (the unreduced w-u: 3.94) and the set-up took 1.4x as
-                long (docs/solvers.md, "The interior's factor out of core").
+                it back, no step does; the set-up solves in wide passes, one read each. At
+                1/4 of the paper's bar the run's peak memory fell from 4.56 to 2.88 GiB (the
+                unreduced w-u: 3.94) for the same set-up time (docs/solvers.md, "The
+                interior's factor out of core", "Out of core in wide passes").
 
         Returns:
             The subdomain, so calls can be chained.
