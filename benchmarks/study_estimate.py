@@ -128,16 +128,12 @@ SAME_MACHINE |= {
     "stop 48, reduce(out_of_core=True), second run": _m320(_STOP48, "+2", " tol=0.5 ooc"),
     "stop 48, reduce(out_of_core=True), third run": _m320(_STOP48, "+3", " tol=0.5 ooc"),
 }
-#: Per stop: its file, its reduced run at the paper's size (out of core) and, if run, the
-#: unreduced w-u there (the force history's reference); FULL does not fit at that size, so
-#: its run at 1/4 in the same file is carried there as ``paper_scale.py`` carries it (MUMPS's
-#: analyses: set-up and change with the factor's flops, a step with its entries)
-PAPER_SIZE: dict[str, tuple[str, str, str]] = {
-    "stop 48": (
-        _STOP48,
-        "parallelepiped|paper|w-u reduced m=320 tol=0.5 ooc|run",
-        "parallelepiped|paper+ooc|w-u|run",
-    ),
+#: Per stop: its file and its reduced run at the paper's size (out of core); FULL does not fit
+#: at that size, so its run at 1/4 in the same file is carried there as ``paper_scale.py``
+#: carries it (MUMPS's analyses: set-up and change with the factor's flops, a step with its
+#: entries). No unreduced run there yet: the force history is compared at 1/4 only.
+PAPER_SIZE: dict[str, tuple[str, str]] = {
+    "stop 48": (_STOP48, "parallelepiped|paper|w-u reduced m=320 tol=0.5 ooc|run"),
 }
 SAME_RUNS = {
     "reduced": "parallelepiped|1/4|w-u reduced m=320|run",
@@ -210,11 +206,14 @@ def whole_means(r: dict) -> float:
     )
 
 
-def run_of(name: str, key: str) -> dict | None:
+def runs_of(name: str) -> dict:
+    """The runs of a results file (none if it is not there)."""
     path = HERE / name
-    if not path.exists():
-        return None
-    return json.loads(path.read_text())["runs"].get(key)
+    return json.loads(path.read_text())["runs"] if path.exists() else {}
+
+
+def run_of(name: str, key: str) -> dict | None:
+    return runs_of(name).get(key)
 
 
 def _paper_size(law: dict) -> dict:
@@ -227,8 +226,8 @@ def _paper_size(law: dict) -> dict:
         "change": grown ** law["exponent_flops"],
     }
     out = {}
-    for stop, (name, reduced_run, unreduced_run) in PAPER_SIZE.items():
-        same = json.loads((HERE / name).read_text())["runs"] if (HERE / name).exists() else {}
+    for stop, (name, reduced_run) in PAPER_SIZE.items():
+        same = runs_of(name)
         if reduced_run not in same or SAME_RUNS["FULL"] not in same:
             continue
         reduced, quarter = rates(same[reduced_run]), rates(same[SAME_RUNS["FULL"]])
@@ -243,15 +242,6 @@ def _paper_size(law: dict) -> dict:
             "percent_of_FULL": float(100.0 * whole(reduced) / whole(full)),
             "percent_of_FULL_means": float(100.0 * whole_means(reduced) / whole(full)),
         }
-        if unreduced_run in same:
-            unreduced = rates(same[unreduced_run])
-            entry["unreduced"] = unreduced
-            entry["peak_rss_gib_over_unreduced"] = (
-                reduced["peak_rss_gib"] / unreduced["peak_rss_gib"]
-            )
-            error = history_error(same[reduced_run], same[unreduced_run])
-            if error is not None:
-                entry["force_history_error_over_peak"] = error
         print("paper size", stop, {k: v for k, v in entry.items() if not isinstance(v, dict)})
     return out
 
@@ -376,7 +366,7 @@ def main() -> None:
         print(label, {k: round(v, 4) for k, v in entry.items()})
     out["same_machine"] = {}
     for stop, (name, reduced_run) in SAME_MACHINE.items():
-        same = json.loads((HERE / name).read_text())["runs"] if (HERE / name).exists() else {}
+        same = runs_of(name)
         keys = SAME_RUNS | {"reduced": reduced_run or SAME_RUNS["reduced"]}
         parts = {label: rates(finished(same[key])) for label, key in keys.items() if key in same}
         if {"reduced", "FULL"} <= parts.keys():
